@@ -1,0 +1,281 @@
+"""The one Python entry point of the solver: :func:`solve` adapts a case to the kernels.
+
+It builds the quadrature tables, calls :func:`solver.kernels.integrate`, and turns the modal
+amplitudes at the output times into the fields the caller asked for. It raises only for bad
+input (:class:`solver.parameters.ParameterError`); a numerical failure is a status.
+"""
+from __future__ import annotations
+
+import math
+import time as _time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import kernels as kn
+from .parameters import Parameters, ParameterError, Settings
+
+#: field name -> (long_name, units)
+FIELD_INFO = {
+    "deflection": ("ice deflection w, positive upwards", "m"),
+    "strain": ("bending strain on the upper ice surface (positive: tension)", "1"),
+    "layer_pressure": ("reaction pressure of the elastic layer K f(delta)", "Pa"),
+    "compression": ("relative compression delta of the elastic layer", "1"),
+}
+FIELDS = tuple(FIELD_INFO)
+
+#: diagnostic name -> (long_name, units, kernel index)
+DIAGNOSTIC_INFO = {
+    "max_strain": ("largest tensile strain on the upper surface", "1", kn.D_MAX_UPPER),
+    "max_strain_x": ("position of max_strain (x >= 0; mirrored at -x)", "m", kn.D_MAX_UPPER_X),
+    "max_strain_time": ("time of max_strain", "s", kn.D_MAX_UPPER_T),
+    "max_strain_lower": ("largest tensile strain on the lower surface (max of -strain)", "1", kn.D_MAX_LOWER),
+    "max_strain_lower_x": ("position of max_strain_lower (x >= 0)", "m", kn.D_MAX_LOWER_X),
+    "max_strain_lower_time": ("time of max_strain_lower", "s", kn.D_MAX_LOWER_T),
+    "max_abs_strain": ("largest strain magnitude", "1", kn.D_MAX_ABS),
+    "max_abs_strain_x": ("position of max_abs_strain (x >= 0)", "m", kn.D_MAX_ABS_X),
+    "max_abs_strain_time": ("time of max_abs_strain", "s", kn.D_MAX_ABS_T),
+    "crack_onset_time": ("first time the upper-surface strain exceeds eps_Y (NaN: never)", "s", kn.D_CRACK_UPPER_T),
+    "crack_onset_x": ("position of the upper-surface crack onset (x >= 0)", "m", kn.D_CRACK_UPPER_X),
+    "crack_onset_time_lower": ("first time the lower-surface tension exceeds eps_Y (NaN: never)", "s", kn.D_CRACK_LOWER_T),
+    "crack_onset_x_lower": ("position of the lower-surface crack onset (x >= 0)", "m", kn.D_CRACK_LOWER_X),
+    "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L", "1", kn.D_MAX_CONTACTS),
+    "max_force": ("largest force on the body per unit width", "N m-1", kn.D_MAX_FORCE),
+    "max_force_time": ("time of max_force", "s", kn.D_MAX_FORCE_T),
+    "max_compression": ("largest relative compression delta of the layer", "1", kn.D_MAX_DELTA),
+    "max_compression_time": ("time of max_compression", "s", kn.D_MAX_DELTA_T),
+    "energy_residual": ("max over time of |E_plate + E_layer - W| divided by the final work W", "1", kn.D_ENERGY_RESIDUAL),
+    "work": ("work done by the body up to the time reached", "J m-1", kn.D_WORK),
+}
+
+
+@dataclass
+class Result:
+    """Output of one :func:`solve` call: plain numpy arrays and scalars, SI units.
+
+    Arrays over output times have NaN at the times beyond ``time_reached`` (``valid`` False);
+    data at valid times is always finite.
+    """
+
+    parameters: Parameters
+    settings: Settings
+    times: np.ndarray                  # (T,) output times [s]
+    x: np.ndarray                      # (X,) positions of the fields [m]
+    fields: dict                       # name -> (T, X) array
+    amplitudes: np.ndarray             # (T, N) a_n [m]
+    velocities: np.ndarray             # (T, N) da_n/dt [m s-1]
+    contact_intervals: np.ndarray      # (T,) contact intervals on -L..L
+    force: np.ndarray                  # (T,) F [N m-1]
+    plate_energy: np.ndarray           # (T,) [J m-1]
+    layer_energy: np.ndarray           # (T,) [J m-1]
+    work: np.ndarray                   # (T,) int V F dt [J m-1]
+    valid: np.ndarray                  # (T,) bool
+    diagnostics: dict                  # name -> float, see DIAGNOSTIC_INFO
+    status: str                        # ok | layer_bottomed_out | nonfinite | step_limit
+    message: str
+    time_reached: float                # [s]
+    steps: int
+    rejected_steps: int
+    forcing_evaluations: int
+    smallest_step: float               # [s]
+    largest_step: float                # [s]
+    wall_time: float                   # [s]
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return self.status == "ok"
+
+
+class _Tables:
+    """Per-case arrays the kernels need (modal constants and quadrature weights)."""
+
+    def __init__(self, p: Parameters, subintervals: int):
+        lam = p.wavenumbers
+        self.lam = lam
+        self.omega = p.frequencies
+        M = p.added_masses
+        self.coef = -2.0 / (p.L * M)
+        self.LM = p.L * M
+        self.strain_coef = 0.5 * p.hi * lam**2
+        self.dx = p.L / subintervals
+        xq = self.dx * np.arange(subintervals + 1)
+        self.xq = xq
+        self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, xq)))            # (N, J)
+        ends = np.ones(subintervals + 1)
+        ends[0] = ends[-1] = 0.5
+        sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
+        self.wq = np.ascontiguousarray((ends * self.dx)[:, None] * self.cosq.T * sinc2[None, :])  # (J, N)
+
+
+#: largest etd34 step as a fraction of the contact period 2 pi / contact_frequency
+HMAX_FRACTION = 0.1
+
+
+def contact_frequency(p: Parameters) -> float:
+    """Omega_c = sqrt(K / (he rho_i hi)) [rad s-1]: the layer on the bare plate at first touch.
+
+    The layer's stiffness per unit area is K f'(delta)/he, f'(0) = 1; on the plate mass alone
+    (no added water mass, no bending) this is the fastest the contact force can change.
+    """
+    return math.sqrt(p.K / (p.he * p.plate_mass))
+
+
+def _check_times(times, t_end):
+    times = np.atleast_1d(np.asarray(times, dtype=float))
+    if times.ndim != 1 or times.size == 0:
+        raise ParameterError("times must be a non-empty 1-D sequence of output times [s]")
+    if not np.all(np.isfinite(times)):
+        raise ParameterError("times must be finite")
+    if np.any(np.diff(times) < 0):
+        raise ParameterError("times must be sorted in increasing order")
+    if times[0] < 0 or times[-1] > t_end * (1 + 1e-12):
+        raise ParameterError(
+            f"times must lie in [0, {t_end:.6g}] s (the run's end, by default the impact stage "
+            f"L^2/(6RV)); got {times[0]:.6g} .. {times[-1]:.6g} s")
+    return np.minimum(times, t_end)
+
+
+def _layer_pressure(p, tables, a, t, x):
+    """K f at positions x from f at the quadrature nodes, linear between nodes, split at zeros.
+
+    This is exactly the reaction the modes feel (the forcing integrates the same function).
+    """
+    delta = (a @ tables.cosq + p.V * t - tables.xq**2 / (2 * p.R)) / p.he       # (J,)
+    f = np.where(delta > 0, delta / (1 - np.where(delta > 0, delta, 0.0)), 0.0)
+    ax = np.abs(x)
+    j = np.minimum((ax / tables.dx).astype(int), delta.size - 2)
+    theta = ax / tables.dx - j
+    d0, d1 = delta[j], delta[j + 1]
+    f0, f1 = f[j], f[j + 1]
+    both = (d0 > 0) & (d1 > 0)
+    out = np.where(both, f0 + theta * (f1 - f0), 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ts = d0 / (d0 - d1)                                   # zero of interpolated delta
+        left = (d0 > 0) & ~(d1 > 0) & (theta < ts)            # compressed part on the left
+        out = np.where(left, f0 * (ts - theta) / ts, out)
+        right = ~(d0 > 0) & (d1 > 0) & (theta > ts)
+        out = np.where(right, f1 * (theta - ts) / (1 - ts), out)
+    return p.K * out
+
+
+def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
+          fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
+          initial_amplitudes=None, initial_velocities=None) -> Result:
+    """Integrate one impact case.
+
+    Parameters
+    ----------
+    parameters : the case (default: the paper's reference case).
+    settings : numerical settings (default: etd34 at its default tolerance).
+    times : output times [s], sorted, in [0, t_end] (default: 25 evenly spaced over the run).
+    fields : names from :data:`FIELDS` to evaluate at the output times (``()`` for none).
+    x : positions of the fields [m] (default: 241 points evenly spaced on -L..L).
+    t_end : end of the run [s] (default: the impact stage L^2/(6RV)). Diagnostics cover 0..t_end.
+    initial_amplitudes, initial_velocities : a_n(0) [m] and da_n/dt(0) [m/s] (default 0).
+
+    Returns
+    -------
+    Result
+    """
+    p = parameters if parameters is not None else Parameters()
+    s = settings if settings is not None else Settings()
+    if not isinstance(p, Parameters):
+        raise ParameterError("parameters must be a solver.Parameters")
+    if not isinstance(s, Settings):
+        raise ParameterError("settings must be a solver.Settings")
+    unknown = [f for f in fields if f not in FIELD_INFO]
+    if unknown:
+        raise ParameterError(f"unknown field {unknown[0]!r}; known: {', '.join(FIELDS)}")
+    if t_end is None:
+        t_end = p.stage_duration
+    if not (math.isfinite(t_end) and t_end > 0):
+        raise ParameterError(f"t_end must be finite and > 0, got {t_end!r}")
+    times = np.linspace(0.0, t_end, 25) if times is None else _check_times(times, t_end)
+    x = np.linspace(-p.L, p.L, 241) if x is None else np.atleast_1d(np.asarray(x, dtype=float))
+    if x.ndim != 1 or not np.all(np.isfinite(x)) or np.any(np.abs(x) > p.L * (1 + 1e-12)):
+        raise ParameterError(f"x must be a 1-D sequence of positions in [-L, L] = [{-p.L}, {p.L}] m")
+    N = p.Nmod
+    a0 = np.zeros(N) if initial_amplitudes is None else np.asarray(initial_amplitudes, float)
+    v0 = np.zeros(N) if initial_velocities is None else np.asarray(initial_velocities, float)
+    if a0.shape != (N,) or v0.shape != (N,):
+        raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
+
+    tab = _Tables(p, s.subintervals)
+    method = kn.ETD34 if s.integrator == "etd34" else kn.RK4
+    if method == kn.RK4:
+        fixed = s.rk4_step_fraction * 2 * np.pi / tab.omega[-1]
+    else:
+        fixed = s.fixed_step * p.time_scale
+    T = times.size
+    out_a = np.full((T, N), np.nan)
+    out_adot = np.full((T, N), np.nan)
+    out_contacts = np.full(T, np.nan)
+    out_force = np.full(T, np.nan)
+    out_energy = np.full((T, 3), np.nan)
+    diag = np.full(kn.N_DIAG, np.nan)
+    h_init = min(1e-4 * t_end, 1e-3 * p.time_scale)
+    h_max = HMAX_FRACTION * 2 * np.pi / contact_frequency(p)
+    started = _time.perf_counter()
+    code, n_out = kn.integrate(
+        method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0], tab.cosq, tab.wq,
+        tab.dx, p.V, p.R, p.he, p.K, p.eps_Y, float(t_end), times, s.tolerance, fixed,
+        h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, out_a, out_adot, out_contacts, out_force,
+        out_energy, diag)
+    wall = _time.perf_counter() - started
+
+    status = kn.STATUS_NAMES[code]
+    t_reached = float(diag[kn.D_T_REACHED])
+    valid = np.arange(T) < n_out
+    field_values = {}
+    if fields:
+        cosx = np.cos(np.outer(x, tab.lam))                                   # (X, N)
+        w = out_a @ cosx.T
+        for name in fields:
+            if name == "deflection":
+                field_values[name] = w
+            elif name == "strain":
+                field_values[name] = (out_a * tab.strain_coef) @ cosx.T
+            elif name == "compression":
+                field_values[name] = (w + p.V * times[:, None] - x**2 / (2 * p.R)) / p.he
+            elif name == "layer_pressure":
+                pres = np.full((T, x.size), np.nan)
+                for k in np.flatnonzero(valid):
+                    pres[k] = _layer_pressure(p, tab, out_a[k], times[k], x)
+                field_values[name] = pres
+    diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items()}
+    max_delta = diagnostics["max_compression"]
+    t_sc = p.time_scale
+    if status == "ok":
+        message = ""
+    else:
+        t_fail = float(diag[kn.D_FAIL_T])
+        where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
+        if status == "layer_bottomed_out":
+            message = (f"layer bottomed out {where}: every retry of the step reached delta >= 1 "
+                       f"down to the smallest step; largest delta reached {max_delta:.6g}")
+        elif status == "nonfinite":
+            if method == kn.RK4 or fixed > 0:
+                message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
+                           f"non-finite value {where}; a fixed step cannot be retried "
+                           f"(largest delta before: {max_delta:.6g})")
+            else:
+                message = f"non-finite state {where} with the step at its smallest"
+        else:
+            message = (f"stopped {where} after {int(diag[kn.D_STEPS] + diag[kn.D_REJECTED])} attempted "
+                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
+    return Result(
+        parameters=p, settings=s, times=times, x=x, fields=field_values,
+        amplitudes=out_a, velocities=out_adot, contact_intervals=out_contacts, force=out_force,
+        plate_energy=out_energy[:, 0], layer_energy=out_energy[:, 1], work=out_energy[:, 2],
+        valid=valid, diagnostics=diagnostics, status=status, message=message,
+        time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
+        forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),
+        largest_step=float(diag[kn.D_H_MAX]), wall_time=wall)
+
+
+def compile_kernels() -> None:
+    """Compile (or load from numba's cache) every kernel by running a tiny case once."""
+    p = Parameters(Nmod=2)
+    solve(p, Settings(subintervals=16), times=[0.0, p.stage_duration], fields=FIELDS)
+    solve(p, Settings(integrator="rk4", subintervals=16), times=[0.0, p.stage_duration], fields=())

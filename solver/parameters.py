@@ -1,0 +1,221 @@
+"""Physical parameters, solver settings and their derived scales.
+
+All values are SI. The keys are those of ``MODEL_NOTES.md`` (the language of the field and
+of the study files); :data:`PARAMETER_INFO` gives each its long name and units, and
+:data:`SETTING_INFO` does the same for the solver settings.
+
+Derived quantities (MODEL_NOTES, "Equations" and "Scales")::
+
+    m   = rho_i hi                          plate mass per unit area        [kg m-2]
+    D   = E hi^3 / (12 (1 - nu^2))          flexural rigidity               [N m]
+    lambda_n = pi n / L                     modal wavenumber                [m-1]
+    M_n = m + rho_w / lambda_n              mass with added water mass      [kg m-2]
+    omega_n^2 = (D lambda_n^4 + rho_w g) / M_n                              [s-2]
+    t_sc = 1 / omega_1,  w_sc = K / (omega_1^2 M_1),  T = L^2 / (6 R V)
+    d1 = w_sc / he,  d2 = V / (omega_1 he),  d3 = L^2 / (2 R he)
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+#: key -> (long_name, units) for every physical parameter.
+PARAMETER_INFO = {
+    "K": ("rigidity of the elastic layer", "Pa"),
+    "he": ("thickness of the elastic layer", "m"),
+    "R": ("radius of curvature of the body", "m"),
+    "V": ("impact speed of the body", "m s-1"),
+    "hi": ("ice thickness", "m"),
+    "Nmod": ("number of retained normal modes", "1"),
+    "L": ("half-length of the ice plate", "m"),
+    "E": ("Young's modulus of ice", "Pa"),
+    "nu": ("Poisson's ratio of ice", "1"),
+    "rho_i": ("ice density", "kg m-3"),
+    "rho_w": ("water density", "kg m-3"),
+    "g": ("gravitational acceleration", "m s-2"),
+    "eps_Y": ("yield strain of ice", "1"),
+}
+
+#: key -> (long_name, units) for every solver setting.
+SETTING_INFO = {
+    "integrator": ("time integrator (etd34: adaptive exponential; rk4: the seed's fixed-step RK4)", ""),
+    "tolerance": ("relative error tolerance per step of the adaptive integrator, energy norm", "1"),
+    "subintervals": ("subintervals of [0, L] in the forcing quadrature", "1"),
+    "rk4_step_fraction": ("rk4 step as a fraction of the period of the last mode, 2 pi / omega_N", "1"),
+    "fixed_step": ("fixed step of etd34 in units of t_sc (0: adaptive)", "1"),
+    "max_steps": ("largest number of attempted steps before the run stops with step_limit", "1"),
+}
+
+INTEGRATORS = ("etd34", "rk4")
+
+
+class ParameterError(ValueError):
+    """A parameter or setting with a value outside its allowed range."""
+
+
+def _check_positive(name: str, value, integer: bool = False) -> None:
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
+    if integer:
+        if float(value) != int(value) or not math.isfinite(float(value)) or int(value) < 1:
+            raise ParameterError(f"{name} must be a positive integer, got {value!r}")
+        return
+    if not math.isfinite(float(value)) or float(value) <= 0.0:
+        raise ParameterError(f"{name} must be finite and > 0, got {value!r}")
+
+
+@dataclass(frozen=True)
+class Parameters:
+    """One impact case, SI units; defaults are the paper's reference case.
+
+    Parameters
+    ----------
+    K : layer rigidity [Pa].          he : layer thickness [m].
+    R : body radius of curvature [m]. V : impact speed [m/s].
+    hi : ice thickness [m].           Nmod : retained modes [1].
+    L : plate half-length [m].        E : Young's modulus [Pa].
+    nu : Poisson's ratio, 0 <= nu < 0.5 [1].
+    rho_i, rho_w : ice and water density [kg/m^3].  g : gravity [m/s^2].
+    eps_Y : yield strain [1].
+    """
+
+    K: float = 8e6
+    he: float = 0.02
+    R: float = 10.0
+    V: float = 5.0
+    hi: float = 0.5
+    Nmod: int = 60
+    L: float = 6.0
+    E: float = 4.2e9
+    nu: float = 0.33
+    rho_i: float = 917.0
+    rho_w: float = 1000.0
+    g: float = 9.81
+    eps_Y: float = 8e-5
+
+    def __post_init__(self):
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "nu":
+                if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                        or not math.isfinite(float(value)) or not 0.0 <= float(value) < 0.5:
+                    raise ParameterError(f"nu must be in [0, 0.5), got {value!r}")
+            else:
+                _check_positive(f.name, value, integer=(f.name == "Nmod"))
+            object.__setattr__(self, f.name, int(value) if f.name == "Nmod" else float(value))
+
+    # --- derived quantities -------------------------------------------------------------
+    @property
+    def plate_mass(self) -> float:
+        """m = rho_i hi [kg m-2]."""
+        return self.rho_i * self.hi
+
+    @property
+    def rigidity(self) -> float:
+        """D = E hi^3 / (12 (1 - nu^2)) [N m]."""
+        return self.E * self.hi**3 / (12.0 * (1.0 - self.nu**2))
+
+    @property
+    def wavenumbers(self) -> np.ndarray:
+        """lambda_n = pi n / L, n = 1..Nmod [m-1]."""
+        return np.pi * np.arange(1, self.Nmod + 1) / self.L
+
+    @property
+    def added_masses(self) -> np.ndarray:
+        """M_n = m + rho_w / lambda_n [kg m-2]."""
+        return self.plate_mass + self.rho_w / self.wavenumbers
+
+    @property
+    def frequencies(self) -> np.ndarray:
+        """omega_n = sqrt((D lambda_n^4 + rho_w g) / M_n) [rad s-1]."""
+        lam = self.wavenumbers
+        return np.sqrt((self.rigidity * lam**4 + self.rho_w * self.g) / self.added_masses)
+
+    @property
+    def time_scale(self) -> float:
+        """t_sc = 1 / omega_1 [s]."""
+        return 1.0 / self.frequencies[0]
+
+    @property
+    def deflection_scale(self) -> float:
+        """w_sc = K / (omega_1^2 M_1) [m]."""
+        return self.K / (self.frequencies[0] ** 2 * self.added_masses[0])
+
+    @property
+    def stage_duration(self) -> float:
+        """T = L^2 / (6 R V), the impact stage computed [s]."""
+        return self.L**2 / (6.0 * self.R * self.V)
+
+    @property
+    def d1(self) -> float:
+        return self.deflection_scale / self.he
+
+    @property
+    def d2(self) -> float:
+        return self.V * self.time_scale / self.he
+
+    @property
+    def d3(self) -> float:
+        return self.L**2 / (2.0 * self.R * self.he)
+
+    def replace(self, **changes) -> "Parameters":
+        """A copy with some keys changed (validated again)."""
+        values = {f.name: getattr(self, f.name) for f in fields(self)}
+        unknown = set(changes) - set(values)
+        if unknown:
+            raise ParameterError(f"unknown parameter {sorted(unknown)[0]!r}; known: {', '.join(values)}")
+        values.update(changes)
+        return Parameters(**values)
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """Numerical settings of one run.
+
+    Parameters
+    ----------
+    integrator : "etd34" (default: adaptive exponential Runge-Kutta 4(3), Krogstad stages)
+        or "rk4" (the seed's classical RK4 with a fixed step).
+    tolerance : relative error per step of etd34, measured in the energy norm [1].
+    subintervals : subintervals of [0, L] in the forcing quadrature (seed: 1000) [1].
+    rk4_step_fraction : rk4 step = fraction * 2 pi / omega_N (seed: 1/20) [1].
+    fixed_step : if > 0, etd34 takes this fixed step, in units of t_sc, with no error
+        control (for convergence-order studies) [1].
+    max_steps : attempted steps after which a run stops with status ``step_limit`` [1].
+    """
+
+    integrator: str = "etd34"
+    tolerance: float = 1e-6
+    subintervals: int = 1000
+    rk4_step_fraction: float = 0.05
+    fixed_step: float = 0.0
+    max_steps: int = 500_000
+
+    def __post_init__(self):
+        if self.integrator not in INTEGRATORS:
+            raise ParameterError(
+                f"integrator must be one of {', '.join(INTEGRATORS)}, got {self.integrator!r}")
+        _check_positive("tolerance", self.tolerance)
+        if self.tolerance >= 1.0:
+            raise ParameterError(f"tolerance must be < 1, got {self.tolerance!r}")
+        _check_positive("subintervals", self.subintervals, integer=True)
+        if int(self.subintervals) < 8:
+            raise ParameterError(f"subintervals must be >= 8, got {self.subintervals!r}")
+        _check_positive("rk4_step_fraction", self.rk4_step_fraction)
+        if isinstance(self.fixed_step, bool) or not isinstance(
+                self.fixed_step, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(float(self.fixed_step)) or float(self.fixed_step) < 0.0:
+            raise ParameterError(f"fixed_step must be finite and >= 0, got {self.fixed_step!r}")
+        _check_positive("max_steps", self.max_steps, integer=True)
+        for name in ("tolerance", "rk4_step_fraction", "fixed_step"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+        for name in ("subintervals", "max_steps"):
+            object.__setattr__(self, name, int(getattr(self, name)))
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
