@@ -121,7 +121,7 @@ def contact_frequency(p: Parameters) -> float:
     return math.sqrt(p.K / (p.he * p.plate_mass))
 
 
-def _check_times(times, t_end):
+def _check_times(times, t_start, t_end):
     times = np.atleast_1d(np.asarray(times, dtype=float))
     if times.ndim != 1 or times.size == 0:
         raise ParameterError("times must be a non-empty 1-D sequence of output times [s]")
@@ -129,15 +129,15 @@ def _check_times(times, t_end):
         raise ParameterError("times must be finite")
     if np.any(np.diff(times) < 0):
         raise ParameterError("times must be sorted in increasing order")
-    if times[0] < 0 or times[-1] > t_end * (1 + 1e-12):
+    if times[0] < t_start or times[-1] > t_end * (1 + 1e-12):
         raise ParameterError(
-            f"times must lie in [0, {t_end:.6g}] s (the run's end, by default the impact stage "
-            f"L^2/(6RV)); got {times[0]:.6g} .. {times[-1]:.6g} s")
+            f"times must lie in [{t_start:.6g}, {t_end:.6g}] s (the run, by default 0 to the impact "
+            f"stage L^2/(6RV)); got {times[0]:.6g} .. {times[-1]:.6g} s")
     return np.minimum(times, t_end)
 
 
 def _layer_pressure(p, tables, a, t, x):
-    """K f at positions x from f at the quadrature nodes, linear between nodes, split at zeros.
+    """K f at positions x from f at the quadrature nodes, linear between nodes, split as in the kernel.
 
     This is exactly the reaction the modes feel (the forcing integrates the same function).
     """
@@ -150,18 +150,17 @@ def _layer_pressure(p, tables, a, t, x):
     f0, f1 = f[j], f[j + 1]
     both = (d0 > 0) & (d1 > 0)
     out = np.where(both, f0 + theta * (f1 - f0), 0.0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ts = d0 / (d0 - d1)                                   # zero of interpolated delta
-        left = (d0 > 0) & ~(d1 > 0) & (theta < ts)            # compressed part on the left
-        out = np.where(left, f0 * (ts - theta) / ts, out)
-        right = ~(d0 > 0) & (d1 > 0) & (theta > ts)
-        out = np.where(right, f1 * (theta - ts) / (1 - ts), out)
+    # split subintervals: f continued by delta for delta <= 0, linear, positive part kept
+    g0 = np.where(d0 > 0, f0, d0)
+    g1 = np.where(d1 > 0, f1, d1)
+    split = (d0 > 0) != (d1 > 0)
+    out = np.where(split, np.maximum(g0 + theta * (g1 - g0), 0.0), out)
     return p.K * out
 
 
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
-          initial_amplitudes=None, initial_velocities=None) -> Result:
+          initial_amplitudes=None, initial_velocities=None, t_start=0.0) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -171,8 +170,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     times : output times [s], sorted, in [0, t_end] (default: 25 evenly spaced over the run).
     fields : names from :data:`FIELDS` to evaluate at the output times (``()`` for none).
     x : positions of the fields [m] (default: 241 points evenly spaced on -L..L).
-    t_end : end of the run [s] (default: the impact stage L^2/(6RV)). Diagnostics cover 0..t_end.
-    initial_amplitudes, initial_velocities : a_n(0) [m] and da_n/dt(0) [m/s] (default 0).
+    t_end : end of the run [s] (default: the impact stage L^2/(6RV)). Diagnostics cover the run.
+    initial_amplitudes, initial_velocities : a_n and da_n/dt at t_start [m, m/s] (default 0).
+    t_start : start of the run [s] (default 0, first touch); with the two above, a restart.
 
     Returns
     -------
@@ -189,9 +189,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         raise ParameterError(f"unknown field {unknown[0]!r}; known: {', '.join(FIELDS)}")
     if t_end is None:
         t_end = p.stage_duration
-    if not (math.isfinite(t_end) and t_end > 0):
-        raise ParameterError(f"t_end must be finite and > 0, got {t_end!r}")
-    times = np.linspace(0.0, t_end, 25) if times is None else _check_times(times, t_end)
+    if not (math.isfinite(t_start) and t_start >= 0):
+        raise ParameterError(f"t_start must be finite and >= 0, got {t_start!r}")
+    if not (math.isfinite(t_end) and t_end > t_start):
+        raise ParameterError(f"t_end must be finite and > t_start, got {t_end!r}")
+    times = (np.linspace(t_start, t_end, 25) if times is None
+             else _check_times(times, t_start, t_end))
     x = np.linspace(-p.L, p.L, 241) if x is None else np.atleast_1d(np.asarray(x, dtype=float))
     if x.ndim != 1 or not np.all(np.isfinite(x)) or np.any(np.abs(x) > p.L * (1 + 1e-12)):
         raise ParameterError(f"x must be a 1-D sequence of positions in [-L, L] = [{-p.L}, {p.L}] m")
@@ -214,12 +217,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     out_force = np.full(T, np.nan)
     out_energy = np.full((T, 3), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
-    h_init = min(1e-4 * t_end, 1e-3 * p.time_scale)
+    h_init = min(1e-4 * (t_end - t_start), 1e-3 * p.time_scale)
     h_max = HMAX_FRACTION * 2 * np.pi / contact_frequency(p)
     started = _time.perf_counter()
     code, n_out = kn.integrate(
         method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0], tab.cosq, tab.wq,
-        tab.dx, p.V, p.R, p.he, p.K, p.eps_Y, float(t_end), times, s.tolerance, fixed,
+        tab.dx, p.V, p.R, p.he, p.K, p.eps_Y, float(t_start), float(t_end), times, s.tolerance, fixed,
         h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, out_a, out_adot, out_contacts, out_force,
         out_energy, diag)
     wall = _time.perf_counter() - started
@@ -253,7 +256,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
         if status == "layer_bottomed_out":
             message = (f"layer bottomed out {where}: every retry of the step reached delta >= 1 "
-                       f"down to the smallest step; largest delta reached {max_delta:.6g}")
+                       f"down to the smallest step; largest delta reached {max_delta:.9f}")
         elif status == "nonfinite":
             if method == kn.RK4 or fixed > 0:
                 message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
@@ -263,7 +266,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
                 message = f"non-finite state {where} with the step at its smallest"
         else:
             message = (f"stopped {where} after {int(diag[kn.D_STEPS] + diag[kn.D_REJECTED])} attempted "
-                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
+                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.9f}")
     return Result(
         parameters=p, settings=s, times=times, x=x, fields=field_values,
         amplitudes=out_a, velocities=out_adot, contact_intervals=out_contacts, force=out_force,

@@ -21,9 +21,13 @@ control. The work of the body W = int_0^t V F ds is integrated as one more compo
 Forcing quadrature (the seed's): [0, L] cut into J subintervals of width dx, f taken linear
 on each, products with cos(lambda_n x) integrated exactly. Node weights of the hat functions:
     int hat_j(x) cos(lambda x) dx = c_j dx cos(lambda x_j) sinc^2(lambda dx / 2),
-c_j = 1/2 at x = 0 and x = L, 1 inside.  A subinterval where delta changes sign is split at
-the zero of the linearly interpolated delta and only the compressed part (f linear from 0)
-is integrated, so P_n is a continuous, piecewise-smooth function of the state.
+c_j = 1/2 at x = 0 and x = L, 1 inside.  A subinterval where delta changes sign is split
+and only its compressed part is integrated: f is continued by f(delta) = delta for
+delta <= 0 (C1 at 0), interpolated linearly between the nodes, and cut at its zero xs.
+Splitting at the zero of the interpolated delta instead (the obvious choice) leaves a jump
+of (dx/2) f_j in dP/d(delta_j+1) each time a node changes sign, which happens about once
+a step and cost the adaptive integrator an order of accuracy; with the continuation P is
+C1 in the state.
 
 Integrators (both land exactly on every requested output time):
   * ``ETD34``: exponential Runge-Kutta with Krogstad's fourth-order stages and an embedded
@@ -182,6 +186,10 @@ def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
     """
     N = a.shape[0]
     J = delta.shape[0]
+    if K == 0.0:                     # layer switched off (kernel-level tests): no contact at all
+        for n in range(N):
+            P[n] = 0.0
+        return 0, 0.0, 0
     bound = 0.0
     for n in range(N):
         bound += abs(a[n])
@@ -218,7 +226,9 @@ def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
                 force += dx * f
         else:
             fvals[j] = 0.0
-    # subintervals where delta changes sign: keep only the compressed part
+    # subintervals where delta changes sign: f is continued by f(delta) = delta for delta <= 0
+    # (C1 at 0, since f'(0) = 1), interpolated linearly, and only its positive part kept; the
+    # split point xs then moves smoothly and P stays C1 when a node changes sign
     for j in range(jmax - 1):
         d0 = delta[j]
         d1 = delta[j + 1]
@@ -226,14 +236,14 @@ def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
             x0 = j * dx
             x1 = x0 + dx
             if d0 > 0.0:
-                xs = x0 + dx * d0 / (d0 - d1)
                 f0 = fvals[j]
+                xs = x0 + dx * f0 / (f0 - d1)
                 _add_segment(P, lam1, x0, x1, f0, 0.0, -1.0)
                 _add_segment(P, lam1, x0, xs, f0, 0.0, 1.0)
                 force += 0.5 * f0 * (xs - x0 - dx)
             else:
-                xs = x0 + dx * (-d0) / (d1 - d0)
                 f1 = fvals[j + 1]
+                xs = x0 + dx * (-d0) / (f1 - d0)
                 _add_segment(P, lam1, x0, x1, 0.0, f1, -1.0)
                 _add_segment(P, lam1, xs, x1, 0.0, f1, 1.0)
                 force += 0.5 * f1 * (x1 - xs - dx)
@@ -247,7 +257,7 @@ def layer_energy(delta, jmax, dx, K, he):
     """E_layer = 2 K he int_0^L G(delta) dx, G = -delta - ln(1 - delta) (delta > 0).
 
     Trapezoid on the nodes; on a subinterval where delta changes sign, G is taken linear from
-    0 at the interpolated zero to the compressed node, as f is in the forcing.
+    0 at the split point of the forcing quadrature to the compressed node.
     """
     J = delta.shape[0]
     total = 0.0
@@ -257,10 +267,11 @@ def layer_energy(delta, jmax, dx, K, he):
             G = -d - math.log1p(-d)
             wl = 0.5 * dx if j > 0 else 0.0
             wr = 0.5 * dx if j < J - 1 else 0.0
+            f = d / (1.0 - d)
             if j > 0 and not delta[j - 1] > 0.0:
-                wl = 0.5 * dx * d / (d - delta[j - 1])
+                wl = 0.5 * dx * f / (f - delta[j - 1])
             if j < J - 1 and j + 1 < jmax and not delta[j + 1] > 0.0:
-                wr = 0.5 * dx * d / (d - delta[j + 1])
+                wr = 0.5 * dx * f / (f - delta[j + 1])
             total += (wl + wr) * G
     return 2.0 * K * he * total
 
@@ -360,9 +371,9 @@ def _locate_crossing(z0, N0, N1, omega, h, t0, sign, eps_Y, strain_coef, cosq, d
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
-              V, R, he, K, eps_Y, t_end, t_out, tolerance, fixed_step, h_init, h_min,
+              V, R, he, K, eps_Y, t_start, t_end, t_out, tolerance, fixed_step, h_init, h_min,
               h_max, max_steps, a0, adot0, out_a, out_adot, out_contacts, out_force, out_energy, diag):
-    """Integrate the mode equations from t = 0 to t_end, landing on every t_out.
+    """Integrate the mode equations from t_start to t_end, landing on every t_out.
 
     Parameters
     ----------
@@ -370,14 +381,15 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].  lam1 : lambda_1 [m-1].
     cosq (N, J), wq (J, N), dx : quadrature nodes, see :func:`layer_forcing`.
     V, R, he, K, eps_Y : case parameters (SI).
-    t_end : end of the run [s].  t_out : sorted output times in [0, t_end] [s].
+    t_start, t_end : start and end of the run [s] (the body is at y = x^2/2R + he - V t).
+    t_out : sorted output times in [t_start, t_end] [s].
     tolerance : relative error per step in the energy norm (ETD34 adaptive).
     fixed_step : > 0 for a fixed step [s] (RK4 always; ETD34 without error control).
     h_init, h_min, h_max : first trial, smallest and largest step [s] (adaptive). h_max must
         resolve the contact oscillation: in free flight the forcing and hence the error
         estimate vanish, and only h_max stops a step from jumping deep into a new contact.
     max_steps : attempted steps before STEP_LIMIT.
-    a0, adot0 : initial a_n [m] and a_n' [m s-1].
+    a0, adot0 : a_n [m] and a_n' [m s-1] at t_start.
     out_a, out_adot (T, N), out_contacts (T,), out_force (T,), out_energy (T, 3):
         filled at each output time reached: a, a', contact intervals, F, (E_plate, E_layer, W).
     diag : (N_DIAG,) diagnostics, see the D_* indices.
@@ -435,13 +447,13 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
     for n in range(N):
         z[n] = complex(adot0[n], omega[n] * a0[n])
         a[n] = a0[n]
-    t = 0.0
+    t = t_start
     work = 0.0
     rhs_count = 1
     st, force, jmax = layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N1)
     if st != 0:
-        diag[D_T_REACHED] = 0.0
-        diag[D_FAIL_T] = 0.0
+        diag[D_T_REACHED] = t
+        diag[D_FAIL_T] = t
         return LAYER_BOTTOMED_OUT, 0
     contacts = count_contacts(delta, jmax)
     energy_norm_floor = V * math.sqrt(LM[0])
@@ -452,7 +464,8 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
     steps = 0
     rejected = 0
     h = min(h_init, h_max)
-    t_prev = 0.0
+    t_prev = t_start
+    prev_ratio = 1.0
     while True:
         # ----- record outputs due at the current time
         while k < T and t_out[k] <= t:
@@ -703,7 +716,11 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
 
         # ----- next step size
         if adaptive:
-            fac = 5.0 if ratio <= 0.0 else min(5.0, max(0.2, 0.9 * ratio ** -expo))
+            # PI control (Gustafsson): damps the accept/reject oscillation of a plain I step
+            r_now = max(ratio, 1e-10)
+            fac = 0.9 * r_now ** (-0.7 * expo) * prev_ratio ** (0.4 * expo)
+            fac = min(5.0, max(0.2, fac))
+            prev_ratio = r_now
             h_next = h_step * fac
             if landing and h_step < h:
                 h_next = max(h_next, h)   # a step shortened to land keeps the old proposal

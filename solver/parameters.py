@@ -190,7 +190,7 @@ class Settings:
     """
 
     integrator: str = "etd34"
-    tolerance: float = 1e-6
+    tolerance: float = 1e-8
     subintervals: int = 1000
     rk4_step_fraction: float = 0.05
     fixed_step: float = 0.0

@@ -1,0 +1,1 @@
+"""floe-impact study runner."""

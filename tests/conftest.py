@@ -1,0 +1,28 @@
+"""Shared fixtures: runs of the reference case reused by several tests (computed once)."""
+import numpy as np
+import pytest
+
+from solver import Parameters, Settings, solve
+
+
+def relative_l2(a, b):
+    """||a - b|| / ||b|| over all entries."""
+    return float(np.linalg.norm(np.asarray(a) - np.asarray(b)) / np.linalg.norm(b))
+
+
+def snapshot_times(p, step=0.2, stop=4.6):
+    """0, step, ..., stop in units of the case's t_sc, in seconds (the seed's snapshots)."""
+    return np.round(np.arange(0.0, stop + 1e-9, step), 10) * p.time_scale
+
+
+@pytest.fixture(scope="session")
+def reference60():
+    """The paper's case with 60 modes at the default settings, snapshots every 0.2 t_sc."""
+    p = Parameters(Nmod=60)
+    return solve(p, Settings(), times=snapshot_times(p), fields=("deflection", "strain", "layer_pressure"))
+
+
+@pytest.fixture(scope="session")
+def reference40():
+    p = Parameters(Nmod=40)
+    return solve(p, Settings(), times=snapshot_times(p), fields=("strain",))

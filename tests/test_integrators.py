@@ -1,0 +1,148 @@
+"""Integrators against each other, scipy's DOP853, analytic limits and observed order."""
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from conftest import relative_l2, snapshot_times
+from solver import Parameters, Settings, kernels as kn, solve
+from solver.core import _Tables
+
+
+@pytest.fixture(scope="module")
+def case20():
+    p = Parameters(Nmod=20)
+    return p, snapshot_times(p)
+
+
+def _dop853_strain(p, times, x, rtol):
+    """scipy DOP853 on the same right-hand side (a_n, da_n/dt), strain at the snapshots."""
+    tab = _Tables(p, 1000)
+    N = p.Nmod
+    delta, fvals, P = np.empty(1001), np.empty(1001), np.empty(N)
+
+    def rhs(t, y):
+        kn.layer_forcing(t, y[:N], tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx,
+                         p.V, p.R, p.he, p.K, delta, fvals, P)
+        return np.concatenate([y[N:], -tab.omega**2 * y[:N] + P])
+
+    sol = solve_ivp(rhs, (0, p.stage_duration), np.zeros(2 * N), method="DOP853",
+                    rtol=rtol, atol=1e-14, t_eval=times)
+    assert sol.success
+    return (sol.y[:N].T * tab.strain_coef) @ np.cos(np.outer(x, tab.lam)).T
+
+
+def test_three_integrators_agree_on_reference_case_20_modes(case20):
+    p, times = case20
+    etd = solve(p, Settings(tolerance=1e-12), times=times, fields=("strain",))
+    rk4_fine = solve(p, Settings(integrator="rk4", rk4_step_fraction=0.05 / 8), times=times, fields=("strain",))
+    rk4_seed = solve(p, Settings(integrator="rk4"), times=times, fields=("strain",))
+    dop = _dop853_strain(p, times, etd.x, rtol=1e-10)
+    for r in (etd, rk4_fine, rk4_seed):
+        assert r.status == "ok", r.message
+    e_etd_dop = relative_l2(etd.fields["strain"], dop)
+    e_rk4_dop = relative_l2(rk4_fine.fields["strain"], dop)
+    e_etd_rk4 = relative_l2(etd.fields["strain"], rk4_fine.fields["strain"])
+    e_seed = relative_l2(rk4_seed.fields["strain"], dop)
+    print(f"etd-dop {e_etd_dop:.2e} rk4-dop {e_rk4_dop:.2e} etd-rk4 {e_etd_rk4:.2e} seed-dop {e_seed:.2e}")
+    assert max(e_etd_dop, e_rk4_dop, e_etd_rk4) <= 1e-6
+    assert e_seed <= 1e-3
+
+
+def test_error_falls_with_tolerance(case20):
+    p, times = case20
+    ref = solve(p, Settings(tolerance=1e-12), times=times, fields=("strain",))
+    errs = [relative_l2(solve(p, Settings(tolerance=tol), times=times, fields=("strain",)).fields["strain"],
+                        ref.fields["strain"]) for tol in (1e-5, 1e-7, 1e-9)]
+    print("errors at tol 1e-5, 1e-7, 1e-9:", errs)
+    assert errs[0] > 5 * errs[1] > 25 * errs[2]
+    assert errs[2] < 1e-5
+
+
+def _restart_window(p):
+    """State at 0.4 t_sc from a tight run: the order tests start there, inside one contact."""
+    t0, t1 = 0.4 * p.time_scale, 0.9 * p.time_scale
+    start = solve(p, Settings(tolerance=1e-13), times=[t0], t_end=t0, fields=())
+    return dict(times=[t1], t_end=t1, t_start=t0, initial_amplitudes=start.amplitudes[0],
+                initial_velocities=start.velocities[0], fields=("strain",))
+
+
+@pytest.mark.parametrize("integrator, steps", [("etd34", (16, 32, 64, 128)), ("rk4", (32, 64, 128, 256))])
+def test_observed_order_of_accuracy(integrator, steps):
+    """Fixed steps on t~ = 0.4..0.9 (one contact interval, smooth forcing): fit log e vs log h."""
+    p = Parameters(Nmod=6)
+    kw = _restart_window(p)
+    ref = solve(p, Settings(tolerance=1e-14), **kw)
+    assert ref.contact_intervals[0] == 1
+    window = 0.5 * p.time_scale
+    hs, errs = [], []
+    for n in steps:
+        h = window / n
+        if integrator == "etd34":
+            s = Settings(fixed_step=h / p.time_scale)
+        else:
+            s = Settings(integrator="rk4", rk4_step_fraction=h / (2 * np.pi / p.frequencies[-1]))
+        r = solve(p, s, **kw)
+        assert r.status == "ok", r.message
+        hs.append(h)
+        errs.append(relative_l2(r.fields["strain"], ref.fields["strain"]))
+    order = np.polyfit(np.log(hs), np.log(errs), 1)[0]
+    print(f"{integrator}: errors {errs}, observed order {order:.2f}")
+    assert abs(order - 4.0) <= 0.3, f"observed order {order:.2f}, design order 4"
+
+
+def _free_oscillation(method, fraction, times, t_end, p, tab, n):
+    a0 = np.zeros(p.Nmod)
+    a0[n] = 1.0
+    T = times.size
+    out_a, out_v = np.full((T, p.Nmod), np.nan), np.full((T, p.Nmod), np.nan)
+    out_c, out_f, out_e = np.full(T, np.nan), np.full(T, np.nan), np.full((T, 3), np.nan)
+    diag = np.full(kn.N_DIAG, np.nan)
+    fixed = 0.0 if method == kn.ETD34 else fraction * 2 * np.pi / tab.omega[-1]
+    status, n_out = kn.integrate(method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0],
+                                 tab.cosq, tab.wq, tab.dx, p.V, p.R, p.he, 0.0, p.eps_Y, 0.0, t_end,
+                                 times, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, a0, np.zeros(p.Nmod),
+                                 out_a, out_v, out_c, out_f, out_e, diag)
+    assert status == kn.OK and n_out == T
+    return out_a, out_v, out_e, fixed
+
+
+@pytest.mark.parametrize("method", [kn.ETD34, kn.RK4])
+def test_layer_off_free_oscillation_is_cos_omega_t(method):
+    """Kernel level, K = 0: a_n(0) = 1 for one mode gives a_n(t) = cos(omega_n t), others 0.
+
+    Output times are off any step grid, so this also checks that the state is delivered
+    exactly at each requested time.
+    """
+    p = Parameters(Nmod=8)
+    tab = _Tables(p, 64)
+    n = 5
+    t_end = 3.0 * 2 * np.pi / tab.omega[0]
+    times = np.r_[0.0, np.sort(np.random.default_rng(1).uniform(0, t_end, 15)), t_end]
+    out_a, out_v, out_e, _ = _free_oscillation(method, 0.002, times, t_end, p, tab, n)
+    w = tab.omega[n]
+    tol = 1e-12 if method == kn.ETD34 else 1e-7
+    np.testing.assert_allclose(out_a[:, n], np.cos(w * times), rtol=0, atol=tol)
+    np.testing.assert_allclose(out_v[:, n], -w * np.sin(w * times), rtol=0, atol=tol * w)
+    assert np.max(np.abs(np.delete(out_a, n, axis=1))) == 0.0
+    # with the layer off no work is done and the plate energy stays constant
+    np.testing.assert_allclose(out_e[:, 0], out_e[0, 0], rtol=1e-12 if method == kn.ETD34 else 1e-8)
+    assert np.all(out_e[:, 2] == 0.0)
+
+
+def test_rk4_is_the_classical_scheme():
+    """At a coarse step RK4 must match its amplification factor 1 + z + z^2/2 + z^3/6 + z^4/24."""
+    p = Parameters(Nmod=8)
+    tab = _Tables(p, 64)
+    n = 5
+    t_end = 2 * np.pi / tab.omega[0]
+    times = np.array([0.0, 0.3 * t_end, 0.71 * t_end, t_end])
+    out_a, out_v, _, h_rule = _free_oscillation(kn.RK4, 0.05, times, t_end, p, tab, n)
+    w = tab.omega[n]
+    z = 1j * w                     # z = a' + i w a at a = 1, a' = 0
+    expected = [z.imag / w]
+    for t0, t1 in zip(times[:-1], times[1:]):
+        n_sub = int(np.ceil((t1 - t0) / h_rule * (1 - 1e-12)))
+        zeta = 1j * w * (t1 - t0) / n_sub
+        z *= (1 + zeta + zeta**2 / 2 + zeta**3 / 6 + zeta**4 / 24) ** n_sub
+        expected.append(z.imag / w)
+    np.testing.assert_allclose(out_a[:, n], expected, rtol=0, atol=1e-10)   # round-off of ~3000 steps
