@@ -1,0 +1,42 @@
+# floe-impact: make help
+PYTHON ?= python3
+VENV   := .venv
+PY     := $(VENV)/bin/python
+STUDY  ?= speed_sweep
+ARGS   ?=
+
+.DEFAULT_GOAL := help
+.PHONY: help setup study status test test-slow bench regenerate-reference clean
+
+help:  ## list the targets
+	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(VENV)/bin/pip install --quiet --upgrade pip
+	$(VENV)/bin/pip install --quiet -e ".[test]"
+	touch $@
+
+setup: $(VENV)/.installed  ## create .venv and install the package with its test extras
+
+study: setup  ## run a study: make study STUDY=speed_sweep [ARGS="--workers 1"]
+	$(PY) -m pipeline run studies/$(STUDY).toml $(ARGS)
+
+status: setup  ## what a study has done: make status STUDY=speed_sweep
+	$(PY) -m pipeline status $(STUDY)
+
+test: setup  ## the default test suite (fast; excludes tests marked slow)
+	$(PY) -m pytest -q
+
+test-slow: setup  ## only the long tests (marked slow)
+	$(PY) -m pytest -q -m slow
+
+bench: setup  ## solver benchmark -> results/bench/solver.md
+	$(PY) benchmarks/bench_solver.py
+
+regenerate-reference: setup  ## rebuild tests/data/regression_small.nc (only after a deliberate change)
+	$(PY) -m tests.regenerate_reference
+
+clean:  ## remove results/ and caches (keeps .venv)
+	rm -rf results .pytest_cache
+	find . -name __pycache__ -prune -exec rm -rf {} +
