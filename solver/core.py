@@ -254,19 +254,23 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     else:
         t_fail = float(diag[kn.D_FAIL_T])
         where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
-        if status == "layer_bottomed_out":
-            message = (f"layer bottomed out {where}: every retry of the step reached delta >= 1 "
-                       f"down to the smallest step; largest delta reached {max_delta:.9f}")
-        elif status == "nonfinite":
-            if method == kn.RK4 or fixed > 0:
-                message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
-                           f"non-finite value {where}; a fixed step cannot be retried "
-                           f"(largest delta before: {max_delta:.6g})")
-            else:
-                message = f"non-finite state {where} with the step at its smallest"
+        kind = int(diag[kn.D_FAIL_KIND])
+        if kind == kn.FAIL_BOTTOMED:
+            message = (f"layer bottomed out {where}: the compression reached delta = 1 - "
+                       f"{max(1.0 - max_delta, 0.0):.1e} and no step down to {1e-13 * t_end:.1e} s "
+                       f"could keep it below 1")
+        elif kind == kn.FAIL_FIXED_STEP:
+            message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
+                       f"non-finite value {where}; a fixed step cannot be retried "
+                       f"(largest delta before: {max_delta:.6g})")
+        elif kind == kn.FAIL_NONFINITE:
+            message = f"non-finite state {where} with the step at its smallest ({1e-13 * t_end:.1e} s)"
+        elif kind == kn.FAIL_STEP_UNDERFLOW:
+            message = (f"error control drove the step below {1e-13 * t_end:.1e} s {where}; "
+                       f"largest delta reached {max_delta:.6g}")
         else:
             message = (f"stopped {where} after {int(diag[kn.D_STEPS] + diag[kn.D_REJECTED])} attempted "
-                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.9f}")
+                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
     return Result(
         parameters=p, settings=s, times=times, x=x, fields=field_values,
         amplitudes=out_a, velocities=out_adot, contact_intervals=out_contacts, force=out_force,

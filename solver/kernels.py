@@ -82,7 +82,18 @@ D_H_MIN = 23               # smallest accepted step [s]
 D_H_MAX = 24               # largest accepted step [s]
 D_RHS = 25                 # forcing evaluations
 D_FAIL_T = 26              # time of the step that failed (NaN if none)
-N_DIAG = 27
+D_FAIL_KIND = 27           # why the run stopped early: one of the FAIL_* codes
+N_DIAG = 28
+
+FAIL_NONE = 0
+FAIL_MAX_STEPS = 1         # max_steps attempted
+FAIL_STEP_UNDERFLOW = 2    # error control drove the step below h_min
+FAIL_BOTTOMED = 3          # every retry down to h_min had a stage with delta >= 1
+FAIL_FIXED_STEP = 4        # a fixed-step run met delta >= 1 or a non-finite state
+FAIL_NONFINITE = 5         # non-finite state with the adaptive step at h_min
+
+#: a step underflow with delta above this is the layer bottoming out, not an integrator failure
+BOTTOM_DELTA = 1.0 - 1e-6
 
 _BISECTIONS = 40
 
@@ -414,6 +425,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
     diag[D_MAX_DELTA] = -np.inf
     diag[D_H_MIN] = np.inf
     diag[D_H_MAX] = 0.0
+    diag[D_FAIL_KIND] = FAIL_NONE
 
     # work arrays
     z = np.empty(N, np.complex128)
@@ -454,6 +466,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
     if st != 0:
         diag[D_T_REACHED] = t
         diag[D_FAIL_T] = t
+        diag[D_FAIL_KIND] = FAIL_BOTTOMED
         return LAYER_BOTTOMED_OUT, 0
     contacts = count_contacts(delta, jmax)
     energy_norm_floor = V * math.sqrt(LM[0])
@@ -465,6 +478,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
     rejected = 0
     h = min(h_init, h_max)
     t_prev = t_start
+    dmax_now = 0.0
     prev_ratio = 1.0
     while True:
         # ----- record outputs due at the current time
@@ -485,6 +499,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         if steps + rejected >= max_steps:
             status = STEP_LIMIT
             diag[D_FAIL_T] = t
+            diag[D_FAIL_KIND] = FAIL_MAX_STEPS
             break
         target = t_out[k] if k < T else t_end
         # ----- choose the step
@@ -618,13 +633,19 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         if not finite:
             if not adaptive:
                 diag[D_FAIL_T] = t
+                diag[D_FAIL_KIND] = FAIL_FIXED_STEP
                 status = NONFINITE
                 break
             rejected += 1
             h = 0.25 * h_step
             if h < h_min:
                 diag[D_FAIL_T] = t
-                status = LAYER_BOTTOMED_OUT if bottom else NONFINITE
+                if bottom:
+                    status = LAYER_BOTTOMED_OUT
+                    diag[D_FAIL_KIND] = FAIL_BOTTOMED
+                else:
+                    status = NONFINITE
+                    diag[D_FAIL_KIND] = FAIL_NONFINITE
                 break
             continue
         ratio = 0.0
@@ -646,7 +667,12 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                 h = h_step * max(0.2, 0.9 * ratio ** -expo)
                 if h < h_min:
                     diag[D_FAIL_T] = t
-                    status = STEP_LIMIT
+                    if dmax_now > BOTTOM_DELTA:
+                        status = LAYER_BOTTOMED_OUT
+                        diag[D_FAIL_KIND] = FAIL_BOTTOMED
+                    else:
+                        status = STEP_LIMIT
+                        diag[D_FAIL_KIND] = FAIL_STEP_UNDERFLOW
                     break
                 continue
 
@@ -704,6 +730,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         for j in range(jmax):
             if delta[j] > dmax:
                 dmax = delta[j]
+        dmax_now = dmax
         if dmax > diag[D_MAX_DELTA]:
             diag[D_MAX_DELTA] = dmax
             diag[D_MAX_DELTA_T] = t

@@ -1,0 +1,101 @@
+"""Case files -> study.nc: one dimension per grid key (or ``case``), then ``t`` and ``x``.
+
+Run by the driver alone, after the workers. Missing and failed cases appear as NaN with their
+``status`` and ``message``. The file is written atomically, so an interrupted combine never
+leaves a half-written study.nc; rerunning rebuilds it from the case files.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from solver import PARAMETER_INFO
+
+from . import provenance
+from .casefile import case_path, read_case, write_atomic
+from .study import SCHEMA_VERSION, Study
+
+
+def _parameter_coord(key, values):
+    long_name, units = PARAMETER_INFO[key]
+    dtype = np.int64 if key == "Nmod" else np.float64
+    return (key, np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units})
+
+
+def combine(study: Study, out_dir: Path) -> xr.Dataset:
+    """Assemble the study dataset from its case files (validated on read)."""
+    cases_dir = Path(out_dir) / "cases"
+    dims, shape = study.dims, study.shape
+    per_case = [read_case(case_path(cases_dir, c.case_id), c) for c in study.cases]
+    template = next((ds for ds in per_case if ds is not None), None)
+    if template is None:
+        raise RuntimeError("no case file of the study could be read")
+    first = study.cases[0]
+    L_values = {c.parameters.L for c in study.cases}
+    data = {}
+    for name, var in template.data_vars.items():
+        if name in PARAMETER_INFO:
+            continue
+        tail = var.dims[1:]
+        full_shape = shape + tuple(template.sizes[d] for d in tail)
+        if var.dtype.kind in "OUS":
+            arr = np.full(full_shape, "missing", dtype=object)
+        else:
+            arr = np.full(full_shape, np.nan)
+        for case, ds in zip(study.cases, per_case):
+            if ds is None:
+                if name == "message":
+                    arr[case.index] = "no valid case file"
+                continue
+            arr[case.index] = ds[name].values[0]
+        data[name] = (tuple(dims) + tail, arr, dict(var.attrs))
+    data["case_id"] = (tuple(dims), np.array([c.case_id for c in study.cases], dtype=object).reshape(shape),
+                       {"long_name": "id of the case file in cases/"})
+    coords = {"t": template["t"].copy()}
+    if "x" in template.dims:
+        if len(L_values) == 1:
+            coords["x"] = template["x"].copy()
+        else:
+            coords["x"] = ("x", template["x"].values / first.parameters.L,
+                           {"long_name": "position as a fraction of the case's L (L varies)", "units": "1"})
+    if study.grid:
+        for key, values in study.grid.items():
+            coords[key] = _parameter_coord(key, values)
+    else:
+        coords["case"] = ("case", np.arange(len(study.cases)), {"long_name": "case number in [[cases]]"})
+        varying = [k for k in PARAMETER_INFO if len({getattr(c.parameters, k) for c in study.cases}) > 1]
+        for key in varying:
+            coords[key] = ("case",) + _parameter_coord(key, [getattr(c.parameters, key) for c in study.cases])[1:]
+    # parameters constant over the study: 0-d variables with units
+    varying_keys = set(study.grid) if study.grid else set(varying)
+    for key in PARAMETER_INFO:
+        if key not in varying_keys:
+            long_name, units = PARAMETER_INFO[key]
+            data[key] = ((), getattr(first.parameters, key), {"long_name": long_name, "units": units})
+    ds = xr.Dataset(data, coords=coords)
+    statuses = [str(s) for s in np.ravel(ds["status"].values)]
+    ds.attrs.update({
+        "title": f"floe-impact study {study.name}",
+        "description": study.description,
+        "study_name": study.name,
+        "study_file": study.text,
+        "schema_version": SCHEMA_VERSION,
+        "solver_settings": json.dumps(first.settings.as_dict()),
+        "base_parameters": json.dumps(study.base),
+        "cases": len(study.cases),
+        "cases_ok": statuses.count("ok"),
+        "cases_failed": len(statuses) - statuses.count("ok") - statuses.count("missing"),
+        "cases_missing": statuses.count("missing"),
+        **provenance.attributes(),
+    })
+    return ds
+
+
+def write_study(study: Study, out_dir: Path) -> Path:
+    ds = combine(study, out_dir)
+    path = Path(out_dir) / "study.nc"
+    write_atomic(ds, path)
+    return path

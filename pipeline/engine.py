@@ -1,0 +1,120 @@
+"""Cases -> workers: run pending cases on a dask.distributed cluster.
+
+Default: a LocalCluster of ``workers`` processes x 1 thread, numba/BLAS threads pinned to 1
+before each worker starts. With ``scheduler`` (or DASK_SCHEDULER_ADDRESS) the same cases run
+on an existing cluster; its workers must see the results directory (a shared filesystem).
+The numba kernels are compiled once (into numba's on-disk cache) before fanning out, tasks
+return small records (the case file on disk is the result), and at most ``2 x workers`` tasks
+are in flight.
+"""
+from __future__ import annotations
+
+import os
+import sys
+import time
+from contextlib import contextmanager
+
+import dask
+from distributed import Client, LocalCluster, as_completed
+
+from solver import compile_kernels
+
+from .casefile import ENDED_EARLY, run_case
+
+SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+                     "NUMBA_NUM_THREADS": "1"}
+
+
+@contextmanager
+def cluster_client(workers: int, scheduler: str | None):
+    """A dask Client: on a new LocalCluster, or connected to ``scheduler``."""
+    if scheduler:
+        client = Client(scheduler, timeout="10s")
+        try:
+            yield client
+        finally:
+            client.close()
+        return
+    environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
+    environ.update(SINGLE_THREAD_ENV)
+    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
+                          "distributed.scheduler.allowed-failures": 3}):
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=40)
+        client = Client(cluster)
+        try:
+            yield client
+        finally:
+            client.close()
+            cluster.close()
+
+
+class Progress:
+    """One status line: done / failed / skipped counts and an ETA (a line per case off a tty)."""
+
+    def __init__(self, total: int, skipped: int, stream=sys.stderr):
+        self.total, self.skipped, self.stream = total, skipped, stream
+        self.done = self.failed = self.early = 0
+        self.start = time.monotonic()
+        self.tty = stream.isatty()
+        self.last = 0.0
+
+    def update(self, record: dict) -> None:
+        self.done += 1
+        if record["status"] in ENDED_EARLY:
+            self.early += 1
+        elif record["status"] != "ok":
+            self.failed += 1
+        todo = self.total - self.skipped
+        elapsed = time.monotonic() - self.start
+        eta = elapsed / self.done * (todo - self.done)
+        width = 30
+        filled = int(width * (self.skipped + self.done) / max(self.total, 1))
+        line = (f"[{'#' * filled}{'.' * (width - filled)}] {self.skipped + self.done}/{self.total} "
+                f"done ({self.early} ended early, {self.failed} failed, {self.skipped} skipped), "
+                f"elapsed {elapsed:5.1f} s, ETA {eta:5.1f} s")
+        if self.tty:
+            self.stream.write("\r" + line)
+            if self.done == todo:
+                self.stream.write("\n")
+        elif self.done == todo or time.monotonic() - self.last > 2.0:
+            self.stream.write(line + "\n")
+            self.last = time.monotonic()
+        self.stream.flush()
+
+
+def run_pending(cases: list, cases_dir, workers: int = 2, scheduler: str | None = None,
+                progress: Progress | None = None) -> list:
+    """Run the cases; returns their records (case_id, status, message, run_time)."""
+    if not cases:
+        return []
+    compile_kernels()                                  # fill numba's cache once, here
+    records = []
+    with cluster_client(workers, scheduler) as client:
+        if scheduler:                                  # remote workers: compile one at a time
+            for address in client.scheduler_info()["workers"]:
+                client.run(compile_kernels, workers=[address])
+        n_workers = max(1, len(client.scheduler_info()["workers"]))
+        limit = 2 * n_workers
+        queue = list(cases)
+        futures = as_completed()
+
+        def submit_next():
+            case = queue.pop(0)
+            futures.add(client.submit(run_case, case.to_dict(), str(cases_dir), pure=False,
+                                      key=f"case-{case.case_id}"))
+
+        for _ in range(min(limit, len(queue))):
+            submit_next()
+        for future in futures:
+            try:
+                record = future.result()
+            except Exception as err:                   # infrastructure: the case file is absent
+                record = {"case_id": future.key.removeprefix("case-"), "status": "error",
+                          "message": f"task failed: {type(err).__name__}: {err}", "run_time": float("nan")}
+            records.append(record)
+            if progress:
+                progress.update(record)
+            if queue:
+                submit_next()
+    return records

@@ -1,0 +1,52 @@
+"""What every result file carries: package version, git commit, library versions, host, date."""
+from __future__ import annotations
+
+import datetime as _dt
+import importlib.metadata
+import platform
+import socket
+import subprocess
+from functools import lru_cache
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+LIBRARIES = ("numpy", "numba", "xarray", "netCDF4", "dask", "distributed", "matplotlib")
+
+
+def package_version() -> str:
+    try:
+        return importlib.metadata.version("floe-impact")
+    except importlib.metadata.PackageNotFoundError:
+        return "unknown"
+
+
+@lru_cache(maxsize=1)
+def git_state() -> tuple:
+    """(commit, dirty) of the source tree, ("unknown", False) outside a git checkout."""
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=REPO, capture_output=True,
+                                text=True, timeout=10, check=True).stdout.strip()
+        status = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=REPO,
+                                capture_output=True, text=True, timeout=10, check=True).stdout
+        return commit, bool(status.strip())
+    except (OSError, subprocess.SubprocessError):
+        return "unknown", False
+
+
+def attributes() -> dict:
+    """netCDF global attributes describing the software and the machine."""
+    commit, dirty = git_state()
+    attrs = {
+        "floe_impact_version": package_version(),
+        "git_commit": commit,
+        "git_dirty": int(dirty),
+        "python_version": platform.python_version(),
+        "host": socket.gethostname(),
+        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    }
+    for lib in LIBRARIES:
+        try:
+            attrs[f"version_{lib}"] = importlib.metadata.version(lib)
+        except importlib.metadata.PackageNotFoundError:
+            attrs[f"version_{lib}"] = "not installed"
+    return attrs

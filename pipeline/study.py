@@ -1,0 +1,309 @@
+"""Study files: read, validate and expand into cases (study file -> cases).
+
+A study file ``studies/<name>.toml`` (read with :mod:`tomllib`)::
+
+    description = "..."
+    [base]        # overrides of the reference case; keys of solver.PARAMETER_INFO
+    [grid]        # full factorial: key = [values]; every key becomes a dimension
+    [[cases]]     # or: an explicit list of cases (tables of parameter overrides)
+    [output]      # times = {unit = "t_sc", step, stop} | {unit = "stage", count}
+                  # fields = [...], x_points = 241
+    [solver]      # keys of solver.SETTING_INFO
+    [plots]       # kinds = ["diagnostics", "paper_fig2"]
+
+Everything is validated here, before any case runs or anything is written; a problem raises
+:class:`StudyError` with one line naming it.
+"""
+from __future__ import annotations
+
+import hashlib
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
+
+#: bump when the layout of a case file changes: old case files are then recomputed
+SCHEMA_VERSION = 1
+#: grids with more cases than this need --yes
+LARGE_STUDY = 10_000
+
+SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots"}
+OUTPUT_KEYS = {"times", "fields", "x_points"}
+PLOT_KINDS = ("diagnostics", "paper_fig2")
+DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
+                  "fields": ["deflection", "strain", "layer_pressure"], "x_points": 241}
+
+
+class StudyError(ValueError):
+    """A study file or command line that cannot be run; the message is one line."""
+
+
+@dataclass(frozen=True)
+class Case:
+    """One run of the solver: its parameters, settings and output request."""
+
+    case_id: str
+    index: tuple                    # position in the grid (or (i,) in a case list)
+    parameters: Parameters
+    settings: Settings
+    times_spec: dict                # the [output] times table
+    fields: tuple
+    x_points: int
+
+    @property
+    def t_end(self) -> float:
+        return self.parameters.stage_duration
+
+    def requested_times(self) -> np.ndarray:
+        """Output times in units of the study's time coordinate (t_sc or stage fraction)."""
+        return coordinate_times(self.times_spec)
+
+    def times_seconds(self) -> np.ndarray:
+        """Requested times in seconds for this case (some may lie past its stage)."""
+        t = coordinate_times(self.times_spec)
+        scale = self.parameters.time_scale if self.times_spec["unit"] == "t_sc" else self.t_end
+        return t * scale
+
+    def to_dict(self) -> dict:
+        """Plain data for a worker (no numpy, no classes)."""
+        return {"case_id": self.case_id, "index": list(self.index),
+                "parameters": self.parameters.as_dict(), "settings": self.settings.as_dict(),
+                "times_spec": self.times_spec, "fields": list(self.fields), "x_points": self.x_points}
+
+    @staticmethod
+    def from_dict(d: dict) -> "Case":
+        return Case(d["case_id"], tuple(d["index"]), Parameters(**d["parameters"]),
+                    Settings(**d["settings"]), d["times_spec"], tuple(d["fields"]), d["x_points"])
+
+
+@dataclass
+class Study:
+    name: str
+    path: Path
+    text: str
+    description: str
+    base: dict
+    grid: dict                      # key -> list of values, in file order
+    case_list: list                 # explicit [[cases]] (overrides), or []
+    output: dict
+    solver: dict
+    plots: list
+    cases: list = field(default_factory=list)
+
+    @property
+    def dims(self) -> list:
+        return list(self.grid) if self.grid else ["case"]
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(len(v) for v in self.grid.values()) if self.grid else (len(self.case_list),)
+
+
+def coordinate_times(spec: dict) -> np.ndarray:
+    if spec["unit"] == "t_sc":
+        n = int(math.floor(spec["stop"] / spec["step"] + 1e-9))
+        return np.round(np.arange(n + 1) * spec["step"], 12)
+    return np.linspace(0.0, 1.0, spec["count"] + 1)[1:] if spec.get("exclude_zero") else \
+        np.linspace(0.0, 1.0, spec["count"])
+
+
+def _number(where: str, value, integer=False):
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise StudyError(f"{where} must be a number, got {value!r}")
+    if integer and (not float(value).is_integer()):
+        raise StudyError(f"{where} must be an integer, got {value!r}")
+    return value
+
+
+def _check_parameters(where: str, table: dict) -> dict:
+    if not isinstance(table, dict):
+        raise StudyError(f"{where} must be a table of parameters")
+    for key, value in table.items():
+        if key not in PARAMETER_INFO:
+            raise StudyError(f"{where}: unknown parameter {key!r}; known: {', '.join(PARAMETER_INFO)}")
+        _number(f"{where}.{key}", value)
+    return dict(table)
+
+
+def _check_output(out) -> dict:
+    if not isinstance(out, dict):
+        raise StudyError("[output] must be a table")
+    unknown = set(out) - OUTPUT_KEYS
+    if unknown:
+        raise StudyError(f"[output]: unknown key {sorted(unknown)[0]!r}; known: {', '.join(sorted(OUTPUT_KEYS))}")
+    result = {**DEFAULT_OUTPUT, **out}
+    spec = result["times"]
+    if not isinstance(spec, dict) or spec.get("unit") not in ("t_sc", "stage"):
+        raise StudyError("[output] times must be {unit = \"t_sc\", step = ..., stop = ...} "
+                         "or {unit = \"stage\", count = ...}")
+    if spec["unit"] == "t_sc":
+        extra = set(spec) - {"unit", "step", "stop"}
+        if extra or "step" not in spec or "stop" not in spec:
+            raise StudyError("[output] times with unit = \"t_sc\" takes exactly step and stop")
+        for k in ("step", "stop"):
+            v = _number(f"[output] times.{k}", spec[k])
+            if not (math.isfinite(v) and v > 0):
+                raise StudyError(f"[output] times.{k} must be finite and > 0, got {v!r}")
+        if spec["stop"] / spec["step"] > 100_000:
+            raise StudyError("[output] times: more than 100000 output times")
+    else:
+        extra = set(spec) - {"unit", "count"}
+        if extra or "count" not in spec:
+            raise StudyError("[output] times with unit = \"stage\" takes exactly count")
+        c = _number("[output] times.count", spec["count"], integer=True)
+        if not 2 <= c <= 100_000:
+            raise StudyError(f"[output] times.count must be between 2 and 100000, got {c!r}")
+    fields = result["fields"]
+    if not isinstance(fields, list) or not all(isinstance(f, str) for f in fields):
+        raise StudyError("[output] fields must be a list of names")
+    for f in fields:
+        if f not in FIELDS:
+            raise StudyError(f"[output] fields: unknown field {f!r}; known: {', '.join(FIELDS)}")
+    if len(set(fields)) != len(fields):
+        raise StudyError("[output] fields: a field is listed twice")
+    xp = _number("[output] x_points", result["x_points"], integer=True)
+    if not 2 <= xp <= 100_001:
+        raise StudyError(f"[output] x_points must be between 2 and 100001, got {xp!r}")
+    result["x_points"] = int(xp)
+    return result
+
+
+def _check_solver(table) -> dict:
+    if not isinstance(table, dict):
+        raise StudyError("[solver] must be a table")
+    for key in table:
+        if key not in SETTING_INFO:
+            raise StudyError(f"[solver]: unknown setting {key!r}; known: {', '.join(SETTING_INFO)}")
+    try:
+        Settings(**table)
+    except ParameterError as err:
+        raise StudyError(f"[solver]: {err}") from None
+    return dict(table)
+
+
+def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
+    """studies/<name>.toml from a name, or the path itself."""
+    path = Path(name_or_path)
+    if path.suffix == ".toml" or "/" in name_or_path:
+        if not path.is_file():
+            raise StudyError(f"no study file {name_or_path!r}")
+        return path
+    path = studies_dir / f"{name_or_path}.toml"
+    if not path.is_file():
+        known = sorted(p.stem for p in studies_dir.glob("*.toml"))
+        raise StudyError(f"unknown study {name_or_path!r}: no {path}; known: {', '.join(known) or 'none'}")
+    return path
+
+
+def load_study(path: Path) -> Study:
+    """Read and validate a study file; expand its cases."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as err:
+        raise StudyError(f"cannot read {path}: {err.strerror}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise StudyError(f"{path}: TOML syntax error: {err}") from None
+    unknown = set(data) - SECTIONS
+    if unknown:
+        raise StudyError(f"{path}: unknown section or key {sorted(unknown)[0]!r}; known: {', '.join(sorted(SECTIONS))}")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise StudyError(f"{path}: description must be a string")
+    base = _check_parameters("[base]", data.get("base", {}))
+    grid_raw = data.get("grid", {})
+    if not isinstance(grid_raw, dict):
+        raise StudyError("[grid] must be a table of lists")
+    grid = {}
+    for key, values in grid_raw.items():
+        if key not in PARAMETER_INFO:
+            raise StudyError(f"[grid]: unknown parameter {key!r}; known: {', '.join(PARAMETER_INFO)}")
+        if not isinstance(values, list) or not values:
+            raise StudyError(f"[grid] {key} must be a non-empty list of values")
+        for v in values:
+            _number(f"[grid] {key} value", v, integer=(key == "Nmod"))
+        if len(set(values)) != len(values):
+            raise StudyError(f"[grid] {key} has duplicate values")
+        if key in base:
+            raise StudyError(f"{key} is both in [base] and in [grid]")
+        grid[key] = list(values)
+    case_list = data.get("cases", [])
+    if not isinstance(case_list, list):
+        raise StudyError("[[cases]] must be an array of tables")
+    case_list = [_check_parameters(f"[[cases]] #{i + 1}", c) for i, c in enumerate(case_list)]
+    if grid and case_list:
+        raise StudyError("a study has either [grid] or [[cases]], not both")
+    if not grid and not case_list:
+        raise StudyError(f"{path}: the study has no cases: give a [grid] or [[cases]]")
+    if grid_raw == {} and "grid" in data:
+        raise StudyError("[grid] is empty")
+    if case_list:
+        seen = set()
+        for i, c in enumerate(case_list):
+            key = json.dumps({**base, **c}, sort_keys=True)
+            if key in seen:
+                raise StudyError(f"[[cases]] #{i + 1} repeats an earlier case")
+            seen.add(key)
+    output = _check_output(data.get("output", {}))
+    solver = _check_solver(data.get("solver", {}))
+    plots_table = data.get("plots", {})
+    if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
+        raise StudyError("[plots] takes one key: kinds = [...]")
+    plots = plots_table.get("kinds", ["diagnostics"])
+    if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
+        raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
+    study = Study(name=path.stem, path=path, text=text, description=description, base=base,
+                  grid=grid, case_list=case_list, output=output, solver=solver, plots=plots)
+    study.cases = expand(study)
+    return study
+
+
+def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
+    """Stable id: hash of the normalised parameters, settings, output request and schema."""
+    payload = {"schema": SCHEMA_VERSION, "parameters": parameters.as_dict(),
+               "settings": settings.as_dict(), "times": output["times"],
+               "fields": sorted(output["fields"]), "x_points": output["x_points"]}
+    blob = json.dumps(payload, sort_keys=True, separators=(",", ":"))
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def expand(study: Study) -> list:
+    """The cases of a study in grid (C) order, each validated."""
+    settings = Settings(**study.solver)
+    if study.grid:
+        keys = list(study.grid)
+        combos = [(idx, dict(zip(keys, vals))) for idx, vals in zip(
+            itertools.product(*(range(len(v)) for v in study.grid.values())),
+            itertools.product(*study.grid.values()))]
+    else:
+        combos = [((i,), c) for i, c in enumerate(study.case_list)]
+    if not combos:
+        raise StudyError("the study has no cases")
+    cases = []
+    for idx, overrides in combos:
+        values = {**study.base, **overrides}
+        try:
+            p = Parameters(**values)
+        except ParameterError as err:
+            label = ", ".join(f"{k}={v}" for k, v in overrides.items())
+            raise StudyError(f"case {label}: {err}") from None
+        cases.append(Case(case_id(p, settings, study.output), tuple(idx), p, settings,
+                          study.output["times"], tuple(study.output["fields"]), study.output["x_points"]))
+    # outputs past every case's stage are outside the model: refuse a study that asks only those
+    if study.output["times"]["unit"] == "t_sc":
+        first = coordinate_times(study.output["times"])
+        stages = [c.t_end / c.parameters.time_scale for c in cases]
+        if first.size > 1 and np.all(first[1:] > max(stages) * (1 + 1e-12)):
+            raise StudyError(f"[output] times: every output time after 0 lies past every case's impact "
+                             f"stage (the longest is {max(stages):.4g} t_sc)")
+    if len({c.case_id for c in cases}) != len(cases):
+        raise StudyError("two cases of the study are identical")
+    return cases
