@@ -35,7 +35,7 @@ bench: setup  ## solver benchmark -> results/bench/solver.md
 	$(PY) benchmarks/bench_solver.py
 
 regenerate-reference: setup  ## rebuild tests/data/regression_small.nc (only after a deliberate change)
-	$(PY) -m tests.regenerate_reference
+	$(PY) tests/regenerate_reference.py
 
 clean:  ## remove results/ and caches (keeps .venv)
 	rm -rf results .pytest_cache

@@ -67,7 +67,7 @@ def print_table(study, states: dict, stream=sys.stdout) -> None:
         rows.append([case.case_id, *(f"{getattr(case.parameters, k):g}" for k in keys), states[case.case_id]])
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     for r in [header, *rows]:
-        stream.write("  ".join(str(v).ljust(w) for v, w in zip(r, widths)) + "\n")
+        stream.write("  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip() + "\n")
     counts = {}
     for s in states.values():
         counts[s] = counts.get(s, 0) + 1

@@ -1,0 +1,93 @@
+"""Bad study files and command lines: one line naming the problem, exit 2, nothing written."""
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+GOOD = """
+description = "ok"
+[base]
+Nmod = 4
+[grid]
+V = [3.0, 5.0]
+[output]
+times = { unit = "t_sc", step = 0.5, stop = 1.0 }
+fields = ["strain"]
+x_points = 11
+"""
+
+# (study file text, words the one-line error must contain)
+BAD_FILES = [
+    ("description = \"x\"\n[grid\nV = [1.0]", "TOML syntax error"),
+    (GOOD + "\n[extra]\na = 1", "unknown section or key 'extra'"),
+    (GOOD.replace("Nmod = 4", "Nmod = 4\nVel = 3.0"), "unknown parameter 'Vel'"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, \"fast\"]"), "must be a number"),
+    (GOOD.replace("Nmod = 4", "Nmod = \"four\""), "[base].Nmod must be a number"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, nan]"), "V must be finite and > 0"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, inf]"), "V must be finite and > 0"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [-3.0]"), "V must be finite and > 0"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [0.0]"), "V must be finite and > 0"),
+    (GOOD.replace("Nmod = 4", "Nmod = 4\nnu = 0.5"), "nu must be in [0, 0.5)"),
+    (GOOD.replace("Nmod = 4", "Nmod = 0"), "Nmod must be a positive integer"),
+    (GOOD.replace("Nmod = 4\n[grid]\nV = [3.0, 5.0]", "K = 8e6\n[grid]\nNmod = [4, 1.5]"), "Nmod value must be an integer"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = []"), "must be a non-empty list"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 3.0]"), "duplicate values"),
+    (GOOD.replace("[grid]\nV = [3.0, 5.0]", ""), "the study has no cases"),
+    (GOOD.replace("[grid]\nV = [3.0, 5.0]", "[grid]"), "no cases"),
+    (GOOD.replace("fields = [\"strain\"]", "fields = [\"stress\"]"), "unknown field 'stress'"),
+    (GOOD + "\n[solver]\nintegrator = \"euler\"", "integrator must be one of etd34, rk4"),
+    (GOOD + "\n[solver]\ntolerance = -1.0", "tolerance must be finite and > 0"),
+    (GOOD + "\n[solver]\nsteps = 3", "unknown setting 'steps'"),
+    (GOOD.replace("step = 0.5, stop = 1.0", "step = 50.0, stop = 400.0"), "past every case's impact stage"),
+    (GOOD.replace("times = { unit = \"t_sc\", step = 0.5, stop = 1.0 }", "times = { unit = \"hours\", step = 1 }"), "times must be"),
+    (GOOD.replace("x_points = 11", "x_points = 1"), "x_points must be between 2 and 100001"),
+    (GOOD.replace("Nmod = 4", "Nmod = 4\nV = 3.0"), "V is both in [base] and in [grid]"),
+    ("[[cases]]\nV = 3.0\n[[cases]]\nV = 3.0", "repeats an earlier case"),
+    (GOOD + "\n[[cases]]\nV = 3.0", "either [grid] or [[cases]]"),
+    (GOOD + "\n[plots]\nkinds = [\"movie\"]", "[plots] kinds must be a list from"),
+]
+
+
+@pytest.mark.parametrize("text, words", BAD_FILES, ids=[w[:40] for _, w in BAD_FILES])
+def test_bad_study_file(tmp_path, capsys, text, words):
+    study = tmp_path / "bad.toml"
+    study.write_text(text)
+    out = tmp_path / "out"
+    code = main(["run", str(study), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert words in err, err
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "no_such_study"], "unknown study 'no_such_study'"),
+    (["run", "missing/file.toml"], "no study file"),
+    (["run", "regression_small", "--workers", "0"], "--workers must be >= 1"),
+    (["run", "regression_small", "--workers", "two"], "invalid int value"),
+    (["run"], "the following arguments are required"),
+    (["launch", "x"], "invalid choice"),
+])
+def test_bad_command_line(tmp_path, capsys, monkeypatch, argv, words):
+    monkeypatch.chdir(ROOT)
+    code = main(argv + ["--out", str(tmp_path / "out")] if argv[:1] == ["run"] and len(argv) > 1 else argv)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    assert words in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_bad_input_from_a_real_process_has_no_traceback(tmp_path):
+    study = tmp_path / "bad.toml"
+    study.write_text(BAD_FILES[0][0])
+    proc = subprocess.run([sys.executable, "-m", "pipeline", "run", str(study), "--out", str(tmp_path / "o")],
+                          cwd=ROOT, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
+    assert not (tmp_path / "o").exists()

@@ -1,0 +1,173 @@
+"""The study runner end to end: regression on a real 2-worker LocalCluster, the combined file,
+resume, corrupt case files, dry run and status."""
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.study import find_study, load_study
+
+ROOT = Path(__file__).resolve().parents[1]
+REFERENCE = ROOT / "tests" / "data" / "regression_small.nc"
+#: records of the run itself (machine- and schedule-dependent), not results
+NOT_COMPARED = {"run_time", "steps", "rejected_steps", "smallest_step", "case_id"}
+
+
+def pipeline(*args, cwd=ROOT):
+    """python -m pipeline ... as a user runs it; returns (exit code, stdout, stderr)."""
+    proc = subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+@pytest.fixture(scope="module")
+def regression_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("runs") / "regression_small"
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "2")
+    assert code == 0, err
+    assert "4 cases, 4 to run, 0 already done" in err
+    return out
+
+
+def test_regression_against_stored_reference(regression_run):
+    """Regenerate the reference with: make regenerate-reference (see tests/regenerate_reference.py)."""
+    with xr.open_dataset(regression_run / "study.nc") as new, xr.open_dataset(REFERENCE) as ref:
+        assert set(new.data_vars) == set(ref.data_vars)
+        for name, var in ref.data_vars.items():
+            if name in NOT_COMPARED:
+                continue
+            if var.dtype.kind in "OUS":
+                assert (new[name].values == var.values).all(), name
+            else:
+                np.testing.assert_allclose(new[name].values, var.values, rtol=1e-6,
+                                           atol=1e-12 * float(np.nanmax(np.abs(var.values)) or 1.0),
+                                           err_msg=name)
+
+
+def test_combined_file_is_labelled_and_carries_provenance(regression_run):
+    ds = xr.open_dataset(regression_run / "study.nc")
+    try:
+        assert dict(ds.sizes) == {"V": 2, "hi": 2, "t": 6, "x": 25}
+        assert ds["strain"].dims == ("V", "hi", "t", "x")
+        for name in list(ds.data_vars) + list(ds.coords):
+            var = ds[name]
+            assert "long_name" in var.attrs, name
+            if var.dtype.kind not in "OUS":
+                assert "units" in var.attrs, name
+        assert ds["V"].attrs["units"] == "m s-1" and ds["strain"].attrs["units"] == "1"
+        for key in ("study_file", "floe_impact_version", "git_commit", "git_dirty", "host", "created",
+                    "version_numba", "version_xarray", "solver_settings"):
+            assert key in ds.attrs, key
+        assert "V = [3.0, 5.0]" in ds.attrs["study_file"]
+        case = ds.sel(V=5.0, hi=0.5)
+        assert case["status"].item() == "ok"
+        assert float(case["Nmod"]) == 10                       # constant parameters are stored
+        assert np.all(np.isfinite(case["strain"].values))
+        # post-processing from the in-loop diagnostics
+        for name in ("max_strain", "max_abs_strain", "max_strain_lower", "crack_onset_time",
+                     "crack_onset_time_tsc", "crack_onset_x", "crack_onset_time_lower",
+                     "max_contact_intervals", "max_force", "energy_residual", "run_time"):
+            assert ds[name].dims == ("V", "hi"), name
+        assert np.all(ds["max_strain"] >= ds["strain"].max(("t", "x")) * (1 - 1e-9))
+        np.testing.assert_allclose(ds["crack_onset_time_tsc"], ds["crack_onset_time"] / ds["t_sc"])
+        assert np.all(ds["contact_intervals"].max("t") <= ds["max_contact_intervals"])
+        # times are fractions of each case's own stage
+        np.testing.assert_allclose(ds["time"].isel(t=-1), ds["stage_duration"], rtol=1e-12)
+    finally:
+        ds.close()
+
+
+def test_second_run_computes_nothing(regression_run):
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", regression_run, "--no-plots")
+    assert code == 0, err
+    assert "4 cases, 0 to run, 4 already done" in err
+
+
+def test_resume_computes_exactly_the_missing_cases(regression_run, tmp_path):
+    out = tmp_path / "resume"
+    shutil.copytree(regression_run, out)
+    cases = sorted((out / "cases").glob("*.nc"))
+    removed, kept = cases[:2], cases[2:]
+    stamps = {p: p.stat().st_mtime_ns for p in kept}
+    for p in removed:
+        p.unlink()
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    assert code == 0, err
+    assert "4 cases, 2 to run, 2 already done" in err
+    assert all(p.exists() for p in removed)
+    assert all(p.stat().st_mtime_ns == stamps[p] for p in kept), "finished cases were rewritten"
+
+
+@pytest.mark.parametrize("damage", ["truncate", "empty", "flip", "other_case"])
+def test_corrupt_case_file_is_set_aside_and_recomputed(regression_run, tmp_path, damage):
+    out = tmp_path / damage
+    shutil.copytree(regression_run, out)
+    cases = sorted((out / "cases").glob("*.nc"))
+    victim, others = cases[0], cases[1:]
+    stamps = {p: p.stat().st_mtime_ns for p in others}
+    data = victim.read_bytes()
+    if damage == "truncate":
+        victim.write_bytes(data[: len(data) // 2])
+    elif damage == "empty":
+        victim.write_bytes(b"")
+    elif damage == "flip":
+        victim.write_bytes(data[:200] + bytes(b ^ 0xFF for b in data[200:4000]) + data[4000:])
+    else:                                   # a valid netCDF file, but of another case
+        shutil.copyfile(cases[1], victim)
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    assert code == 0, err
+    assert "4 cases, 1 to run, 3 already done" in err
+    aside = list((out / "cases").glob(victim.name + ".corrupt-*"))
+    assert len(aside) == 1, "the damaged file is kept aside, never deleted"
+    assert all(p.stat().st_mtime_ns == stamps[p] for p in others)
+    with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(regression_run / "study.nc") as ref:
+        np.testing.assert_allclose(ds["strain"].values, ref["strain"].values, rtol=1e-12)
+
+
+def test_stale_temporary_files_are_swept(regression_run, tmp_path):
+    out = tmp_path / "stale"
+    shutil.copytree(regression_run, out)
+    stale = out / "cases" / ".0123456789abcdef.nc.tmp-999-1"
+    stale.write_bytes(b"half a file")
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+    assert code == 0, err
+    assert not stale.exists()
+
+
+def test_dry_run_and_status_print_the_case_table(regression_run, tmp_path):
+    code, outp, err = pipeline("run", "studies/regression_small.toml", "--out", regression_run, "--dry-run")
+    assert code == 0, err
+    assert "regression_small: 4 cases: 4 ok" in outp
+    assert outp.count(" ok\n") == 4 + 1      # four rows and the summary line
+    fresh = tmp_path / "never_run"
+    code, outp, _ = pipeline("run", "studies/regression_small.toml", "--out", fresh, "--dry-run")
+    assert code == 0 and "4 pending" in outp and not fresh.exists()
+    code, outp, _ = pipeline("status", "regression_small", "--out", regression_run)
+    assert code == 0 and "4 ok" in outp
+
+
+def test_case_ids_are_stable_and_change_with_settings(tmp_path):
+    study = load_study(find_study("regression_small", ROOT / "studies"))
+    again = load_study(find_study("regression_small", ROOT / "studies"))
+    assert [c.case_id for c in study.cases] == [c.case_id for c in again.cases]
+    assert len({c.case_id for c in study.cases}) == 4
+    text = (ROOT / "studies" / "regression_small.toml").read_text().replace("1e-11", "1e-9")
+    (tmp_path / "regression_small.toml").write_text(text)
+    changed = load_study(tmp_path / "regression_small.toml")
+    assert not {c.case_id for c in changed.cases} & {c.case_id for c in study.cases}
+    # grid order: the last key varies fastest
+    assert [(c.parameters.V, c.parameters.hi) for c in study.cases] == [(3, .3), (3, .5), (5, .3), (5, .5)]
+
+
+def test_shipped_studies_are_valid():
+    for path in sorted((ROOT / "studies").glob("*.toml")):
+        study = load_study(path)
+        assert study.cases, path
+    speed = load_study(ROOT / "studies" / "speed_sweep.toml")
+    assert len(speed.grid["V"]) >= 8 and min(speed.grid["V"]) == 1.0 and max(speed.grid["V"]) == 20.0
+    assert len(speed.grid["hi"]) == 3
