@@ -58,9 +58,7 @@ def case_states(study, out_dir: Path) -> dict:
 
 
 def print_table(study, states: dict, stream=sys.stdout) -> None:
-    keys = study.dims if study.grid else [k for k in study.case_list[0]] if study.case_list else []
-    if not study.grid:
-        keys = sorted({k for c in study.case_list for k in c})
+    keys = study.dims if study.grid else sorted({k for c in study.case_list for k in c})
     header = ["case_id", *keys, "state"]
     rows = []
     for case in study.cases:

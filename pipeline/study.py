@@ -109,8 +109,7 @@ def coordinate_times(spec: dict) -> np.ndarray:
     if spec["unit"] == "t_sc":
         n = int(math.floor(spec["stop"] / spec["step"] + 1e-9))
         return np.round(np.arange(n + 1) * spec["step"], 12)
-    return np.linspace(0.0, 1.0, spec["count"] + 1)[1:] if spec.get("exclude_zero") else \
-        np.linspace(0.0, 1.0, spec["count"])
+    return np.linspace(0.0, 1.0, spec["count"])
 
 
 def _number(where: str, value, integer=False):

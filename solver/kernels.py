@@ -102,23 +102,6 @@ _BISECTIONS = 40
 # elementary functions
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _sinc(y):
-    """sin(y) / y."""
-    if abs(y) < 1e-4:
-        return 1.0 - y * y / 6.0
-    return math.sin(y) / y
-
-
-@njit(cache=True, nogil=True)
-def _q(y):
-    """(sin y - y cos y) / y^3, so that int_0^a u sin(lam u) du = lam a^3 q(lam a)."""
-    if abs(y) < 0.1:
-        y2 = y * y
-        return 1.0 / 3.0 - y2 / 30.0 + y2 * y2 / 840.0 - y2 * y2 * y2 / 45360.0
-    return (math.sin(y) - y * math.cos(y)) / (y * y * y)
-
-
-@njit(cache=True, nogil=True)
 def phi_functions(y):
     """phi_1, phi_2, phi_3 of zeta = i y (phi_k(z) = sum_m z^m / (m + k)!)."""
     z = 1j * y
