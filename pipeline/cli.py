@@ -15,6 +15,8 @@ import time
 from pathlib import Path
 
 from .casefile import FAILED, NUMERICAL_FAILURES, case_path, read_case
+from solver import PARAMETER_INFO, SETTING_INFO
+
 from .study import LARGE_STUDY, StudyError, find_study, load_study
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -47,7 +49,7 @@ def _parser():
 def case_states(study, out_dir: Path) -> dict:
     """case_id -> 'ok' | failed status | 'pending' | 'corrupt' from the files on disk."""
     states = {}
-    for case in study.cases:
+    for case in study.all_cases():
         path = case_path(out_dir / "cases", case.case_id)
         if not path.exists():
             states[case.case_id] = "pending"
@@ -58,11 +60,14 @@ def case_states(study, out_dir: Path) -> dict:
 
 
 def print_table(study, states: dict, stream=sys.stdout) -> None:
-    keys = study.dims if study.grid else sorted({k for c in study.case_list for k in c})
-    header = ["case_id", *keys, "state"]
+    runs = study.all_cases()
+    keys = study.dims if study.grid else [k for k in [*PARAMETER_INFO, *SETTING_INFO]
+                                          if len({c.value(k) for c in runs}) > 1]
+    header = ["case_id", *keys, "state", "role"]
     rows = []
-    for case in study.cases:
-        rows.append([case.case_id, *(f"{getattr(case.parameters, k):g}" for k in keys), states[case.case_id]])
+    for case in runs:
+        role = "reference" if study.is_reference(case) else "case"
+        rows.append([case.case_id, *(_fmt(case.value(k)) for k in keys), states[case.case_id], role])
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     for r in [header, *rows]:
         stream.write("  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip() + "\n")
@@ -70,7 +75,31 @@ def print_table(study, states: dict, stream=sys.stdout) -> None:
     for s in states.values():
         counts[s] = counts.get(s, 0) + 1
     summary = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-    stream.write(f"{study.name}: {len(study.cases)} cases: {summary}\n")
+    stream.write(f"{study.name}: {_count(study)}: {summary}\n")
+
+
+def _count(study) -> str:
+    """'N cases' with the distinct runs and reference runs where they differ."""
+    runs = study.all_cases()
+    n_ref = sum(1 for r in runs if study.is_reference(r))
+    distinct = len(runs) - n_ref
+    text = f"{len(study.cases)} cases"
+    if distinct != len(study.cases):
+        text += f" ({distinct} distinct runs)"
+    if n_ref:
+        text += f" and {n_ref} reference runs"
+    return text
+
+
+def _fmt(value) -> str:
+    return value if isinstance(value, str) else f"{value:g}"
+
+
+def _label(study, case) -> str:
+    if study.is_reference(case):
+        return "reference run"
+    keys = study.dims if study.grid else [k for k in study.case_list[case.index[0]] if k not in ("reference", "group")]
+    return ", ".join(f"{k}={_fmt(case.value(k))}" for k in keys) or f"case {case.index[0]}"
 
 
 def _prepare_dirs(out_dir: Path) -> Path:
@@ -90,12 +119,13 @@ def command_run(args) -> int:
                          f"add --yes to run it")
     out_dir = Path(args.out) if args.out else Path("results") / study.name
     if args.dry_run:
-        states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.cases}
+        states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.all_cases()}
         print_table(study, states)
         return EXIT_OK
     cases_dir = _prepare_dirs(out_dir)
+    everything = study.all_cases()
     states = case_states(study, out_dir)
-    for case in study.cases:                           # set aside, never delete, a corrupt file
+    for case in everything:                            # set aside, never delete, a corrupt file
         if states[case.case_id] == "corrupt":
             path = case_path(cases_dir, case.case_id)
             aside = path.with_name(f"{path.name}.corrupt-{time.strftime('%Y%m%dT%H%M%S')}")
@@ -103,18 +133,18 @@ def command_run(args) -> int:
             print(f"note: case file {path.name} is not valid; moved to {aside.name} and recomputed",
                   file=sys.stderr)
             states[case.case_id] = "pending"
-    todo = [c for c in study.cases
+    todo = [c for c in everything
             if states[c.case_id] == "pending" or (args.rerun_failed and states[c.case_id] in FAILED)]
     past = sum(1 for c in study.cases if c.times_seconds()[-1] > c.t_end * (1 + 1e-12))
     if past:
         print(f"note: {past} of {len(study.cases)} cases have output times past their impact stage "
               f"L^2/(6RV); those times are not integrated and stay NaN", file=sys.stderr)
     from .engine import Progress, run_pending           # dask only when there is work
-    skipped = len(study.cases) - len(todo)
-    print(f"{study.name}: {len(study.cases)} cases, {len(todo)} to run, {skipped} already done "
+    skipped = len(everything) - len(todo)
+    print(f"{study.name}: {_count(study)}, {len(todo)} to run, {skipped} already done "
           f"-> {out_dir}", file=sys.stderr)
     records = run_pending(todo, cases_dir, workers=args.workers, scheduler=args.scheduler,
-                          progress=Progress(len(study.cases), skipped))
+                          progress=Progress(len(everything), skipped))
     for record in records:
         states[record["case_id"]] = record["status"]
     from .combine import write_study
@@ -130,18 +160,16 @@ def command_run(args) -> int:
             print(f"wrote {p}", file=sys.stderr)
         for note in notes:
             print(f"note: {note}", file=sys.stderr)
-    not_ok = [c for c in study.cases if states[c.case_id] != "ok"]
+    not_ok = [c for c in everything if states[c.case_id] != "ok"]
     if not_ok:
-        print(f"{len(not_ok)} of {len(study.cases)} cases did not end ok:", file=sys.stderr)
+        print(f"{len(not_ok)} of {len(everything)} cases did not end ok:", file=sys.stderr)
         for case in not_ok[:30]:
             ds = read_case(case_path(cases_dir, case.case_id), case)
             msg = str(ds["message"].values[0]) if ds is not None else "no valid case file"
-            label = ", ".join(f"{k}={getattr(case.parameters, k):g}" for k in study.dims if k != "case")
-            print(f"  {case.case_id} ({label or 'case ' + str(case.index[0])}): {states[case.case_id]}: {msg}",
-                  file=sys.stderr)
+            print(f"  {case.case_id} ({_label(study, case)}): {states[case.case_id]}: {msg}", file=sys.stderr)
         if len(not_ok) > 30:
             print(f"  ... and {len(not_ok) - 30} more (python -m pipeline status {study.name})", file=sys.stderr)
-    if any(states[c.case_id] in NUMERICAL_FAILURES or states[c.case_id] == "pending" for c in study.cases):
+    if any(states[c.case_id] in NUMERICAL_FAILURES or states[c.case_id] == "pending" for c in everything):
         return EXIT_FAILED
     return EXIT_OK
 
@@ -149,7 +177,7 @@ def command_run(args) -> int:
 def command_status(args) -> int:
     study = load_study(find_study(args.study))
     out_dir = Path(args.out) if args.out else Path("results") / study.name
-    states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.cases}
+    states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.all_cases()}
     print_table(study, states)
     return EXIT_OK
 
@@ -163,6 +191,9 @@ def main(argv=None) -> int:
     except StudyError as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except BrokenPipeError:                          # output piped into head, say
+        sys.stdout = open(os.devnull, "w")
+        return EXIT_OK
     except KeyboardInterrupt:
         print("interrupted: finished cases are kept; run the same command again to resume",
               file=sys.stderr)

@@ -12,17 +12,50 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from solver import PARAMETER_INFO
+from solver import PARAMETER_INFO, SETTING_INFO
 
 from . import provenance
 from .casefile import case_path, read_case, write_atomic
 from .study import SCHEMA_VERSION, Study
 
 
+ERROR_INFO = {
+    "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
+                     "both reached", "1"),
+    "error_max_strain": ("relative difference of max_strain from the reference run", "1"),
+    "error_crack_onset_time": ("absolute difference of crack_onset_time from the reference run", "s"),
+    "error_crack_onset_time_tsc": ("error_crack_onset_time in units of the case's t_sc", "1"),
+    "error_contact_intervals": ("largest difference of contact_intervals from the reference run "
+                                "over the snapshots", "1"),
+}
+
+
 def _parameter_coord(key, values):
-    long_name, units = PARAMETER_INFO[key]
-    dtype = np.int64 if key == "Nmod" else np.float64
+    if key == "integrator":
+        return (key, np.asarray(values, dtype=object), {"long_name": SETTING_INFO[key][0]})
+    long_name, units = PARAMETER_INFO[key] if key in PARAMETER_INFO else SETTING_INFO[key]
+    dtype = np.int64 if key in ("Nmod", "subintervals", "max_steps") else np.float64
     return (key, np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units})
+
+
+def errors_against(ds, ref) -> dict:
+    """Errors of one case file's data against its reference run (both loaded datasets)."""
+    out = {name: np.nan for name in ERROR_INFO}
+    if ds is None or ref is None:
+        return out
+    a, b = ds["strain"].values[0], ref["strain"].values[0]
+    both = np.all(np.isfinite(a), axis=-1) & np.all(np.isfinite(b), axis=-1)
+    if both.any() and np.linalg.norm(b[both]) > 0:
+        out["error_strain"] = float(np.linalg.norm(a[both] - b[both]) / np.linalg.norm(b[both]))
+    m, mr = float(ds["max_strain"].values[0]), float(ref["max_strain"].values[0])
+    out["error_max_strain"] = abs(m - mr) / abs(mr) if mr else np.nan
+    tc, tr = float(ds["crack_onset_time"].values[0]), float(ref["crack_onset_time"].values[0])
+    out["error_crack_onset_time"] = abs(tc - tr)
+    out["error_crack_onset_time_tsc"] = abs(tc - tr) / float(ds["t_sc"].values[0])
+    c, cr = ds["contact_intervals"].values[0], ref["contact_intervals"].values[0]
+    ok = np.isfinite(c) & np.isfinite(cr)
+    out["error_contact_intervals"] = float(np.max(np.abs(c[ok] - cr[ok]))) if ok.any() else np.nan
+    return out
 
 
 def combine(study: Study, out_dir: Path) -> xr.Dataset:
@@ -54,6 +87,19 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
         data[name] = (tuple(dims) + tail, arr, dict(var.attrs))
     data["case_id"] = (tuple(dims), np.array([c.case_id for c in study.cases], dtype=object).reshape(shape),
                        {"long_name": "id of the case file in cases/"})
+    if study.references:
+        errors = {name: np.full(shape, np.nan) for name in ERROR_INFO}
+        ref_ids = np.full(shape, "", dtype=object)
+        for i, (case, ds_case) in enumerate(zip(study.cases, per_case)):
+            ref = study.references.get(i)
+            if ref is None:
+                continue
+            ref_ids[case.index] = ref.case_id
+            for name, value in errors_against(ds_case, read_case(case_path(cases_dir, ref.case_id), ref)).items():
+                errors[name][case.index] = value
+        for name, (long_name, units) in ERROR_INFO.items():
+            data[name] = (tuple(dims), errors[name], {"long_name": long_name, "units": units})
+        data["reference_case_id"] = (tuple(dims), ref_ids, {"long_name": "case file of the reference run"})
     coords = {"t": template["t"].copy()}
     if "x" in template.dims:
         if len(L_values) == 1:
@@ -66,9 +112,12 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
             coords[key] = _parameter_coord(key, values)
     else:
         coords["case"] = ("case", np.arange(len(study.cases)), {"long_name": "case number in [[cases]]"})
-        varying = [k for k in PARAMETER_INFO if len({getattr(c.parameters, k) for c in study.cases}) > 1]
+        varying = [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in study.cases}) > 1]
         for key in varying:
-            coords[key] = ("case",) + _parameter_coord(key, [getattr(c.parameters, key) for c in study.cases])[1:]
+            coords[key] = ("case",) + _parameter_coord(key, [c.value(key) for c in study.cases])[1:]
+        groups = [c.get("group", "") for c in study.case_list]
+        if any(groups):
+            coords["group"] = ("case", np.array(groups, dtype=object), {"long_name": "label of the case in the study file"})
     # parameters constant over the study: 0-d variables with units
     varying_keys = set(study.grid) if study.grid else set(varying)
     for key in PARAMETER_INFO:
@@ -77,6 +126,8 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
             data[key] = ((), getattr(first.parameters, key), {"long_name": long_name, "units": units})
     ds = xr.Dataset(data, coords=coords)
     statuses = [str(s) for s in np.ravel(ds["status"].values)]
+    if study.references:
+        ds.attrs["reference"] = json.dumps(study.reference)
     ds.attrs.update({
         "title": f"floe-impact study {study.name}",
         "description": study.description,

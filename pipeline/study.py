@@ -5,7 +5,12 @@ A study file ``studies/<name>.toml`` (read with :mod:`tomllib`)::
     description = "..."
     [base]        # overrides of the reference case; keys of solver.PARAMETER_INFO
     [grid]        # full factorial: key = [values]; every key becomes a dimension
-    [[cases]]     # or: an explicit list of cases (tables of parameter overrides)
+                  # (parameters, or solver settings such as tolerance or integrator)
+    [[cases]]     # or: an explicit list of cases (parameters and solver settings;
+                  # reference = {...} overrides the study's [reference] for that case;
+                  # group = "..." labels it, e.g. the sweep it belongs to)
+    [reference]   # optional: Nmod and solver settings of a converged run; every case is also
+                  # run with these overrides and stored with its error against that run
     [output]      # times = {unit = "t_sc", step, stop} | {unit = "stage", count}
                   # fields = [...], x_points = 241
     [solver]      # keys of solver.SETTING_INFO
@@ -33,9 +38,11 @@ SCHEMA_VERSION = 1
 #: grids with more cases than this need --yes
 LARGE_STUDY = 10_000
 
-SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots"}
+SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
+#: keys a [reference] may override: the same physical case, computed more accurately
+REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
 OUTPUT_KEYS = {"times", "fields", "x_points"}
-PLOT_KINDS = ("diagnostics", "paper_fig2")
+PLOT_KINDS = ("diagnostics", "paper_fig2", "work_precision", "extremes")
 DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
                   "fields": ["deflection", "strain", "layer_pressure"], "x_points": 241}
 
@@ -59,6 +66,12 @@ class Case:
     @property
     def t_end(self) -> float:
         return self.parameters.stage_duration
+
+    def value(self, key):
+        """A parameter or a solver setting of the case, by its study-file key."""
+        if key in PARAMETER_INFO:
+            return getattr(self.parameters, key)
+        return getattr(self.settings, key)
 
     def requested_times(self) -> np.ndarray:
         """Output times in units of the study's time coordinate (t_sc or stage fraction)."""
@@ -94,7 +107,24 @@ class Study:
     output: dict
     solver: dict
     plots: list
+    reference: dict = field(default_factory=dict)
     cases: list = field(default_factory=list)
+    references: dict = field(default_factory=dict)     # position in cases -> its reference Case
+
+    def is_reference(self, case: Case) -> bool:
+        """True for a reference run that is not itself one of the study's cases."""
+        if not hasattr(self, "_ids"):
+            self._ids = {c.case_id for c in self.cases}
+        return case.case_id not in self._ids
+
+    def all_cases(self) -> list:
+        """Every distinct run: the study's cases, then the reference runs not among them."""
+        runs = {}
+        for case in self.cases:
+            runs.setdefault(case.case_id, case)
+        for ref in self.references.values():
+            runs.setdefault(ref.case_id, ref)
+        return list(runs.values())
 
     @property
     def dims(self) -> list:
@@ -120,14 +150,40 @@ def _number(where: str, value, integer=False):
     return value
 
 
-def _check_parameters(where: str, table: dict) -> dict:
+def _check_parameters(where: str, table: dict, settings=False, reference=False) -> dict:
+    """Validate a table of parameter keys (and solver settings where ``settings``)."""
     if not isinstance(table, dict):
         raise StudyError(f"{where} must be a table of parameters")
     for key, value in table.items():
-        if key not in PARAMETER_INFO:
-            raise StudyError(f"{where}: unknown parameter {key!r}; known: {', '.join(PARAMETER_INFO)}")
-        _number(f"{where}.{key}", value)
+        if reference and key == "reference":
+            _check_reference(f"{where}.reference", value)
+            continue
+        if reference and key == "group":
+            if not isinstance(value, str):
+                raise StudyError(f"{where}.group must be a string label")
+            continue
+        if key in PARAMETER_INFO:
+            _number(f"{where}.{key}", value)
+        elif settings and key in SETTING_INFO:
+            if key == "integrator":
+                if not isinstance(value, str):
+                    raise StudyError(f"{where}.integrator must be a name, got {value!r}")
+            else:
+                _number(f"{where}.{key}", value)
+        else:
+            known = ", ".join([*PARAMETER_INFO, *(SETTING_INFO if settings else ())])
+            raise StudyError(f"{where}: unknown parameter {key!r}; known: {known}")
     return dict(table)
+
+
+def _check_reference(where: str, table) -> dict:
+    if not isinstance(table, dict) or not table:
+        raise StudyError(f"{where} must be a non-empty table of Nmod and solver settings")
+    for key in table:
+        if key not in REFERENCE_KEYS:
+            raise StudyError(f"{where}: {key!r} cannot be overridden in a reference (it must be the same "
+                             f"physical case); allowed: {', '.join(sorted(REFERENCE_KEYS))}")
+    return _check_parameters(where, table, settings=True)
 
 
 def _check_output(out) -> dict:
@@ -223,21 +279,27 @@ def load_study(path: Path) -> Study:
         raise StudyError("[grid] must be a table of lists")
     grid = {}
     for key, values in grid_raw.items():
-        if key not in PARAMETER_INFO:
-            raise StudyError(f"[grid]: unknown parameter {key!r}; known: {', '.join(PARAMETER_INFO)}")
+        if key not in PARAMETER_INFO and key not in SETTING_INFO:
+            raise StudyError(f"[grid]: unknown parameter {key!r}; known: "
+                             f"{', '.join([*PARAMETER_INFO, *SETTING_INFO])}")
         if not isinstance(values, list) or not values:
             raise StudyError(f"[grid] {key} must be a non-empty list of values")
         for v in values:
-            _number(f"[grid] {key} value", v, integer=(key == "Nmod"))
+            if key == "integrator":
+                if not isinstance(v, str):
+                    raise StudyError(f"[grid] integrator values must be names, got {v!r}")
+            else:
+                _number(f"[grid] {key} value", v, integer=(key in ("Nmod", "subintervals", "max_steps")))
         if len(set(values)) != len(values):
             raise StudyError(f"[grid] {key} has duplicate values")
-        if key in base:
-            raise StudyError(f"{key} is both in [base] and in [grid]")
+        if key in base or key in data.get("solver", {}):
+            raise StudyError(f"{key} is both in [base] or [solver] and in [grid]")
         grid[key] = list(values)
     case_list = data.get("cases", [])
     if not isinstance(case_list, list):
         raise StudyError("[[cases]] must be an array of tables")
-    case_list = [_check_parameters(f"[[cases]] #{i + 1}", c) for i, c in enumerate(case_list)]
+    case_list = [_check_parameters(f"[[cases]] #{i + 1}", c, settings=True, reference=True)
+                 for i, c in enumerate(case_list)]
     if grid and case_list:
         raise StudyError("a study has either [grid] or [[cases]], not both")
     if not grid and not case_list:
@@ -247,12 +309,13 @@ def load_study(path: Path) -> Study:
     if case_list:
         seen = set()
         for i, c in enumerate(case_list):
-            key = json.dumps({**base, **c}, sort_keys=True)
+            key = json.dumps({**base, **{k: v for k, v in c.items() if k != "group"}}, sort_keys=True)
             if key in seen:
                 raise StudyError(f"[[cases]] #{i + 1} repeats an earlier case")
             seen.add(key)
     output = _check_output(data.get("output", {}))
     solver = _check_solver(data.get("solver", {}))
+    reference = _check_reference("[reference]", data["reference"]) if "reference" in data else {}
     plots_table = data.get("plots", {})
     if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
         raise StudyError("[plots] takes one key: kinds = [...]")
@@ -260,23 +323,46 @@ def load_study(path: Path) -> Study:
     if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
         raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
     study = Study(name=path.stem, path=path, text=text, description=description, base=base,
-                  grid=grid, case_list=case_list, output=output, solver=solver, plots=plots)
-    study.cases = expand(study)
+                  grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
+                  reference=reference)
+    study.cases, study.references = expand(study)
     return study
 
 
+#: the settings each integrator reads; the others do not change its result
+RELEVANT_SETTINGS = {
+    "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps"),
+    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps"),
+    "dop853": ("integrator", "tolerance", "subintervals", "max_steps"),
+}
+
+
 def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
-    """Stable id: hash of the normalised parameters, settings, output request and schema."""
+    """Stable id: hash of the normalised parameters, the settings the integrator reads, the
+    output request and the schema version (two runs with the same id give the same file)."""
+    used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
     payload = {"schema": SCHEMA_VERSION, "parameters": parameters.as_dict(),
-               "settings": settings.as_dict(), "times": output["times"],
+               "settings": used, "times": output["times"],
                "fields": sorted(output["fields"]), "x_points": output["x_points"]}
     blob = json.dumps(payload, sort_keys=True, separators=(",", ":"))
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
-def expand(study: Study) -> list:
-    """The cases of a study in grid (C) order, each validated."""
-    settings = Settings(**study.solver)
+def _make_case(index, values: dict, output: dict, label: str) -> Case:
+    """A validated Case from merged parameter and setting values."""
+    params = {k: v for k, v in values.items() if k in PARAMETER_INFO}
+    settings = {k: v for k, v in values.items() if k in SETTING_INFO}
+    try:
+        p = Parameters(**params)
+        s = Settings(**settings)
+    except ParameterError as err:
+        raise StudyError(f"case {label}: {err}") from None
+    return Case(case_id(p, s, output), tuple(index), p, s, output["times"], tuple(output["fields"]),
+                output["x_points"])
+
+
+def expand(study: Study):
+    """The cases of a study in grid (C) order, each validated, and their references."""
     if study.grid:
         keys = list(study.grid)
         combos = [(idx, dict(zip(keys, vals))) for idx, vals in zip(
@@ -286,16 +372,24 @@ def expand(study: Study) -> list:
         combos = [((i,), c) for i, c in enumerate(study.case_list)]
     if not combos:
         raise StudyError("the study has no cases")
-    cases = []
+    cases, references = [], {}
+    ref_output = {**study.output, "fields": sorted(set(study.output["fields"]) | {"strain"})}
     for idx, overrides in combos:
-        values = {**study.base, **overrides}
-        try:
-            p = Parameters(**values)
-        except ParameterError as err:
-            label = ", ".join(f"{k}={v}" for k, v in overrides.items())
-            raise StudyError(f"case {label}: {err}") from None
-        cases.append(Case(case_id(p, settings, study.output), tuple(idx), p, settings,
-                          study.output["times"], tuple(study.output["fields"]), study.output["x_points"]))
+        overrides = dict(overrides)
+        own_reference = overrides.pop("reference", {})
+        overrides.pop("group", None)
+        values = {**study.base, **study.solver, **overrides}
+        label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "base"
+        case = _make_case(idx, values, study.output, label)
+        cases.append(case)
+        ref_overrides = {**study.reference, **own_reference}
+        if ref_overrides:
+            references[len(cases) - 1] = _make_case((), {**values, **ref_overrides}, ref_output,
+                                                    f"reference of {label}")
+    if study.reference or references:
+        if "strain" not in study.output["fields"]:
+            raise StudyError("a study with a [reference] must store the strain field (errors are "
+                             "measured on it): add \"strain\" to [output] fields")
     # outputs past every case's stage are outside the model: refuse a study that asks only those
     if study.output["times"]["unit"] == "t_sc":
         first = coordinate_times(study.output["times"])
@@ -303,6 +397,8 @@ def expand(study: Study) -> list:
         if first.size > 1 and np.all(first[1:] > max(stages) * (1 + 1e-12)):
             raise StudyError(f"[output] times: every output time after 0 lies past every case's impact "
                              f"stage (the longest is {max(stages):.4g} t_sc)")
-    if len({c.case_id for c in cases}) != len(cases):
+    # the same run may serve in several sweeps when its references differ (one file, several rows)
+    keyed = [(c.case_id, references[i].case_id if i in references else None) for i, c in enumerate(cases)]
+    if len(set(keyed)) != len(cases):
         raise StudyError("two cases of the study are identical")
-    return cases
+    return cases, references

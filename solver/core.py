@@ -14,6 +14,7 @@ import numpy as np
 
 from . import kernels as kn
 from .parameters import Parameters, ParameterError, Settings
+from .scipy_reference import integrate_dop853
 
 #: field name -> (long_name, units)
 FIELD_INFO = {
@@ -220,11 +221,15 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     h_init = min(1e-4 * (t_end - t_start), 1e-3 * p.time_scale)
     h_max = HMAX_FRACTION * 2 * np.pi / contact_frequency(p)
     started = _time.perf_counter()
-    code, n_out = kn.integrate(
-        method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0], tab.cosq, tab.wq,
-        tab.dx, p.V, p.R, p.he, p.K, p.eps_Y, float(t_start), float(t_end), times, s.tolerance, fixed,
-        h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, out_a, out_adot, out_contacts, out_force,
-        out_energy, diag)
+    if s.integrator == "dop853":
+        code, n_out, out_a, out_adot, out_contacts, out_force, out_energy, diag = integrate_dop853(
+            p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps)
+    else:
+        code, n_out = kn.integrate(
+            method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0], tab.cosq, tab.wq,
+            tab.dx, p.V, p.R, p.he, p.K, p.eps_Y, float(t_start), float(t_end), times, s.tolerance,
+            fixed, h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, out_a, out_adot, out_contacts,
+            out_force, out_energy, diag)
     wall = _time.perf_counter() - started
 
     status = kn.STATUS_NAMES[code]
@@ -259,6 +264,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             message = (f"layer bottomed out {where}: the compression reached delta = 1 - "
                        f"{max(1.0 - max_delta, 0.0):.1e} and no step down to {1e-13 * t_end:.1e} s "
                        f"could keep it below 1")
+        elif kind == kn.FAIL_FIXED_STEP and s.integrator == "dop853":
+            message = f"dop853 evaluated a stage with delta >= 1 {where}; it cannot retry such a stage"
         elif kind == kn.FAIL_FIXED_STEP:
             message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
                        f"non-finite value {where}; a fixed step cannot be retried "

@@ -40,15 +40,16 @@ PARAMETER_INFO = {
 
 #: key -> (long_name, units) for every solver setting.
 SETTING_INFO = {
-    "integrator": ("time integrator (etd34: adaptive exponential; rk4: the seed's fixed-step RK4)", ""),
-    "tolerance": ("relative error tolerance per step of the adaptive integrator, energy norm", "1"),
+    "integrator": ("time integrator (etd34: adaptive exponential; rk4: the seed's fixed-step RK4; "
+                   "dop853: scipy's DOP853, the outside reference)", ""),
+    "tolerance": ("relative error tolerance per step (etd34: energy norm; dop853: rtol)", "1"),
     "subintervals": ("subintervals of [0, L] in the forcing quadrature", "1"),
     "rk4_step_fraction": ("rk4 step as a fraction of the period of the last mode, 2 pi / omega_N", "1"),
     "fixed_step": ("fixed step of etd34 in units of t_sc (0: adaptive)", "1"),
     "max_steps": ("largest number of attempted steps before the run stops with step_limit", "1"),
 }
 
-INTEGRATORS = ("etd34", "rk4")
+INTEGRATORS = ("etd34", "rk4", "dop853")
 
 
 class ParameterError(ValueError):
@@ -180,7 +181,8 @@ class Settings:
     Parameters
     ----------
     integrator : "etd34" (default: adaptive exponential Runge-Kutta 4(3), Krogstad stages)
-        or "rk4" (the seed's classical RK4 with a fixed step).
+        or "rk4" (the seed's classical RK4 with a fixed step), or "dop853" (scipy's DOP853 on
+        the same right-hand side, rtol = tolerance; no in-loop diagnostics).
     tolerance : relative error per step of etd34, measured in the energy norm [1].
     subintervals : subintervals of [0, L] in the forcing quadrature (seed: 1000) [1].
     rk4_step_fraction : rk4 step = fraction * 2 pi / omega_N (seed: 1/20) [1].

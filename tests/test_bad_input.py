@@ -45,7 +45,7 @@ BAD_FILES = [
     (GOOD.replace("step = 0.5, stop = 1.0", "step = 50.0, stop = 400.0"), "past every case's impact stage"),
     (GOOD.replace("times = { unit = \"t_sc\", step = 0.5, stop = 1.0 }", "times = { unit = \"hours\", step = 1 }"), "times must be"),
     (GOOD.replace("x_points = 11", "x_points = 1"), "x_points must be between 2 and 100001"),
-    (GOOD.replace("Nmod = 4", "Nmod = 4\nV = 3.0"), "V is both in [base] and in [grid]"),
+    (GOOD.replace("Nmod = 4", "Nmod = 4\nV = 3.0"), "V is both in [base] or [solver] and in [grid]"),
     ("[[cases]]\nV = 3.0\n[[cases]]\nV = 3.0", "repeats an earlier case"),
     (GOOD + "\n[[cases]]\nV = 3.0", "either [grid] or [[cases]]"),
     (GOOD + "\n[plots]\nkinds = [\"movie\"]", "[plots] kinds must be a list from"),
