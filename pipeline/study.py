@@ -34,7 +34,7 @@ import numpy as np
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
 
 #: bump when the layout of a case file changes: old case files are then recomputed
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 #: grids with more cases than this need --yes
 LARGE_STUDY = 10_000
 
@@ -168,6 +168,9 @@ def _check_parameters(where: str, table: dict, settings=False, reference=False) 
             if key == "integrator":
                 if not isinstance(value, str):
                     raise StudyError(f"{where}.integrator must be a name, got {value!r}")
+            elif key == "error_estimate":
+                if not isinstance(value, bool):
+                    raise StudyError(f"{where}.error_estimate must be true or false, got {value!r}")
             else:
                 _number(f"{where}.{key}", value)
         else:
@@ -331,9 +334,9 @@ def load_study(path: Path) -> Study:
 
 #: the settings each integrator reads; the others do not change its result
 RELEVANT_SETTINGS = {
-    "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps"),
-    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps"),
-    "dop853": ("integrator", "tolerance", "subintervals", "max_steps"),
+    "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps", "error_estimate"),
+    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps", "error_estimate"),
+    "dop853": ("integrator", "tolerance", "subintervals", "max_steps", "error_estimate"),
 }
 
 

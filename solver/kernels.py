@@ -366,7 +366,8 @@ def _locate_crossing(z0, N0, N1, omega, h, t0, sign, eps_Y, strain_coef, cosq, d
 @njit(cache=True, nogil=True)
 def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
               V, R, he, K, eps_Y, t_start, t_end, t_out, tolerance, fixed_step, h_init, h_min,
-              h_max, max_steps, a0, adot0, out_a, out_adot, out_contacts, out_force, out_energy, diag):
+              h_max, max_steps, a0, adot0, out_a, out_adot, out_contacts, out_force, out_energy,
+              out_err, diag):
     """Integrate the mode equations from t_start to t_end, landing on every t_out.
 
     Parameters
@@ -384,8 +385,11 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         estimate vanish, and only h_max stops a step from jumping deep into a new contact.
     max_steps : attempted steps before STEP_LIMIT.
     a0, adot0 : a_n [m] and a_n' [m s-1] at t_start.
-    out_a, out_adot (T, N), out_contacts (T,), out_force (T,), out_energy (T, 3):
-        filled at each output time reached: a, a', contact intervals, F, (E_plate, E_layer, W).
+    out_a, out_adot (T, N), out_contacts (T,), out_force (T,), out_energy (T, 3), out_err (T,):
+        filled at each output time reached: a, a', contact intervals, F, (E_plate, E_layer, W),
+        and the sum over accepted steps of the local error estimate in strain amplitude,
+        sqrt(sum_n ((hi/2) lambda_n^2 |err_n| / omega_n)^2) (an estimate of the time-integration
+        error of the strain, without cancellation).
     diag : (N_DIAG,) diagnostics, see the D_* indices.
 
     Returns
@@ -444,6 +448,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         a[n] = a0[n]
     t = t_start
     work = 0.0
+    err_sum = 0.0
     rhs_count = 1
     st, force, jmax = layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N1)
     if st != 0:
@@ -476,6 +481,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
             out_energy[k, 0] = e_plate
             out_energy[k, 1] = layer_energy(delta, jmax, dx, K, he)
             out_energy[k, 2] = work
+            out_err[k] = err_sum
             k += 1
         if t >= t_end:
             break
@@ -504,22 +510,22 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         jm5 = jmax
         event = False      # the number of contact intervals changes within the step
         expo = 0.25
+        if h_step != h_coeffs:          # ETD coefficients (rk4 uses them for its error estimate)
+            for n in range(N):
+                y = omega[n] * h_step
+                p1, p2, p3 = phi_functions(y)
+                q1, q2, q3 = phi_functions(0.5 * y)
+                cE[n] = complex(math.cos(y), math.sin(y))
+                cE2[n] = complex(math.cos(0.5 * y), math.sin(0.5 * y))
+                cA2[n] = 0.5 * h_step * q1
+                cA3[n] = h_step * q2
+                cA4a[n] = h_step * p1
+                cA4b[n] = 2.0 * h_step * p2
+                cB1[n] = h_step * (p1 - 3.0 * p2 + 4.0 * p3)
+                cB23[n] = h_step * (2.0 * p2 - 4.0 * p3)
+                cB4[n] = h_step * (4.0 * p3 - p2)
+            h_coeffs = h_step
         if method == ETD34:
-            if h_step != h_coeffs:
-                for n in range(N):
-                    y = omega[n] * h_step
-                    p1, p2, p3 = phi_functions(y)
-                    q1, q2, q3 = phi_functions(0.5 * y)
-                    cE[n] = complex(math.cos(y), math.sin(y))
-                    cE2[n] = complex(math.cos(0.5 * y), math.sin(0.5 * y))
-                    cA2[n] = 0.5 * h_step * q1
-                    cA3[n] = h_step * q2
-                    cA4a[n] = h_step * p1
-                    cA4b[n] = 2.0 * h_step * p2
-                    cB1[n] = h_step * (p1 - 3.0 * p2 + 4.0 * p3)
-                    cB23[n] = h_step * (2.0 * p2 - 4.0 * p3)
-                    cB4[n] = h_step * (4.0 * p3 - p2)
-                h_coeffs = h_step
             th = t + 0.5 * h_step
             # stage 2
             for n in range(N):
@@ -602,6 +608,11 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                 bottom = True
             else:
                 w_new = work + h_step * V * (force / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
+                # error estimate: RK4 against the exponential (Krogstad) update from the same
+                # stage values; RK4's Taylor approximation of e^{i w h} dominates its error
+                for n in range(N):
+                    err[n] = znew[n] - (cE[n] * z[n] + cB1[n] * N1[n] + cB23[n] * (N2[n] + N3[n])
+                                        + cB4[n] * N4[n])
 
         # ----- accept or reject
         finite = not bottom
@@ -659,7 +670,11 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                     break
                 continue
 
-        # ----- accepted: shift the state
+        # ----- accepted: accumulate the error estimate in strain amplitude, shift the state
+        e_step = 0.0
+        for n in range(N):
+            e_step += (strain_coef[n] / omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
+        err_sum += math.sqrt(e_step)
         steps += 1
         for n in range(N):
             z_prev[n] = z[n]

@@ -47,6 +47,8 @@ SETTING_INFO = {
     "rk4_step_fraction": ("rk4 step as a fraction of the period of the last mode, 2 pi / omega_N", "1"),
     "fixed_step": ("fixed step of etd34 in units of t_sc (0: adaptive)", "1"),
     "max_steps": ("largest number of attempted steps before the run stops with step_limit", "1"),
+    "error_estimate": ("estimate the strain error of each run (etd34: a companion run at 10x the "
+                       "tolerance, about +70% cost)", ""),
 }
 
 INTEGRATORS = ("etd34", "rk4", "dop853")
@@ -189,6 +191,8 @@ class Settings:
     fixed_step : if > 0, etd34 takes this fixed step, in units of t_sc, with no error
         control (for convergence-order studies) [1].
     max_steps : attempted steps after which a run stops with status ``step_limit`` [1].
+    error_estimate : estimate the relative strain error of the run (see
+        ``solver.core.error_estimates``); for etd34 this runs a companion at 10x the tolerance.
     """
 
     integrator: str = "etd34"
@@ -197,6 +201,7 @@ class Settings:
     rk4_step_fraction: float = 0.05
     fixed_step: float = 0.0
     max_steps: int = 500_000
+    error_estimate: bool = True
 
     def __post_init__(self):
         if self.integrator not in INTEGRATORS:
@@ -214,6 +219,8 @@ class Settings:
                 or not math.isfinite(float(self.fixed_step)) or float(self.fixed_step) < 0.0:
             raise ParameterError(f"fixed_step must be finite and >= 0, got {self.fixed_step!r}")
         _check_positive("max_steps", self.max_steps, integer=True)
+        if not isinstance(self.error_estimate, bool):
+            raise ParameterError(f"error_estimate must be true or false, got {self.error_estimate!r}")
         for name in ("tolerance", "rk4_step_fraction", "fixed_step"):
             object.__setattr__(self, name, float(getattr(self, name)))
         for name in ("subintervals", "max_steps"):

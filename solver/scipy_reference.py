@@ -17,8 +17,9 @@ class _Bottomed(Exception):
 
 
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps):
-    """Returns (status, n_out, out_a, out_adot, out_contacts, out_force, out_energy, diag)
-    with the meaning of :func:`solver.kernels.integrate`."""
+    """Returns (status, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err,
+    diag) with the meaning of :func:`solver.kernels.integrate` (out_err all NaN: DOP853 gives
+    no local error estimates back)."""
     try:
         from scipy.integrate import solve_ivp
     except ImportError:                                      # pragma: no cover
@@ -83,4 +84,4 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     diag[kn.D_RHS] = nfev[0]
     diag[kn.D_STEPS] = nfev[0] / 12            # DOP853 evaluates 12 stages a step
     diag[kn.D_REJECTED] = 0
-    return status, n_out, out_a, out_v, out_c, out_f, out_e, diag
+    return status, n_out, out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag

@@ -101,7 +101,7 @@ def _free_oscillation(method, fraction, times, t_end, p, tab, n):
     status, n_out = kn.integrate(method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0],
                                  tab.cosq, tab.wq, tab.dx, p.V, p.R, p.he, 0.0, p.eps_Y, 0.0, t_end,
                                  times, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, a0, np.zeros(p.Nmod),
-                                 out_a, out_v, out_c, out_f, out_e, diag)
+                                 out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag)
     assert status == kn.OK and n_out == T
     return out_a, out_v, out_e, fixed
 

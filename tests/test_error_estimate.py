@@ -1,0 +1,71 @@
+"""The per-case strain error estimate against true errors (a small work-precision study).
+
+The requirement: the estimate must not understate the true error by more than a factor 3.
+The full three-case check (reference, fast impact, thin ice) is in the slow suite; the study
+itself is studies/work_precision.toml.
+"""
+import numpy as np
+import pytest
+
+from conftest import relative_l2
+from solver import Parameters, Settings, solve
+
+CASES = {"reference": {}, "fast impact": {"V": 10.0}, "thin ice": {"hi": 0.2}}
+
+
+def _times(p):
+    return np.linspace(0.0, p.stage_duration, 24)
+
+
+def _check_time_part(p, runs):
+    ref = solve(p, Settings(tolerance=1e-13, error_estimate=False), times=_times(p), fields=("strain",))
+    for settings in runs:
+        r = solve(p, settings, times=_times(p), fields=("strain",))
+        assert r.status == "ok", r.message
+        true = relative_l2(r.fields["strain"], ref.fields["strain"])
+        est = r.diagnostics["error_estimate_time"]
+        print(f"{settings.integrator} tol {settings.tolerance:g} frac {settings.rk4_step_fraction:g}: "
+              f"true {true:.2e} estimate {est:.2e} ratio {est / true:.2f}")
+        assert est >= true / 3, f"estimate {est:.2e} understates the true error {true:.2e}"
+        assert est <= 30 * true, f"estimate {est:.2e} is not informative (true {true:.2e})"
+
+
+def _check_modal_part(p, modes, reference_modes):
+    times = _times(p)
+    ref = solve(p.replace(Nmod=reference_modes), Settings(tolerance=1e-10, error_estimate=False),
+                times=times, fields=("strain",))
+    for N in modes:
+        r = solve(p.replace(Nmod=N), Settings(tolerance=1e-10), times=times, fields=("strain",))
+        true = relative_l2(r.fields["strain"], ref.fields["strain"])
+        est = r.diagnostics["error_estimate"]
+        print(f"N = {N}: true {true:.2e} estimate {est:.2e} ratio {est / true:.2f}")
+        assert est >= true / 3
+        assert est <= 100 * true
+
+
+def test_time_part_etd34_and_rk4_reference_case():
+    p = Parameters(Nmod=20)
+    _check_time_part(p, [Settings(tolerance=1e-6), Settings(tolerance=1e-8),
+                         Settings(integrator="rk4", rk4_step_fraction=0.2),
+                         Settings(integrator="rk4", rk4_step_fraction=0.1)])
+
+
+def test_modal_part_reference_case():
+    _check_modal_part(Parameters(), modes=(10, 20, 40), reference_modes=120)
+
+
+def test_no_time_estimate_without_local_errors():
+    r = solve(Parameters(Nmod=10), Settings(integrator="dop853", tolerance=1e-6), fields=("strain",))
+    assert np.isnan(r.diagnostics["error_estimate_time"]) and np.isnan(r.diagnostics["error_estimate"])
+    assert r.diagnostics["error_estimate_modes"] > 0
+    r = solve(Parameters(Nmod=10), Settings(error_estimate=False), fields=())
+    assert np.isnan(r.diagnostics["error_estimate"]) and "error_estimate_wall_time" not in r.extra
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", CASES)
+def test_estimate_on_the_work_precision_cases(name):
+    p = Parameters(Nmod=60, **CASES[name])
+    _check_time_part(p, [Settings(tolerance=tol) for tol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10)]
+                     + [Settings(integrator="rk4", rk4_step_fraction=f) for f in (0.3, 0.2, 0.1)])
+    _check_modal_part(p, modes=(20, 40, 60, 80), reference_modes=240)

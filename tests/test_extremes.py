@@ -1,0 +1,60 @@
+"""Stiff and extreme cases: each ends ok with a small energy residual, or with a named failure
+whose time is converged in the tolerance (so it is the model's, not the integrator's), and
+never with NaN or inf in data marked valid. studies/extremes.toml has the full list."""
+import numpy as np
+import pytest
+
+from solver import FIELDS, Parameters, Settings, solve
+
+FAST = {
+    "fast V=40": {"V": 40.0},
+    "thin layer he=2mm": {"he": 0.002},
+    "soft layer K=0.5MPa": {"K": 5e5},
+    "stiff layer K=200MPa": {"K": 2e8},
+    "thick layer he=10cm": {"he": 0.1},
+    "thin ice hi=0.1": {"hi": 0.1},
+    "flat body R=100": {"R": 100.0},
+    "thin+soft+fast": {"he": 0.002, "K": 5e5, "V": 40.0},
+    "fast, ice 0.1": {"V": 40.0, "hi": 0.1},
+}
+SLOW = {
+    "slow V=0.5": {"V": 0.5},
+    "thick ice hi=3": {"hi": 3.0},
+    "sharp body R=1": {"R": 1.0},
+    "200 modes": {"Nmod": 200},
+    "thick+soft+slow": {"he": 0.1, "K": 5e5, "V": 0.5},
+}
+
+
+def _check(overrides, Nmod):
+    p = Parameters(**{"Nmod": Nmod, **overrides})
+    times = np.linspace(0, p.stage_duration, 13)
+    r = solve(p, Settings(), times=times, fields=FIELDS)
+    v = r.valid
+    for name, f in r.fields.items():
+        assert np.all(np.isfinite(f[v])), name
+        assert np.all(np.isnan(f[~v])), name
+    assert r.status in ("ok", "layer_bottomed_out"), r.message
+    if r.status == "ok":
+        assert r.time_reached == pytest.approx(p.stage_duration)
+        assert r.diagnostics["energy_residual"] < 1e-3
+        assert r.diagnostics["max_compression"] < 1
+    else:
+        assert r.diagnostics["max_compression"] > 1 - 1e-6
+        assert "layer bottomed out at t =" in r.message
+        tight = solve(p, Settings(tolerance=1e-10, error_estimate=False), times=times, fields=())
+        assert tight.status == "layer_bottomed_out"
+        assert tight.time_reached == pytest.approx(r.time_reached, rel=1e-3), \
+            "the bottoming-out time must not depend on the tolerance"
+    return r
+
+
+@pytest.mark.parametrize("name", FAST)
+def test_extreme_case(name):
+    _check(FAST[name], Nmod=20)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", {**FAST, **SLOW})
+def test_extreme_case_60_modes(name):
+    _check({**FAST, **SLOW}[name], Nmod=60 if "Nmod" not in {**FAST, **SLOW}[name] else 200)
