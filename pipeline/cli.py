@@ -1,25 +1,36 @@
 """Command line: ``python -m pipeline run STUDY`` and ``python -m pipeline status STUDY``.
 
 The run reads as a straight line: study file -> cases -> workers -> case files -> study.nc ->
-diagnostics -> plots. Exit status: 0 every case ok or ended by the model itself
-(``layer_bottomed_out``: the layer was squeezed flat before the end of the stage; its data up
-to then is valid); 1 some cases failed numerically (nonfinite, step_limit, error); 2 bad input
-(one line on stderr, nothing written).
+diagnostics -> plots. Exit status:
+  0   every case ok or ended by the model itself (``layer_bottomed_out``: the layer was
+      squeezed flat before the end of the stage; its data up to then is valid);
+  1   some cases failed numerically (nonfinite, step_limit, error);
+  2   bad input (one line on stderr, nothing written), including an unreachable scheduler;
+  74  I/O error: results directory not writable, disk full (finished case files are kept);
+  75  the study is locked by another runner;
+  130 interrupted (Ctrl-C): finished cases are kept, the same command resumes.
 """
 from __future__ import annotations
 
 import argparse
+import errno
 import os
+import shutil
 import sys
 import time
 from pathlib import Path
 
-from .casefile import FAILED, NUMERICAL_FAILURES, case_path, read_case
-from solver import PARAMETER_INFO, SETTING_INFO
+# only the standard library here: a locked study or a bad command line is refused in well
+# under a second; numba, xarray and dask are imported by the commands that need them
+from .errors import LARGE_STUDY, StudyError
+from .lock import StudyLock, StudyLocked, refuse_if_locked
 
-from .study import LARGE_STUDY, StudyError, find_study, load_study
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+class _IOProblem(Exception):
+    """Reading or writing results failed (permissions, full disk): exit 74."""
+
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_IO, EXIT_LOCKED, EXIT_INTERRUPTED = 0, 1, 2, 74, 75, 130
 
 
 class _Parser(argparse.ArgumentParser):
@@ -48,6 +59,7 @@ def _parser():
 
 def case_states(study, out_dir: Path) -> dict:
     """case_id -> 'ok' | failed status | 'pending' | 'corrupt' from the files on disk."""
+    from .casefile import case_path, read_case
     states = {}
     for case in study.all_cases():
         path = case_path(out_dir / "cases", case.case_id)
@@ -60,6 +72,7 @@ def case_states(study, out_dir: Path) -> dict:
 
 
 def print_table(study, states: dict, stream=sys.stdout) -> None:
+    from solver import PARAMETER_INFO, SETTING_INFO
     runs = study.all_cases()
     keys = study.dims if study.grid else [k for k in [*PARAMETER_INFO, *SETTING_INFO]
                                           if len({c.value(k) for c in runs}) > 1]
@@ -111,6 +124,7 @@ def _prepare_dirs(out_dir: Path) -> Path:
 
 
 def command_run(args) -> int:
+    from .study import find_study, load_study
     study = load_study(find_study(args.study))
     if args.workers < 1:
         raise StudyError(f"--workers must be >= 1, got {args.workers}")
@@ -118,10 +132,27 @@ def command_run(args) -> int:
         raise StudyError(f"the study has {len(study.cases)} cases (more than {LARGE_STUDY}); "
                          f"add --yes to run it")
     out_dir = Path(args.out) if args.out else Path("results") / study.name
+    if args.scheduler:                                 # unreachable: bad input, refused before writing
+        from .engine import probe_scheduler
+        probe_scheduler(args.scheduler)
     if args.dry_run:
         states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.all_cases()}
         print_table(study, states)
         return EXIT_OK
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        lock = StudyLock(out_dir)
+        lock.__enter__()
+    except OSError as err:
+        raise _IOProblem(f"cannot use the results directory {out_dir}: {err.strerror or err}") from None
+    try:
+        return _run_locked(args, study, out_dir)
+    finally:
+        lock.__exit__()
+
+
+def _run_locked(args, study, out_dir: Path) -> int:
+    from .casefile import FAILED, NUMERICAL_FAILURES, case_path, read_case
     cases_dir = _prepare_dirs(out_dir)
     everything = study.all_cases()
     states = case_states(study, out_dir)
@@ -175,6 +206,7 @@ def command_run(args) -> int:
 
 
 def command_status(args) -> int:
+    from .study import find_study, load_study
     study = load_study(find_study(args.study))
     out_dir = Path(args.out) if args.out else Path("results") / study.name
     states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.all_cases()}
@@ -186,15 +218,31 @@ def main(argv=None) -> int:
     try:
         args = _parser().parse_args(argv)
         if args.command == "run":
+            name = Path(args.study).stem
+            refuse_if_locked(Path(args.out) if args.out else Path("results") / name)
             return command_run(args)
         return command_status(args)
     except StudyError as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_BAD_INPUT
+    except StudyLocked as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_LOCKED
+    except _IOProblem as err:
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_IO
+    except OSError as err:
+        if err.errno == errno.ENOSPC or "HDF error" in str(err):
+            print(f"error: writing results failed (disk full? {shutil.disk_usage('.').free // 2**20} MiB free): "
+                  f"{err}; finished case files are kept", file=sys.stderr)
+        else:
+            print(f"error: {err.strerror or err} ({getattr(err, 'filename', '') or ''}); finished case "
+                  f"files are kept", file=sys.stderr)
+        return EXIT_IO
     except BrokenPipeError:                          # output piped into head, say
         sys.stdout = open(os.devnull, "w")
         return EXIT_OK
     except KeyboardInterrupt:
         print("interrupted: finished cases are kept; run the same command again to resume",
               file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED

@@ -25,11 +25,31 @@ SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_N
                      "NUMBA_NUM_THREADS": "1"}
 
 
+def probe_scheduler(address: str, timeout: float = 5.0) -> None:
+    """A plain TCP connection to the scheduler, so a wrong address fails in seconds."""
+    import socket
+    from urllib.parse import urlparse
+
+    from .errors import StudyError
+    parsed = urlparse(address if "://" in address else f"tcp://{address}")
+    if parsed.scheme not in ("tcp", "tls") or not parsed.hostname or not parsed.port:
+        raise StudyError(f"scheduler address {address!r} is not of the form tcp://host:port")
+    try:
+        socket.create_connection((parsed.hostname, parsed.port), timeout=timeout).close()
+    except OSError as err:
+        raise StudyError(f"cannot reach the dask scheduler at {address!r}: {err.strerror or err}") from None
+
+
 @contextmanager
 def cluster_client(workers: int, scheduler: str | None):
     """A dask Client: on a new LocalCluster, or connected to ``scheduler``."""
     if scheduler:
-        client = Client(scheduler, timeout="10s")
+        try:
+            client = Client(scheduler, timeout="10s")
+        except (OSError, TimeoutError) as err:
+            from .errors import StudyError
+            raise StudyError(f"cannot reach the dask scheduler at {scheduler!r} within 10 s "
+                             f"({type(err).__name__})") from None
         try:
             yield client
         finally:

@@ -33,10 +33,10 @@ import numpy as np
 
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
 
+from .errors import LARGE_STUDY, StudyError  # noqa: F401  (LARGE_STUDY: part of the format)
+
 #: bump when the layout of a case file changes: old case files are then recomputed
 SCHEMA_VERSION = 2
-#: grids with more cases than this need --yes
-LARGE_STUDY = 10_000
 
 SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
 #: keys a [reference] may override: the same physical case, computed more accurately
@@ -45,10 +45,6 @@ OUTPUT_KEYS = {"times", "fields", "x_points"}
 PLOT_KINDS = ("diagnostics", "paper_fig2", "work_precision", "extremes")
 DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
                   "fields": ["deflection", "strain", "layer_pressure"], "x_points": 241}
-
-
-class StudyError(ValueError):
-    """A study file or command line that cannot be run; the message is one line."""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,58 @@
+"""Reliability on real processes: the study lock, unusable results directories, bad schedulers."""
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from test_pipeline import ROOT, pipeline
+
+
+def _snapshot(directory):
+    return {str(p.relative_to(directory)): (p.stat().st_mtime_ns, p.stat().st_size)
+            for p in Path(directory).rglob("*")}
+
+
+def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
+    out = tmp_path / "study"
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    assert code == 0, err
+    (out / "cases" / sorted(p.name for p in (out / "cases").glob("*.nc"))[0]).unlink()   # work left to do
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
+                               "from pipeline.lock import StudyLock\n"
+                               "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
+                               str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        before = _snapshot(out)
+        started = time.monotonic()
+        code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+        elapsed = time.monotonic() - started
+        assert code == 75, err
+        assert elapsed < 2.0, f"refused after {elapsed:.2f} s"
+        assert err.count("\n") == 1 and f"pid {holder.pid}" in err
+        assert _snapshot(out) == before, "the refused runner touched the study"
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    assert code == 0, err                                # no manual unlock needed
+    assert "4 cases, 1 to run, 3 already done" in err
+
+
+def test_unusable_results_directory_is_an_io_error(tmp_path):
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a directory")
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", blocker / "study", "--no-plots")
+    assert code == 74, err
+    assert err.startswith("error: cannot use the results directory") and err.count("\n") == 1
+
+
+def test_unreachable_scheduler_is_bad_input_and_fails_fast(tmp_path):
+    started = time.monotonic()
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", tmp_path / "o",
+                            "--scheduler", "tcp://127.0.0.1:9", "--no-plots")
+    assert code == 2 and "cannot reach the dask scheduler" in err and err.count("\n") == 1
+    assert time.monotonic() - started < 20
+    assert not (tmp_path / "o").exists()
