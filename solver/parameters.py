@@ -52,6 +52,9 @@ SETTING_INFO = {
 }
 
 INTEGRATORS = ("etd34", "rk4", "dop853")
+#: largest Nmod and subintervals accepted (memory: the tables are Nmod x subintervals doubles)
+MAX_MODES = 4096
+MAX_SUBINTERVALS = 1_000_000
 
 
 class ParameterError(ValueError):
@@ -107,6 +110,8 @@ class Parameters:
                     raise ParameterError(f"nu must be in [0, 0.5), got {value!r}")
             else:
                 _check_positive(f.name, value, integer=(f.name == "Nmod"))
+                if f.name == "Nmod" and int(value) > MAX_MODES:
+                    raise ParameterError(f"Nmod must be at most {MAX_MODES}, got {value!r}")
             object.__setattr__(self, f.name, int(value) if f.name == "Nmod" else float(value))
 
     # --- derived quantities -------------------------------------------------------------
@@ -211,8 +216,8 @@ class Settings:
         if self.tolerance >= 1.0:
             raise ParameterError(f"tolerance must be < 1, got {self.tolerance!r}")
         _check_positive("subintervals", self.subintervals, integer=True)
-        if int(self.subintervals) < 8:
-            raise ParameterError(f"subintervals must be >= 8, got {self.subintervals!r}")
+        if not 8 <= int(self.subintervals) <= MAX_SUBINTERVALS:
+            raise ParameterError(f"subintervals must be between 8 and {MAX_SUBINTERVALS}, got {self.subintervals!r}")
         _check_positive("rk4_step_fraction", self.rk4_step_fraction)
         if isinstance(self.fixed_step, bool) or not isinstance(
                 self.fixed_step, (int, float, np.integer, np.floating)) \

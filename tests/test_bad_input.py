@@ -49,6 +49,15 @@ BAD_FILES = [
     ("[[cases]]\nV = 3.0\n[[cases]]\nV = 3.0", "repeats an earlier case"),
     (GOOD + "\n[[cases]]\nV = 3.0", "either [grid] or [[cases]]"),
     (GOOD + "\n[plots]\nkinds = [\"movie\"]", "[plots] kinds must be a list from"),
+    (GOOD.replace("Nmod = 4", "Nmod = 10000000"), "Nmod must be at most 4096"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\nintegrator = [\"etd34\", \"euler\"]"),
+     "integrator must be one of"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\ntolerance = [1e-8, 0.0]"), "tolerance must be finite and > 0"),
+    (GOOD + "\n[reference]\nV = 3.0", "cannot be overridden in a reference"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [" + ", ".join(str(1.0 + i / 1000) for i in range(101)) + "]\n"
+                  "hi = [" + ", ".join(str(0.2 + i / 1000) for i in range(100)) + "]"),
+     "more than 10000"),
+    (GOOD.replace("fields = [\"strain\"]", "fields = [\"strain\", \"strain\"]"), "listed twice"),
 ]
 
 
@@ -71,6 +80,8 @@ def test_bad_study_file(tmp_path, capsys, text, words):
     (["run", "regression_small", "--workers", "0"], "--workers must be >= 1"),
     (["run", "regression_small", "--workers", "two"], "invalid int value"),
     (["run"], "the following arguments are required"),
+    (["run", "regression_small", "--scheduler", "nonsense"], "is not of the form tcp://host:port"),
+    (["run", "regression_small", "--scheduler", "tcp://127.0.0.1:9"], "cannot reach the dask scheduler"),
     (["launch", "x"], "invalid choice"),
 ])
 def test_bad_command_line(tmp_path, capsys, monkeypatch, argv, words):
