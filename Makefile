@@ -31,8 +31,9 @@ test: setup  ## the default test suite (fast; excludes tests marked slow)
 test-slow: setup  ## only the long tests (marked slow)
 	$(PY) -m pytest -q -m slow
 
-bench: setup  ## solver benchmark -> results/bench/solver.md
+bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 	$(PY) benchmarks/bench_solver.py
+	$(PY) benchmarks/bench_study.py
 
 regenerate-reference: setup  ## rebuild tests/data/regression_small.nc (only after a deliberate change)
 	$(PY) tests/regenerate_reference.py

@@ -14,6 +14,7 @@ import os
 import time
 from pathlib import Path
 
+import dask
 import numpy as np
 import xarray as xr
 
@@ -34,7 +35,8 @@ RECORD_INFO = {
     "crack_onset_time_tsc": ("crack_onset_time in units of the case's t_sc", "1"),
     "crack_onset_time_lower_tsc": ("crack_onset_time_lower in units of the case's t_sc", "1"),
     "time_reached": ("time the integration reached", "s"),
-    "run_time": ("wall time of the solver for this case", "s"),
+    "run_time": ("wall time of the solver for this case (the integration alone)", "s"),
+    "error_estimate_run_time": ("wall time of the error estimate's companion run (0: none)", "s"),
     "steps": ("accepted time steps", "1"),
     "rejected_steps": ("rejected time steps", "1"),
     "smallest_step": ("smallest accepted time step", "s"),
@@ -47,6 +49,14 @@ TEXT_INFO = {
 ENDED_EARLY = ("layer_bottomed_out",)
 NUMERICAL_FAILURES = ("nonfinite", "step_limit", "error")
 FAILED = ENDED_EARLY + NUMERICAL_FAILURES
+
+
+class CaseWriteError(OSError):
+    """A case file could not be written (disk full, permissions): the study stops (exit 74)."""
+
+
+#: record status of a case whose file could not be written (not a case status: no file exists)
+WRITE_FAILED = "write_failed"
 
 
 def case_path(cases_dir: Path, case_id: str) -> Path:
@@ -94,6 +104,8 @@ def case_dataset(case: Case, result=None, status=None, message="") -> xr.Dataset
                "crack_onset_time_lower_tsc": data["crack_onset_time_lower"][1][0] / p.time_scale,
                "time_reached": np.nan if result is None else result.time_reached,
                "run_time": np.nan if result is None else result.wall_time,
+               "error_estimate_run_time": np.nan if result is None else
+               result.extra.get("error_estimate_wall_time", 0.0),
                "steps": np.nan if result is None else result.steps,
                "rejected_steps": np.nan if result is None else result.rejected_steps,
                "smallest_step": np.nan if result is None else result.smallest_step}
@@ -141,7 +153,10 @@ def write_atomic(ds: xr.Dataset, path: Path) -> None:
     path = Path(path)
     tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{time.monotonic_ns()}")
     try:
-        ds.to_netcdf(tmp, engine="netcdf4")
+        # each worker writes only its own file: no need for the scheduler-wide lock xarray takes
+        # under dask.distributed (it cost 0.5 s a case); the data are numpy, nothing to compute
+        with dask.config.set(scheduler="synchronous"):
+            ds.to_netcdf(tmp, engine="netcdf4")
         fd = os.open(tmp, os.O_RDONLY)
         try:
             os.fsync(fd)
@@ -162,7 +177,8 @@ def run_case(case_dict: dict, cases_dir: str) -> dict:
     """Worker entry point: run one case, write its file, return a small record (no arrays).
 
     A numerical failure is a status, and so is an exception in the solver ('error'); the case
-    file is written in both cases. Only a failure to write propagates.
+    file is written in both cases. A failure to write the file returns status WRITE_FAILED, on
+    which the runner stops the study.
     """
     case = Case.from_dict(case_dict)
     started = time.perf_counter()
@@ -171,7 +187,19 @@ def run_case(case_dict: dict, cases_dir: str) -> dict:
         ds = case_dataset(case, result)
     except Exception as err:                       # a bug in one case must not stop the study
         ds = case_dataset(case, None, status="error", message=f"{type(err).__name__}: {err}")
-    write_atomic(ds, case_path(Path(cases_dir), case.case_id))
+    path = case_path(Path(cases_dir), case.case_id)
+    try:
+        write_atomic(ds, path)
+    except Exception as err:                       # netCDF reports a full disk as "HDF error"
+        import shutil
+        try:
+            free = f"{shutil.disk_usage(path.parent).free // 2**20} MiB free"
+        except OSError:
+            free = "free space unknown"
+        # returned, not raised: the runner stops the study (a raised error would be logged by
+        # the dask worker with its traceback)
+        return {"case_id": case.case_id, "status": WRITE_FAILED, "run_time": float("nan"),
+                "message": f"cannot write {path} ({free}): {type(err).__name__}: {err}"}
     return {"case_id": case.case_id, "status": str(ds["status"].values[0]),
             "message": str(ds["message"].values[0]), "run_time": time.perf_counter() - started}
 

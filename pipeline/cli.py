@@ -232,7 +232,10 @@ def main(argv=None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_IO
     except OSError as err:
-        if err.errno == errno.ENOSPC or "HDF error" in str(err):
+        from .casefile import CaseWriteError
+        if isinstance(err, CaseWriteError):
+            print(f"error: {err}; finished case files are kept", file=sys.stderr)
+        elif err.errno == errno.ENOSPC or "HDF error" in str(err):
             print(f"error: writing results failed (disk full? {shutil.disk_usage('.').free // 2**20} MiB free): "
                   f"{err}; finished case files are kept", file=sys.stderr)
         else:

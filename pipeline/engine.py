@@ -10,6 +10,7 @@ are in flight.
 from __future__ import annotations
 
 import os
+import signal
 import sys
 import time
 from contextlib import contextmanager
@@ -19,7 +20,7 @@ from distributed import Client, LocalCluster, as_completed
 
 from solver import compile_kernels
 
-from .casefile import ENDED_EARLY, run_case
+from .casefile import ENDED_EARLY, WRITE_FAILED, CaseWriteError, run_case
 
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                      "NUMBA_NUM_THREADS": "1"}
@@ -59,8 +60,14 @@ def cluster_client(workers: int, scheduler: str | None):
     environ.update(SINGLE_THREAD_ENV)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
                           "distributed.scheduler.allowed-failures": 3}):
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=40)
+        # workers are spawned with SIGINT ignored (kept across exec): on Ctrl-C only the runner
+        # reacts, abandons the in-flight cases and shuts the cluster down
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=40)
+        finally:
+            signal.signal(signal.SIGINT, previous)
         client = Client(cluster)
         try:
             yield client
@@ -132,6 +139,9 @@ def run_pending(cases: list, cases_dir, workers: int = 2, scheduler: str | None 
             except Exception as err:                   # infrastructure: the case file is absent
                 record = {"case_id": future.key.removeprefix("case-"), "status": "error",
                           "message": f"task failed: {type(err).__name__}: {err}", "run_time": float("nan")}
+            if record["status"] == WRITE_FAILED:       # the disk, not the case: stop the study
+                queue.clear()
+                raise CaseWriteError(record["message"])
             records.append(record)
             if progress:
                 progress.update(record)

@@ -56,3 +56,29 @@ def test_unreachable_scheduler_is_bad_input_and_fails_fast(tmp_path):
     assert code == 2 and "cannot reach the dask scheduler" in err and err.count("\n") == 1
     assert time.monotonic() - started < 20
     assert not (tmp_path / "o").exists()
+
+
+def _limit_file_size():
+    import resource
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)      # writes past the limit fail with EFBIG
+    resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
+
+
+def test_disk_full_while_writing_stops_the_study(tmp_path):
+    """Files may not grow past 20 kB (a case file is ~50 kB): the write fails inside netCDF as
+    on a full disk. Exit 74 with what happened; finished case files are intact."""
+    out = tmp_path / "study"
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    assert code == 0, err
+    files = sorted((out / "cases").glob("*.nc"))
+    files[-1].unlink()
+    stamps = {p: p.stat().st_mtime_ns for p in files[:-1]}
+    proc = subprocess.run([sys.executable, "-m", "pipeline", "run", "studies/regression_small.toml",
+                           "--out", str(out), "--workers", "1", "--no-plots"], cwd=ROOT, capture_output=True,
+                          text=True, timeout=300, preexec_fn=_limit_file_size)
+    assert proc.returncode == 74, proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith("error: cannot write") and "MiB free" in last and "finished case files are kept" in last
+    assert "Traceback" not in proc.stderr
+    assert all(p.stat().st_mtime_ns == stamps[p] for p in stamps)
+    assert not files[-1].exists() and not list((out / "cases").glob(".*tmp*"))

@@ -1,0 +1,69 @@
+"""Scale-out: the same study on a real dask cluster (a `dask scheduler` and two `dask worker`
+processes on 127.0.0.1) gives the LocalCluster's results. About 20 s, so it runs in CI."""
+import os
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from test_pipeline import NOT_COMPARED, REFERENCE, ROOT, pipeline
+
+DASK = str(Path(sys.executable).with_name("dask"))
+
+
+def _free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture
+def cluster(tmp_path):
+    port = _free_port()
+    address = f"tcp://127.0.0.1:{port}"
+    env = {**os.environ, "OMP_NUM_THREADS": "1", "NUMBA_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+    logs = [open(tmp_path / f"{name}.log", "w") for name in ("scheduler", "worker0", "worker1")]
+    procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                               "--no-dashboard"], stdout=logs[0], stderr=subprocess.STDOUT, env=env)]
+    end = time.monotonic() + 60
+    while True:                                          # wait for the scheduler to listen
+        try:
+            socket.create_connection(("127.0.0.1", port), timeout=1).close()
+            break
+        except OSError:
+            assert time.monotonic() < end, (tmp_path / "scheduler.log").read_text()
+            time.sleep(0.2)
+    for i in range(2):
+        procs.append(subprocess.Popen([DASK, "worker", address, "--nthreads", "1", "--nworkers", "1",
+                                       "--no-dashboard", "--name", f"w{i}"], stdout=logs[i + 1],
+                                      stderr=subprocess.STDOUT, env=env, cwd=ROOT))
+    try:
+        yield address
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            try:
+                proc.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+        for log in logs:
+            log.close()
+
+
+def test_study_on_a_real_dask_cluster_matches_local(cluster, tmp_path):
+    out = tmp_path / "on_cluster"
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--scheduler", cluster,
+                            "--no-plots")
+    assert code == 0, err
+    assert "4 cases, 4 to run" in err
+    with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(REFERENCE) as ref:
+        for name, var in ref.data_vars.items():
+            if name in NOT_COMPARED or var.dtype.kind in "OUS":
+                continue
+            np.testing.assert_allclose(ds[name].values, var.values, rtol=1e-6, err_msg=name)

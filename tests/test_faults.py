@@ -1,0 +1,140 @@
+"""Faults on real processes: a worker SIGKILLed mid-study, the runner SIGKILLed at random
+moments, Ctrl-C. Each is compared with an undisturbed run of the same study."""
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.casefile import read_case
+from pipeline.study import load_study
+from test_pipeline import ROOT, pipeline
+
+STUDY = """
+description = "fault tests"
+[base]
+Nmod = 30
+[grid]
+V = [3.0, 4.0, 5.0, 6.0]
+hi = [0.3, 0.5]
+[output]
+times = { unit = "stage", count = 6 }
+fields = ["strain"]
+x_points = 21
+"""
+
+
+@pytest.fixture(scope="module")
+def study_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("faults") / "faults.toml"
+    path.write_text(STUDY)
+    return path
+
+
+@pytest.fixture(scope="module")
+def undisturbed(study_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("faults") / "undisturbed"
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 0, err
+    return out
+
+
+def _start(study_file, out, workers=2):
+    return subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
+                             "--workers", str(workers), "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+
+def _case_files(out):
+    return sorted((Path(out) / "cases").glob("*.nc"))
+
+
+def _wait_for_cases(out, proc, n=1, timeout=120):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if len(_case_files(out)) >= n:
+            return
+        assert proc.poll() is None, proc.communicate()
+        time.sleep(0.05)
+    raise AssertionError("no case file appeared")
+
+
+def _children(pid):
+    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(pid)], capture_output=True, text=True).stdout
+    return [(int(line.split(None, 1)[0]), line.split(None, 1)[1]) for line in out.strip().splitlines()]
+
+
+def _assert_same_results(out, reference):
+    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
+        assert (ds["status"].values == ref["status"].values).all()
+        assert (ds["status"].values != "missing").all()
+        np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
+        np.testing.assert_array_equal(ds["max_strain"].values, ref["max_strain"].values)
+
+
+def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path):
+    out = tmp_path / "worker_killed"
+    proc = _start(study_file, out)
+    _wait_for_cases(out, proc, n=1)
+    workers = [pid for pid, args in _children(proc.pid) if "multiprocessing" in args or "spawn" in args]
+    assert workers, _children(proc.pid)
+    os.kill(workers[0], signal.SIGKILL)
+    stdout, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 0, stderr
+    assert len(_case_files(out)) == 8
+    assert not list((out / "cases").glob("*.corrupt-*")) and not list((out / "cases").glob(".*tmp*"))
+    _assert_same_results(out, undisturbed)
+
+
+def _kill_runner_then_resume(study_file, undisturbed, out, delay):
+    proc = _start(study_file, out)
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGKILL)                 # the runner and its workers, at once
+    proc.wait()
+    study = load_study(study_file)
+    done = {}
+    for case in study.cases:                            # what a resume may trust
+        path = out / "cases" / f"{case.case_id}.nc"
+        if read_case(path, case) is not None:
+            done[path] = path.stat().st_mtime_ns
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 0, err
+    assert f"{8 - len(done)} to run, {len(done)} already done" in err
+    for path, stamp in done.items():
+        assert path.stat().st_mtime_ns == stamp, f"{path.name}: a finished case was recomputed"
+    _assert_same_results(out, undisturbed)
+
+
+@pytest.mark.parametrize("trial", range(2))
+def test_killed_runner_resumes_without_loss(study_file, undisturbed, tmp_path, trial):
+    _kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
+                             delay=random.Random(trial).uniform(2.0, 6.0))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", range(10))
+def test_killed_runner_resumes_without_loss_many(study_file, undisturbed, tmp_path, trial):
+    _kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
+                             delay=random.Random(100 + trial).uniform(0.5, 9.0))
+
+
+def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undisturbed, tmp_path):
+    out = tmp_path / "interrupted"
+    proc = _start(study_file, out)
+    _wait_for_cases(out, proc, n=1)
+    os.killpg(proc.pid, signal.SIGINT)                  # what a terminal sends on Ctrl-C
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "run the same command again to resume" in stderr and "Traceback" not in stderr
+    finished = len(_case_files(out))
+    assert finished >= 1
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 0, err
+    assert f"already done" in err
+    _assert_same_results(out, undisturbed)
