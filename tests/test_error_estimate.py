@@ -8,6 +8,14 @@ import numpy as np
 import pytest
 
 from conftest import relative_l2
+
+
+def _common_l2(a, b):
+    """relative L2 over the snapshots both runs reached (a run may end early, as the pipeline's
+    error_strain does)."""
+    both = np.all(np.isfinite(a), axis=1) & np.all(np.isfinite(b), axis=1)
+    assert both.sum() >= len(both) // 2
+    return relative_l2(a[both], b[both])
 from solver import Parameters, Settings, solve
 
 CASES = {"reference": {}, "fast impact": {"V": 10.0}, "thin ice": {"hi": 0.2}}
@@ -36,7 +44,7 @@ def _check_modal_part(p, modes, reference_modes):
                 times=times, fields=("strain",))
     for N in modes:
         r = solve(p.replace(Nmod=N), Settings(tolerance=1e-10), times=times, fields=("strain",))
-        true = relative_l2(r.fields["strain"], ref.fields["strain"])
+        true = _common_l2(r.fields["strain"], ref.fields["strain"])
         est = r.diagnostics["error_estimate"]
         print(f"N = {N}: true {true:.2e} estimate {est:.2e} ratio {est / true:.2f}")
         assert est >= true / 3
