@@ -118,7 +118,7 @@ def _label(study, case) -> str:
 def _prepare_dirs(out_dir: Path) -> Path:
     cases_dir = out_dir / "cases"
     cases_dir.mkdir(parents=True, exist_ok=True)
-    for stale in cases_dir.glob(".*.nc.tmp-*"):        # left by a killed writer
+    for stale in [*cases_dir.glob(".*.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*")]:  # killed writers
         stale.unlink(missing_ok=True)
     return cases_dir
 

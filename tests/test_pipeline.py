@@ -172,3 +172,17 @@ def test_shipped_studies_are_valid():
     speed = load_study(ROOT / "studies" / "speed_sweep.toml")
     assert len(speed.grid["V"]) >= 8 and min(speed.grid["V"]) == 1.0 and max(speed.grid["V"]) == 20.0
     assert len(speed.grid["hi"]) == 3
+
+
+def test_interrupted_combine_is_rebuilt_from_case_files(regression_run, tmp_path):
+    """A combine killed mid-write leaves only its temporary file; the rerun rebuilds study.nc."""
+    out = tmp_path / "combine"
+    shutil.copytree(regression_run, out)
+    (out / "study.nc").unlink()
+    stale = out / ".study.nc.tmp-4242-1"
+    stale.write_bytes(b"CDF\x01 half written")
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+    assert code == 0, err
+    assert "0 to run, 4 already done" in err and not stale.exists()
+    with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(regression_run / "study.nc") as ref:
+        np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
