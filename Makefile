@@ -20,7 +20,9 @@ $(VENV)/.installed: pyproject.toml
 setup: $(VENV)/.installed  ## create .venv and install the package with its test extras
 
 study: setup  ## run a study: make study STUDY=speed_sweep [ARGS="--workers 1"]
-	$(PY) -m pipeline run studies/$(STUDY).toml $(ARGS)
+	@$(PY) -m pipeline run studies/$(STUDY).toml $(ARGS); status=$$?; \
+	if [ $$status -eq 1 ]; then echo "make study: some cases failed numerically (listed above); all results are written to results/$(STUDY)/"; fi; \
+	exit $$status
 
 status: setup  ## what a study has done: make status STUDY=speed_sweep
 	$(PY) -m pipeline status $(STUDY)

@@ -118,7 +118,7 @@ def main(argv=None):
         rows.append((name, med, rel(r.fields["strain"], ref_strain), r.steps, r.rejected_steps,
                      r.forcing_evaluations, t_seed / med))
     t_dop = statistics.median(dop_walls)
-    rows.append((f"scipy DOP853, rtol 1e-9 (same right-hand side, Python callback)", t_dop,
+    rows.append(("scipy DOP853, rtol 1e-9 (same right-hand side, Python callback)", t_dop,
                  rel(dop_strain, ref_strain), None, None, nfev, t_seed / t_dop))
 
     # cost against Nmod at the default tolerance and at 1e-10

@@ -18,7 +18,7 @@ import dask
 import numpy as np
 import xarray as xr
 
-from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO, solve
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, solve
 
 from . import provenance
 from .study import SCHEMA_VERSION, Case

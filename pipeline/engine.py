@@ -9,7 +9,6 @@ are in flight.
 """
 from __future__ import annotations
 
-import os
 import signal
 import sys
 import time

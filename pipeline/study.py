@@ -33,7 +33,7 @@ import numpy as np
 
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
 
-from .errors import LARGE_STUDY, StudyError  # noqa: F401  (LARGE_STUDY: part of the format)
+from .errors import StudyError
 
 #: bump when the layout of a case file changes: old case files are then recomputed
 SCHEMA_VERSION = 3

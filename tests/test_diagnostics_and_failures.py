@@ -49,7 +49,6 @@ def test_maxima_tracked_between_snapshots(run20):
     assert d["max_contact_intervals"] >= np.nanmax(run20.contact_intervals)
     assert d["max_force"] >= np.nanmax(run20.force)
     assert 0 < d["max_compression"] < 1
-    k = int(np.argmin(np.abs(run20.times - d["max_strain_time"])))
     assert 0 <= d["max_strain_x"] <= run20.parameters.L
 
 

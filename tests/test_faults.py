@@ -136,5 +136,5 @@ def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undistur
     assert finished >= 1
     code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
-    assert f"already done" in err
+    assert "already done" in err
     _assert_same_results(out, undisturbed)

@@ -1,6 +1,5 @@
 """The study runner end to end: regression on a real 2-worker LocalCluster, the combined file,
 resume, corrupt case files, dry run and status."""
-import os
 import shutil
 import subprocess
 import sys

@@ -1,5 +1,4 @@
 """Reliability on real processes: the study lock, unusable results directories, bad schedulers."""
-import os
 import signal
 import subprocess
 import sys
