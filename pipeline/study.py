@@ -36,7 +36,7 @@ from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Paramet
 from .errors import StudyError
 
 #: bump when the layout of a case file changes: old case files are then recomputed
-SCHEMA_VERSION = 3
+SCHEMA_VERSION = 4
 
 SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
 #: keys a [reference] may override: the same physical case, computed more accurately

@@ -465,6 +465,8 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
     steps = 0
     rejected = 0
     h = min(h_init, h_max)
+    fixed_target = -1.0
+    fixed_h = 0.0
     t_prev = t_start
     dmax_now = 0.0
     prev_ratio = 1.0
@@ -494,13 +496,20 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         # ----- choose the step
         remaining = target - t
         if fixed_step > 0.0:
-            n_sub = math.ceil(remaining / fixed_step * (1.0 - 1e-12))
-            h_step = remaining / max(n_sub, 1)
+            # one step size per output interval, fixed for the whole interval (the ETD
+            # coefficients are then computed once per interval); the last step lands on target
+            if target != fixed_target:
+                fixed_target = target
+                n_sub = math.ceil(remaining / fixed_step * (1.0 - 1e-12))
+                fixed_h = remaining / max(n_sub, 1)
+            # the last step takes exactly what remains (it differs from fixed_h by rounding)
+            landing = remaining <= 1.5 * fixed_h
+            h_step = remaining if landing else fixed_h
         else:
             h_step = h
             if h_step >= remaining * (1.0 - 1e-12) or remaining - h_step < 0.01 * h_step:
                 h_step = remaining
-        landing = h_step >= remaining * (1.0 - 1e-12)
+            landing = h_step >= remaining * (1.0 - 1e-12)
         t_new = target if landing else t + h_step
 
         # ----- one step

@@ -62,6 +62,20 @@ def test_modal_part_reference_case():
     _check_modal_part(Parameters(), modes=(10, 20, 40), reference_modes=120)
 
 
+def test_quadrature_part_reference_case():
+    p = Parameters(Nmod=20)
+    times = _times(p)
+    ref = solve(p, Settings(tolerance=1e-11, subintervals=8000, error_estimate=False), times=times,
+                fields=("strain",))
+    for J in (250, 500, 1000):
+        r = solve(p, Settings(tolerance=1e-11, subintervals=J), times=times, fields=("strain",))
+        true = _common_l2(r.fields["strain"], ref.fields["strain"])
+        est = r.diagnostics["error_estimate_quadrature"]
+        print(f"J = {J}: true {true:.2e} estimate {est:.2e} ratio {est / true:.2f}")
+        assert true / 3 <= est <= 30 * true
+        assert r.diagnostics["error_estimate"] >= est
+
+
 def test_no_time_estimate_without_local_errors():
     r = solve(Parameters(Nmod=10), Settings(integrator="dop853", tolerance=1e-6), fields=("strain",))
     assert np.isnan(r.diagnostics["error_estimate_time"]) and np.isnan(r.diagnostics["error_estimate"])
@@ -77,3 +91,9 @@ def test_estimate_on_the_work_precision_cases(name):
     _check_time_part(p, [Settings(tolerance=tol) for tol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10)]
                      + [Settings(integrator="rk4", rk4_step_fraction=f) for f in (0.3, 0.2, 0.1)])
     _check_modal_part(p, modes=(20, 40, 60, 80), reference_modes=240)
+    ref = solve(p, Settings(tolerance=1e-11, subintervals=8000, error_estimate=False), times=_times(p),
+                fields=("strain",))
+    for J in (250, 1000):
+        r = solve(p, Settings(tolerance=1e-11, subintervals=J), times=_times(p), fields=("strain",))
+        true = _common_l2(r.fields["strain"], ref.fields["strain"])
+        assert true / 3 <= r.diagnostics["error_estimate_quadrature"] <= 30 * true
