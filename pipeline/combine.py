@@ -90,12 +90,14 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
     if study.references:
         errors = {name: np.full(shape, np.nan) for name in ERROR_INFO}
         ref_ids = np.full(shape, "", dtype=object)
+        ref_data = {ref.case_id: read_case(case_path(cases_dir, ref.case_id), ref)
+                    for ref in study.references.values()}
         for i, (case, ds_case) in enumerate(zip(study.cases, per_case)):
             ref = study.references.get(i)
             if ref is None:
                 continue
             ref_ids[case.index] = ref.case_id
-            for name, value in errors_against(ds_case, read_case(case_path(cases_dir, ref.case_id), ref)).items():
+            for name, value in errors_against(ds_case, ref_data[ref.case_id]).items():
                 errors[name][case.index] = value
         for name, (long_name, units) in ERROR_INFO.items():
             data[name] = (tuple(dims), errors[name], {"long_name": long_name, "units": units})

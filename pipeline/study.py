@@ -27,6 +27,7 @@ import json
 import math
 import tomllib
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -107,11 +108,13 @@ class Study:
     cases: list = field(default_factory=list)
     references: dict = field(default_factory=dict)     # position in cases -> its reference Case
 
+    @cached_property
+    def case_ids(self) -> frozenset:
+        return frozenset(c.case_id for c in self.cases)
+
     def is_reference(self, case: Case) -> bool:
         """True for a reference run that is not itself one of the study's cases."""
-        if not hasattr(self, "_ids"):
-            self._ids = {c.case_id for c in self.cases}
-        return case.case_id not in self._ids
+        return case.case_id not in self.case_ids
 
     def all_cases(self) -> list:
         """Every distinct run: the study's cases, then the reference runs not among them."""
