@@ -4,13 +4,15 @@ Pure numerics (no files, no xarray, no dask, no plots). Three lines run one case
 
     from solver import Parameters, solve
     result = solve(Parameters(V=5.0, Nmod=40), times=[0.0, 0.05, 0.1])
-    result.fields["strain"], result.diagnostics["crack_onset_time"], result.status
+    result.fields["strain"], result.crack_onset(8e-5), result.status
 """
-from .core import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, Result, compile_kernels, solve
+from .core import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, STATUS_INFO, Result, compile_kernels, solve
+from .fracture import EPS_Y_INFO, PAPER_EPS_Y, crack_onset, default_eps_Y
 from .parameters import (INTEGRATORS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters,
                          Settings)
 
 __all__ = [
-    "DIAGNOSTIC_INFO", "FIELD_INFO", "FIELDS", "INTEGRATORS", "PARAMETER_INFO", "SETTING_INFO",
-    "ParameterError", "Parameters", "Result", "Settings", "compile_kernels", "solve",
+    "DIAGNOSTIC_INFO", "EPS_Y_INFO", "FIELD_INFO", "FIELDS", "INTEGRATORS", "PAPER_EPS_Y",
+    "PARAMETER_INFO", "SETTING_INFO", "STATUS_INFO", "ParameterError", "Parameters", "Result",
+    "Settings", "compile_kernels", "crack_onset", "default_eps_Y", "solve",
 ]

@@ -13,8 +13,21 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from . import kernels as kn
+from .fracture import crack_onset
 from .parameters import Parameters, ParameterError, Settings
 from .scipy_reference import integrate_dop853
+
+#: status -> meaning (docs/model.md, "Statuses")
+STATUS_INFO = {
+    "ok": "the run reached the end of its time window",
+    "layer_bottomed_out": "the layer's gap closed to 1e-3 of its thickness (delta = 1 - 1e-3, pressure "
+                          "1000 K) at bottoming_time: the model's own end; data up to then is valid",
+    "nonfinite": "a fixed-step run met delta >= 1 or a non-finite state, or the adaptive step "
+                 "could not avoid one",
+    "step_limit": "max_steps attempted, or error control drove the step below its floor",
+    "energy_violation": "the energy identity E_plate + E_layer = W was broken: a step made it jump "
+                        "and no smaller step mended it, or the residual ended above 1e-3 of the work",
+}
 
 #: field name -> (long_name, units)
 FIELD_INFO = {
@@ -36,15 +49,20 @@ DIAGNOSTIC_INFO = {
     "max_abs_strain": ("largest strain magnitude", "1", kn.D_MAX_ABS),
     "max_abs_strain_x": ("position of max_abs_strain (x >= 0)", "m", kn.D_MAX_ABS_X),
     "max_abs_strain_time": ("time of max_abs_strain", "s", kn.D_MAX_ABS_T),
-    "crack_onset_time": ("first time the upper-surface strain exceeds eps_Y (NaN: never)", "s", kn.D_CRACK_UPPER_T),
-    "crack_onset_x": ("position of the upper-surface crack onset (x >= 0)", "m", kn.D_CRACK_UPPER_X),
-    "crack_onset_time_lower": ("first time the lower-surface tension exceeds eps_Y (NaN: never)", "s", kn.D_CRACK_LOWER_T),
-    "crack_onset_x_lower": ("position of the lower-surface crack onset (x >= 0)", "m", kn.D_CRACK_LOWER_X),
-    "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L", "1", kn.D_MAX_CONTACTS),
-    "max_force": ("largest force on the body per unit width", "N m-1", kn.D_MAX_FORCE),
+    "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L, intervals that "
+                              "open and close within a step included", "1", kn.D_MAX_CONTACTS),
+    "max_force": ("largest force on the body per unit width (inf: the layer bottomed out, where the "
+                  "model's force is unbounded)", "N m-1", kn.D_MAX_FORCE),
     "max_force_time": ("time of max_force", "s", kn.D_MAX_FORCE_T),
-    "max_compression": ("largest relative compression delta of the layer", "1", kn.D_MAX_DELTA),
+    "max_compression": ("largest relative compression delta of the layer over the continuous plate",
+                        "1", kn.D_MAX_DELTA),
     "max_compression_time": ("time of max_compression", "s", kn.D_MAX_DELTA_T),
+    "bottoming_time": ("time at which the layer's gap first closed to 1e-3 of its thickness, "
+                       "anywhere on the plate (NaN: it never did)", "s", kn.D_BOTTOM_T),
+    "bottoming_x": ("position where the gap first closed (x >= 0; mirrored at -x)", "m", kn.D_BOTTOM_X),
+    "bottoming_closing_speed": ("speed at which the gap was closing at bottoming, he d(delta)/dt",
+                                "m s-1", kn.D_BOTTOM_SPEED),
+    "energy_rejections": ("steps rejected because the energy identity jumped", "1", kn.D_ENERGY_JUMPS),
     "energy_residual": ("max over time of |E_plate + E_layer - W| divided by the final work W", "1", kn.D_ENERGY_RESIDUAL),
     "work": ("work done by the body up to the time reached", "J m-1", kn.D_WORK),
     # computed by solve() from the outputs (index None): estimates of the relative L2 strain error
@@ -81,7 +99,7 @@ class Result:
     work: np.ndarray                   # (T,) int V F dt [J m-1]
     valid: np.ndarray                  # (T,) bool
     diagnostics: dict                  # name -> float, see DIAGNOSTIC_INFO
-    status: str                        # ok | layer_bottomed_out | nonfinite | step_limit
+    status: str                        # see STATUS_INFO
     message: str
     time_reached: float                # [s]
     steps: int
@@ -90,11 +108,31 @@ class Result:
     smallest_step: float               # [s]
     largest_step: float                # [s]
     wall_time: float                   # [s] of the integration (without the error estimate's companion)
+    tension_record: dict = field(default_factory=dict)  # "upper", "lower" -> (n, 5) rows, see solver.fracture
+    contact_record: np.ndarray = None  # (n, 2) rows (t [s], contact intervals from then on)
     extra: dict = field(default_factory=dict)   # error_estimate_wall_time [s] when a companion ran
 
     @property
     def ok(self) -> bool:
         return self.status == "ok"
+
+    @property
+    def time_scale(self) -> float:
+        """t_sc = 1/omega_1 of the case [s]."""
+        return self.parameters.time_scale
+
+    @property
+    def stage_duration(self) -> float:
+        """L^2/(6RV) of the case [s]."""
+        return self.parameters.stage_duration
+
+    def crack_onset(self, eps_Y, surface: str = "upper"):
+        """First time [s] and place [m] at which the tension on a surface ("upper": +eps,
+        "lower": -eps) reaches each yield strain eps_Y, from the run's tension record (NaN:
+        never within the run). See :func:`solver.fracture.crack_onset`."""
+        if surface not in ("upper", "lower"):
+            raise ParameterError(f"surface must be 'upper' or 'lower', got {surface!r}")
+        return crack_onset(self.tension_record[surface], eps_Y)
 
 
 class _Tables:
@@ -116,6 +154,8 @@ class _Tables:
         ends[0] = ends[-1] = 0.5
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
         self.wq = np.ascontiguousarray((ends * self.dx)[:, None] * self.cosq.T * sinc2[None, :])  # (J, N)
+        self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM]))
+        self.lay = np.array([lam[0], self.dx, p.V, p.R, p.he, p.K])
 
 
 #: largest etd34 step as a fraction of the contact period 2 pi / contact_frequency
@@ -215,7 +255,7 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
 
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
-          initial_amplitudes=None, initial_velocities=None, t_start=0.0) -> Result:
+          initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=()) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -228,6 +268,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     t_end : end of the run [s] (default: the impact stage L^2/(6RV)). Diagnostics cover the run.
     initial_amplitudes, initial_velocities : a_n and da_n/dt at t_start [m, m/s] (default 0).
     t_start : start of the run [s] (default 0, first touch); with the two above, a restart.
+    locate_eps_Y : yield strains whose first crossings are also located on true sub-steps of
+        the integrator (etd34, rk4), in ``extra["located_crack_onset"]`` = {"upper": (t, x),
+        "lower": (t, x)}: the exact reference for the tension record (costs a root search
+        per value; for verification, not needed for results).
 
     Returns
     -------
@@ -273,18 +317,28 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     out_energy = np.full((T, 3), np.nan)
     out_err = np.full(T, np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
-    h_init = min(1e-4 * (t_end - t_start), 1e-3 * p.time_scale)
+    # first step: short enough that the tension (~ t^3.5 from first touch) crossed inside it is
+    # far below any yield strain of interest; later steps grow at most 10% a step from it
+    h_init = min(1e-6 * (t_end - t_start), 1e-5 * p.time_scale)
     h_max = HMAX_FRACTION * 2 * np.pi / contact_frequency(p)
+    levels = np.ascontiguousarray(np.atleast_1d(np.asarray(locate_eps_Y, dtype=float)))
+    level_t = np.full((2, levels.size), np.nan)
+    level_x = np.full((2, levels.size), np.nan)
+    empty = np.empty((0, kn.N_REC))
     started = _time.perf_counter()
     if s.integrator == "dop853":
-        code, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag = integrate_dop853(
+        code, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, fail = integrate_dop853(
             p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps)
+        records = {"upper": empty, "lower": empty}
+        contact_record = np.empty((0, 2))
     else:
-        code, n_out = kn.integrate(
-            method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0], tab.cosq, tab.wq,
-            tab.dx, p.V, p.R, p.he, p.K, p.eps_Y, float(t_start), float(t_end), times, s.tolerance,
-            fixed, h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, out_a, out_adot, out_contacts,
-            out_force, out_energy, out_err, diag)
+        code, n_out, up, n_up, lo, n_lo, cont, n_cont = kn.integrate(
+            method, tab.modes, tab.lay, tab.cosq, tab.wq, float(t_start), float(t_end), times,
+            s.tolerance, fixed, h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, levels,
+            out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, level_t, level_x)
+        records = {"upper": up[:n_up].copy(), "lower": lo[:n_lo].copy()}
+        contact_record = cont[:n_cont].copy()
+        fail = ""
     wall = _time.perf_counter() - started
 
     status = kn.STATUS_NAMES[code]
@@ -330,24 +384,44 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         t_fail = float(diag[kn.D_FAIL_T])
         where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
         kind = int(diag[kn.D_FAIL_KIND])
-        if kind == kn.FAIL_BOTTOMED:
-            message = (f"layer bottomed out {where}: the compression reached delta = 1 - "
-                       f"{max(1.0 - max_delta, 0.0):.1e} and no step down to {1e-13 * t_end:.1e} s "
-                       f"could keep it below 1")
+        floor = f"{1e-13 * t_end:.1e} s"
+        if kind == kn.FAIL_LOCATED:
+            message = (f"layer bottomed out {where}: its gap closed to {kn.BOTTOM_GAP:g} of its thickness "
+                       f"at x = +-{diagnostics['bottoming_x']:.4g} m, closing at "
+                       f"{diagnostics['bottoming_closing_speed']:.3g} m/s; the force there is unbounded")
+        elif kind == kn.FAIL_BOTTOMED:
+            message = (f"layer bottomed out {where} (not located to the threshold): the compression "
+                       f"reached delta = 1 - {max(1.0 - max_delta, 0.0):.1e} and no step down to {floor} "
+                       f"kept it below 1")
         elif kind == kn.FAIL_FIXED_STEP and s.integrator == "dop853":
-            message = f"dop853 evaluated a stage with delta >= 1 {where}; it cannot retry such a stage"
+            message = f"dop853 {fail} {where}"
         elif kind == kn.FAIL_FIXED_STEP:
             message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
                        f"non-finite value {where}; a fixed step cannot be retried "
                        f"(largest delta before: {max_delta:.6g})")
+        elif kind == kn.FAIL_NONFINITE and s.integrator == "dop853":
+            message = f"dop853 failed {where}: {fail}"
         elif kind == kn.FAIL_NONFINITE:
-            message = f"non-finite state {where} with the step at its smallest ({1e-13 * t_end:.1e} s)"
+            message = f"non-finite state {where} with the step at its smallest ({floor})"
         elif kind == kn.FAIL_STEP_UNDERFLOW:
-            message = (f"error control drove the step below {1e-13 * t_end:.1e} s {where}; "
+            message = (f"error control drove the step below {floor} {where}; "
                        f"largest delta reached {max_delta:.6g}")
+        elif kind == kn.FAIL_ENERGY_JUMP:
+            message = (f"energy identity broken {where}: a step changed E_plate + E_layer - W by more "
+                       f"than {kn.ENERGY_JUMP:g} of the energy in play, and " +
+                       ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
+        elif kind == kn.FAIL_ENERGY_BOUND:
+            message = (f"energy identity broken: the residual |E_plate + E_layer - W| reached "
+                       f"{diagnostics['energy_residual']:.2e} of the work (bound {kn.ENERGY_BOUND:g}; more "
+                       f"subintervals or a tighter tolerance may mend it); the run reached t = "
+                       f"{t_reached:.6g} s ({t_reached / t_sc:.4g} t_sc)")
+            if math.isfinite(diagnostics["bottoming_time"]):
+                message += ", where the layer bottomed out"
         else:
             message = (f"stopped {where} after {int(diag[kn.D_STEPS] + diag[kn.D_REJECTED])} attempted "
                        f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
+    if levels.size:
+        extra["located_crack_onset"] = {"upper": (level_t[0], level_x[0]), "lower": (level_t[1], level_x[1])}
     return Result(
         parameters=p, settings=s, times=times, x=x, fields=field_values,
         amplitudes=out_a, velocities=out_adot, contact_intervals=out_contacts, force=out_force,
@@ -355,11 +429,14 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         valid=valid, diagnostics=diagnostics, status=status, message=message,
         time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
         forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),
-        largest_step=float(diag[kn.D_H_MAX]), wall_time=wall, extra=extra)
+        largest_step=float(diag[kn.D_H_MAX]), wall_time=wall, tension_record=records,
+        contact_record=contact_record, extra=extra)
 
 
 def compile_kernels() -> None:
     """Compile (or load from numba's cache) every kernel by running a tiny case once."""
     p = Parameters(Nmod=2)
     solve(p, Settings(subintervals=16), times=[0.0, p.stage_duration], fields=FIELDS)
-    solve(p, Settings(integrator="rk4", subintervals=16), times=[0.0, p.stage_duration], fields=())
+    solve(p, Settings(integrator="rk4", subintervals=16), times=[0.0, p.stage_duration], fields=(),
+          locate_eps_Y=[1e-6])
+    crack_onset(np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]]), [0.5])

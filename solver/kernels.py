@@ -1,7 +1,11 @@
-r"""Numba kernels of the normal-mode impact model (MODEL_NOTES.md, "Equations").
+r"""Numba kernels of the normal-mode impact model (docs/model.md, "Equations" and "Numerics").
 
 Only scalars and float/int arrays cross the kernel boundary; kernels return status codes and
-never raise. :mod:`solver.core` is the one Python adapter that prepares their inputs.
+never raise. :mod:`solver.core` is the one Python adapter that prepares their inputs. The
+module is split by what the model is made of: the layer forcing (``layer_forcing``,
+``layer_energy``, ``count_contacts``), one integrator step (``etd_coefficients``,
+``take_step``), the in-loop observers of events (``observe_tension``, ``observe_contacts``,
+``gap_peak`` and ``locate_bottoming``) and the loop that drives them (``integrate``).
 
 Model, SI units, symmetric half plate 0 <= x <= L::
 
@@ -13,21 +17,18 @@ Model, SI units, symmetric half plate 0 <= x <= L::
     F(t)      = 2 K int_0^L f(delta) dx                 body force per unit width [N m-1]
     eps(x, t) = (hi/2) sum_n lambda_n^2 a_n cos(lambda_n x)   upper-surface strain
 
-Modal variables: z_n = a_n' + i omega_n a_n, so that z_n' = i omega_n z_n + P_n(t, a) exactly
-(MODEL_NOTES, "Numerical method"), and a_n = Im(z_n) / omega_n.  The plate energy is
-E_plate = sum_n L M_n |z_n|^2 / 2, so |z| weighted by L M_n is the energy norm used for error
-control. The work of the body W = int_0^t V F ds is integrated as one more component.
+Modal variables: z_n = a_n' + i omega_n a_n, so that z_n' = i omega_n z_n + P_n(t, a) exactly,
+and a_n = Im(z_n) / omega_n.  The plate energy is E_plate = sum_n L M_n |z_n|^2 / 2, so |z|
+weighted by L M_n is the energy norm used for error control. The work of the body
+W = int_0^t V F ds is integrated as one more component.
 
-Forcing quadrature (the seed's): [0, L] cut into J subintervals of width dx, f taken linear
+Forcing quadrature (the paper's): [0, L] cut into J subintervals of width dx, f taken linear
 on each, products with cos(lambda_n x) integrated exactly. Node weights of the hat functions:
     int hat_j(x) cos(lambda x) dx = c_j dx cos(lambda x_j) sinc^2(lambda dx / 2),
 c_j = 1/2 at x = 0 and x = L, 1 inside.  A subinterval where delta changes sign is split
 and only its compressed part is integrated: f is continued by f(delta) = delta for
 delta <= 0 (C1 at 0), interpolated linearly between the nodes, and cut at its zero xs.
-Splitting at the zero of the interpolated delta instead (the obvious choice) leaves a jump
-of (dx/2) f_j in dP/d(delta_j+1) each time a node changes sign, which happens about once
-a step and cost the adaptive integrator an order of accuracy; with the continuation P is
-C1 in the state.
+With the continuation P is C1 in the state.
 
 Integrators (both land exactly on every requested output time):
   * ``ETD34``: exponential Runge-Kutta with Krogstad's fourth-order stages and an embedded
@@ -42,8 +43,18 @@ Integrators (both land exactly on every requested output time):
         err = h (4 phi3 - phi2) (N4 - N5),  N5 = P(t + h, z+)  (reused as N1 of the next step)
     The modal oscillation is exact, so the step is limited only by how fast the forcing
     changes (the contact stiffness), not by omega_N.  A step is rejected and retried smaller
-    when the error exceeds the tolerance, is not finite, or any stage reaches delta >= 1.
-  * ``RK4``: the seed's classical Runge-Kutta on the same equations (fixed step).
+    when the error exceeds the tolerance, is not finite, any stage reaches delta >= 1, or the
+    energy identity jumps (see ``energy_jump``).
+  * ``RK4``: the paper's classical Runge-Kutta on the same equations (fixed step).
+
+Events, located inside the step from cubic Hermite interpolants of quantities whose value
+and time derivative are both known exactly at the two ends of an accepted step:
+  * tension: the peak of +eps (upper surface) and of -eps (lower surface) over x, with
+    d/dt max_x eps = eps_t at the peak (envelope theorem), eps_t from a_n' = Re z_n;
+  * contacts: delta at each quadrature node near the contact boundary, delta_t = (w_t + V)/he;
+  * bottoming: the largest delta over the continuous plate (parabola through the three
+    nodes around the largest node), located to the threshold 1 - BOTTOM_GAP by root finding
+    on true sub-steps of the integrator, so the run ends on a state the integrator computed.
 
 Analytic benchmark used by the tests: with K = 0 (layer off) and z_n(0) = i omega_n
 (a_n(0) = 1), both integrators must return a_n(t) = cos(omega_n t); ETD34 to round-off.
@@ -58,7 +69,8 @@ OK = 0
 LAYER_BOTTOMED_OUT = 1
 NONFINITE = 2
 STEP_LIMIT = 3
-STATUS_NAMES = ("ok", "layer_bottomed_out", "nonfinite", "step_limit")
+ENERGY_VIOLATION = 4
+STATUS_NAMES = ("ok", "layer_bottomed_out", "nonfinite", "step_limit", "energy_violation")
 
 # integrator codes
 ETD34 = 0
@@ -68,9 +80,9 @@ RK4 = 1
 D_MAX_UPPER, D_MAX_UPPER_X, D_MAX_UPPER_T = 0, 1, 2      # max eps (tension, upper surface)
 D_MAX_LOWER, D_MAX_LOWER_X, D_MAX_LOWER_T = 3, 4, 5      # max -eps (tension, lower surface)
 D_MAX_ABS, D_MAX_ABS_X, D_MAX_ABS_T = 6, 7, 8            # max |eps|
-D_CRACK_UPPER_T, D_CRACK_UPPER_X = 9, 10                 # first time max eps > eps_Y
-D_CRACK_LOWER_T, D_CRACK_LOWER_X = 11, 12                # first time max -eps > eps_Y
-D_MAX_CONTACTS = 13                                      # max number of contact intervals
+D_BOTTOM_T, D_BOTTOM_X, D_BOTTOM_SPEED = 9, 10, 11       # located bottoming event
+D_ENERGY_JUMPS = 12        # steps rejected because the energy identity jumped
+D_MAX_CONTACTS = 13        # max number of contact intervals (events inside steps counted)
 D_MAX_FORCE, D_MAX_FORCE_T = 14, 15
 D_MAX_DELTA, D_MAX_DELTA_T = 16, 17
 D_ENERGY_RESIDUAL = 18     # max_t |E_plate + E_layer - W| / W(t_reached)
@@ -91,11 +103,67 @@ FAIL_STEP_UNDERFLOW = 2    # error control drove the step below h_min
 FAIL_BOTTOMED = 3          # every retry down to h_min had a stage with delta >= 1
 FAIL_FIXED_STEP = 4        # a fixed-step run met delta >= 1 or a non-finite state
 FAIL_NONFINITE = 5         # non-finite state with the adaptive step at h_min
+FAIL_LOCATED = 6           # the gap closed to BOTTOM_GAP: located bottoming event
+FAIL_ENERGY_JUMP = 7       # the energy identity jumped and no smaller step mended it
+FAIL_ENERGY_BOUND = 8      # the run ended with its energy residual above ENERGY_BOUND
 
-#: a step underflow with delta above this is the layer bottoming out, not an integrator failure
-BOTTOM_DELTA = 1.0 - 1e-6
+#: the layer has bottomed out when its gap he (1 - delta) closes to BOTTOM_GAP he anywhere
+#: on the plate; the pressure there is K / BOTTOM_GAP = 1000 K (8 GPa for the paper's layer:
+#: crushed). A larger threshold is less sensitive to grazing approaches: with 1e-6 a bounce
+#: whose smallest gap was 1.05e-6 at tolerance 1e-8 crossed it at 1e-9 (N = 40, V = 10 m/s,
+#: hi = 1 m); after the threshold the gap closes within ~he BOTTOM_GAP / V, ~1e-6 s
+BOTTOM_GAP = 1e-3
+#: energy guard: a step may change the residual E_plate + E_layer - W by at most
+#:     ENERGY_JUMP max(W, E_plate + E_layer) + min(1, (RESOLVED_NODES / n_c)^2) |dW|,
+#: n_c the compressed nodes: the quadrature's own mismatch is about |dW| (dx / width)^2, O(1)
+#: of the tiny energies of first touch. Normal runs (reference case, thin and thick ice, stiff
+#: and thin layers, fast impacts; etd34 and rk4) use at most 10% of this allowance.
+ENERGY_JUMP = 1e-3
+RESOLVED_NODES = 4
+#: an adaptive step is at most GROWTH (t - t_start) (after a first step h_init): the tension
+#: grows like t^3.5 from first touch, and a cubic Hermite interpolant of t^a over a step h at
+#: time t misplaces a level by about 0.005 (h/t)^4 of t, 5e-7 at GROWTH = 0.1
+#: the peak tension is sampled at TENSION_SAMPLES - 1 points inside each step, from the
+#: exponential dense output: modes that oscillate within a step (omega h ~ 5 at N = 60) give
+#: the peak a 3e-4 wobble inside the step that the step ends alone cannot see
+TENSION_SAMPLES = 8
+#: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
+#: it (the wobble inside a step is ~3e-4): it is not sampled
+RIPPLE = 1e-2
+#: when the layer is within GAP_WATCH of bottoming, a step's local error of delta at the gap
+#: must stay below GAP_ACCURACY times the gap 1 - delta
+GAP_WATCH = 1e-2
+GAP_ACCURACY = 0.1
+#: local peaks within PEAK_MARGIN (relative) of the largest node compete for the global peak
+PEAK_MARGIN = 0.02
+#: an event is bracketed by scanning its step at SCAN sub-steps, so the first crossing is found
+SCAN = 8
+GROWTH = 0.1
+#: the peak tension is sampled at TENSION_SAMPLES - 1 points inside each step, from the
+#: exponential dense output: modes that oscillate within a step (omega h ~ 5 at N = 60) give
+#: the peak a 3e-4 wobble inside the step that the step ends alone cannot see
+TENSION_SAMPLES = 8
+#: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
+#: it (the wobble inside a step is ~3e-4): it is not sampled
+RIPPLE = 1e-2
+#: when the layer is within GAP_WATCH of bottoming, a step's local error of delta at the gap
+#: must stay below GAP_ACCURACY times the gap 1 - delta
+GAP_WATCH = 1e-2
+GAP_ACCURACY = 0.1
+#: local peaks within PEAK_MARGIN (relative) of the largest node compete for the global peak
+PEAK_MARGIN = 0.02
+#: an event is bracketed by scanning its step at SCAN sub-steps, so the first crossing is found
+SCAN = 8
+#: a run whose energy residual ends above this fraction of the work ends energy_violation
+ENERGY_BOUND = 1e-3
 
-_BISECTIONS = 40
+# columns of a tension record row (see observe_tension)
+R_T, R_VALUE, R_RATE, R_X, R_JOIN = 0, 1, 2, 3, 4
+N_REC = 5
+
+# rows of the packed per-mode table ``modes`` and entries of the layer vector ``lay``
+M_OMEGA, M_COEF, M_STRAIN, M_LM = 0, 1, 2, 3
+L_LAM1, L_DX, L_V, L_R, L_HE, L_K = 0, 1, 2, 3, 4, 5
 
 
 # ---------------------------------------------------------------------------------------
@@ -286,10 +354,11 @@ def count_contacts(delta, jmax):
 
 
 # ---------------------------------------------------------------------------------------
-# strain diagnostics
+# plate: strain at the nodes, peaks over x, a sum of modes at one point
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _strain_nodes(a, strain_coef, cosq, eps):
+def strain_nodes(a, strain_coef, cosq, eps):
+    """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node."""
     J = eps.shape[0]
     for j in range(J):
         eps[j] = 0.0
@@ -301,81 +370,770 @@ def _strain_nodes(a, strain_coef, cosq, eps):
 
 
 @njit(cache=True, nogil=True)
-def _peak(eps, sign, dx):
-    """Largest sign*eps over the nodes, refined by a parabola through three nodes.
+def mode_sum(w, c, lam1, x):
+    """sum_n w_n c_n cos(lambda_n x), lambda_n = n lam1 (the cosines by rotation)."""
+    rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
+    cur = rot
+    total = 0.0
+    for n in range(c.shape[0]):
+        total += w[n] * c[n] * cur.real
+        cur *= rot
+    return total
 
-    The strain is even about x = 0 and about x = L, so a peak on an end node is exact.
-    Returns (value, x).
-    """
-    J = eps.shape[0]
+
+@njit(cache=True, nogil=True)
+def argmax_node(vals, sign, n):
+    """Node j < n of the largest sign * vals[j] (the first one on ties)."""
     jbest = 0
-    best = sign * eps[0]
-    for j in range(1, J):
-        v = sign * eps[j]
+    best = sign * vals[0]
+    for j in range(1, n):
+        v = sign * vals[j]
         if v > best:
             best = v
             jbest = j
-    if jbest == 0 or jbest == J - 1:
-        return best, jbest * dx
-    em = sign * eps[jbest - 1]
-    ep = sign * eps[jbest + 1]
+    return jbest
+
+
+@njit(cache=True, nogil=True)
+def climb(vals, sign, j, n):
+    """From node j, move to the larger neighbour while sign * vals grows: a local peak."""
+    while True:
+        best = j
+        v = sign * vals[j]
+        if j > 0 and sign * vals[j - 1] > v:
+            best = j - 1
+            v = sign * vals[j - 1]
+        if j < n - 1 and sign * vals[j + 1] > v:
+            best = j + 1
+        if best == j:
+            return j
+        j = best
+
+
+@njit(cache=True, nogil=True)
+def refine(vals, sign, j, n, dx):
+    """sign * vals at the peak near node j over continuous x: a parabola through j - 1, j,
+    j + 1. On an end node (x = 0, the symmetry line; x = L, the wall) the node value.
+    Returns (value, x)."""
+    best = sign * vals[j]
+    if j == 0 or j == n - 1:
+        return best, j * dx
+    em = sign * vals[j - 1]
+    ep = sign * vals[j + 1]
     curv = em - 2.0 * best + ep
     if curv >= 0.0:
-        return best, jbest * dx
+        return best, j * dx
     off = 0.5 * (em - ep) / curv
-    return best - 0.25 * (em - ep) * off, (jbest + off) * dx
+    return best - 0.25 * (em - ep) * off, (j + off) * dx
 
 
 @njit(cache=True, nogil=True)
-def _dense_a(z0, N0, N1, omega, h, s, a):
-    """a(t0 + s) from z(t0 + s) = e^{i w s} z0 + s phi1 N0 + (s^2/h) phi2 (N1 - N0).
-
-    Exact solution of z' = i w z + P with P linear in time between the step's end values.
-    """
-    for n in range(z0.shape[0]):
-        y = omega[n] * s
-        p1, p2, p3 = phi_functions(y)
-        e = complex(math.cos(y), math.sin(y))
-        z = e * z0[n] + s * p1 * N0[n] + (s * s / h) * p2 * (N1[n] - N0[n])
-        a[n] = z.imag / omega[n]
+def mode_sums(w, c, lam1, x):
+    """sum_n w_n c_n (cos, -lambda_n sin, -lambda_n^2 cos)(lambda_n x): a modal field and its
+    first two x-derivatives at one point."""
+    rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
+    cur = rot
+    s0 = 0.0
+    s1 = 0.0
+    s2 = 0.0
+    for n in range(c.shape[0]):
+        lam = lam1 * (n + 1)
+        wc = w[n] * c[n]
+        s0 += wc * cur.real
+        s1 -= wc * lam * cur.imag
+        s2 -= wc * lam * lam * cur.real
+        cur *= rot
+    return s0, s1, s2
 
 
 @njit(cache=True, nogil=True)
-def _locate_crossing(z0, N0, N1, omega, h, t0, sign, eps_Y, strain_coef, cosq, dx, a, eps):
-    """Bisection in the step (t0, t0 + h] for the first time max(sign * eps) = eps_Y."""
-    lo = 0.0
-    hi = h
-    for _ in range(_BISECTIONS):
+def continuous_peak(vals, sign, j, n, dx, w, c, lam1, scale, q2, q0):
+    """Largest value over continuous x near node j of the field
+        v(x) = sign * scale * sum_n w_n c_n cos(lambda_n x) + q2 x^2 + q0,
+    whose node values are sign * vals: Newton on v' from the parabola through j - 1, j, j + 1,
+    kept within [x_{j-1}, x_{j+1}]. On an end node (x = 0, the symmetry line; x = L, the wall)
+    the node. Returns (value, x). Refining on the modes, not on the node values, keeps the
+    peak a smooth function of time (a parabola through nodes wobbles by ~1e-4 of a sharp peak
+    each time the peak crosses a node)."""
+    if j == 0 or j == n - 1:
+        return sign * vals[j], j * dx
+    v, x = refine(vals, sign, j, n, dx)
+    xlo = (j - 1) * dx
+    xhi = (j + 1) * dx
+    for _ in range(8):
+        s0, s1, s2 = mode_sums(w, c, lam1, x)
+        d1 = sign * scale * s1 + 2.0 * q2 * x
+        d2 = sign * scale * s2 + 2.0 * q2
+        if not d2 < 0.0:
+            break
+        xn = min(max(x - d1 / d2, xlo), xhi)
+        done = abs(xn - x) <= 1e-12 * dx
+        x = xn
+        if done:
+            break
+    s0, s1, s2 = mode_sums(w, c, lam1, x)
+    return sign * scale * s0 + q2 * x * x + q0, x
+
+
+@njit(cache=True, nogil=True)
+def global_peak(eps, sign, dx, w, a, lam1):
+    """The global peak of sign * eps over continuous x: every local maximum of the nodes within
+    PEAK_MARGIN of the largest node is refined on the modes (a sharp peak between nodes can
+    rise above a larger node elsewhere by up to (lambda_N dx)^2 / 8 of itself, 0.4% at N = 60).
+    Returns (value, x, node)."""
+    J = eps.shape[0]
+    jtop = argmax_node(eps, sign, J)
+    top = sign * eps[jtop]
+    floor = top - PEAK_MARGIN * abs(top)
+    bv, bx = continuous_peak(eps, sign, jtop, J, dx, w, a, lam1, 1.0, 0.0, 0.0)
+    bj = jtop
+    for j in range(J):
+        v = sign * eps[j]
+        if j == jtop or v < floor:
+            continue
+        if (j > 0 and sign * eps[j - 1] > v) or (j < J - 1 and sign * eps[j + 1] > v):
+            continue
+        cv, cx = continuous_peak(eps, sign, j, J, dx, w, a, lam1, 1.0, 0.0, 0.0)
+        if cv > bv:
+            bv, bx, bj = cv, cx, j
+    return bv, bx, bj
+
+
+# ---------------------------------------------------------------------------------------
+# cubic Hermite interpolants on a step: p(th), th = (t - t0) / h in [0, 1]
+# ---------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def hermite(p0, p1, r0, r1, h):
+    """Power-basis coefficients of the cubic with p(0) = p0, p(1) = p1 and time derivatives
+    r0, r1 at the ends of a step of length h."""
+    c2 = 3.0 * (p1 - p0) - h * (2.0 * r0 + r1)
+    c3 = 2.0 * (p0 - p1) + h * (r0 + r1)
+    return p0, h * r0, c2, c3
+
+
+@njit(cache=True, nogil=True)
+def cubic(c0, c1, c2, c3, th):
+    return c0 + th * (c1 + th * (c2 + th * c3))
+
+
+@njit(cache=True, nogil=True)
+def cubic_breaks(c1, c2, c3, out):
+    """0, the critical points in (0, 1) in increasing order, 1: the cubic is monotone
+    between consecutive breaks. Returns how many were written to out (2 to 4)."""
+    n = 1
+    out[0] = 0.0
+    A = 3.0 * c3
+    B = 2.0 * c2
+    r1 = -1.0
+    r2 = -1.0
+    if abs(A) <= 1e-14 * (abs(B) + abs(c1)):
+        if B != 0.0:
+            r1 = -c1 / B
+    else:
+        disc = B * B - 4.0 * A * c1
+        if disc >= 0.0:
+            q = -0.5 * (B + math.copysign(math.sqrt(disc), B))
+            r1 = q / A
+            if q != 0.0:
+                r2 = c1 / q
+    if r2 < r1:
+        r1, r2 = r2, r1
+    if 0.0 < r1 < 1.0:
+        out[n] = r1
+        n += 1
+    if 0.0 < r2 < 1.0 and r2 != r1:
+        out[n] = r2
+        n += 1
+    out[n] = 1.0
+    return n + 1
+
+
+@njit(cache=True, nogil=True)
+def cubic_max(c0, c1, c2, c3):
+    """(max, argmax) of the cubic over [0, 1]."""
+    br = np.empty(4)
+    nb = cubic_breaks(c1, c2, c3, br)
+    best = -np.inf
+    tb = 0.0
+    for i in range(nb):
+        v = cubic(c0, c1, c2, c3, br[i])
+        if v > best:
+            best = v
+            tb = br[i]
+    return best, tb
+
+
+@njit(cache=True, nogil=True)
+def _bisect(c0, c1, c2, c3, level, lo, hi):
+    """th in [lo, hi] where the monotone cubic crosses level (to round-off)."""
+    above_hi = cubic(c0, c1, c2, c3, hi) > level
+    for _ in range(60):
         mid = 0.5 * (lo + hi)
-        _dense_a(z0, N0, N1, omega, h, mid, a)
-        _strain_nodes(a, strain_coef, cosq, eps)
-        v, x = _peak(eps, sign, dx)
-        if v > eps_Y:
+        if mid <= lo or mid >= hi:
+            break
+        if (cubic(c0, c1, c2, c3, mid) > level) == above_hi:
             hi = mid
         else:
             lo = mid
-    _dense_a(z0, N0, N1, omega, h, hi, a)
-    _strain_nodes(a, strain_coef, cosq, eps)
-    v, x = _peak(eps, sign, dx)
-    return t0 + hi, x
+    return hi
+
+
+@njit(cache=True, nogil=True)
+def cubic_first_reach(c0, c1, c2, c3, level):
+    """Smallest th in [0, 1] with p(th) >= level, or -1 if the cubic stays below level."""
+    if c0 >= level:
+        return 0.0
+    br = np.empty(4)
+    nb = cubic_breaks(c1, c2, c3, br)
+    for i in range(nb - 1):
+        if cubic(c0, c1, c2, c3, br[i + 1]) >= level:
+            return _bisect(c0, c1, c2, c3, level, br[i], br[i + 1])
+    return -1.0
+
+
+@njit(cache=True, nogil=True)
+def cubic_sign_changes(c0, c1, c2, c3, out):
+    """The th in (0, 1] where p changes between > 0 and <= 0, increasing; returns the count."""
+    br = np.empty(4)
+    nb = cubic_breaks(c1, c2, c3, br)
+    n = 0
+    for i in range(nb - 1):
+        lo, hi = br[i], br[i + 1]
+        if (cubic(c0, c1, c2, c3, lo) > 0.0) != (cubic(c0, c1, c2, c3, hi) > 0.0):
+            out[n] = _bisect(c0, c1, c2, c3, 0.0, lo, hi)
+            n += 1
+    return n
+
+
+# ---------------------------------------------------------------------------------------
+# one step of the integrator
+# ---------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def etd_coefficients(omega, h, C):
+    """ETD34 coefficients of a step h for every mode, rows of C (9, N): e^{zeta}, e^{zeta/2},
+    then the stage and update weights of the scheme in the module docstring."""
+    for n in range(omega.shape[0]):
+        y = omega[n] * h
+        p1, p2, p3 = phi_functions(y)
+        q1, q2, q3 = phi_functions(0.5 * y)
+        C[0, n] = complex(math.cos(y), math.sin(y))
+        C[1, n] = complex(math.cos(0.5 * y), math.sin(0.5 * y))
+        C[2, n] = 0.5 * h * q1
+        C[3, n] = h * q2
+        C[4, n] = h * p1
+        C[5, n] = 2.0 * h * p2
+        C[6, n] = h * (p1 - 3.0 * p2 + 4.0 * p3)
+        C[7, n] = h * (2.0 * p2 - 4.0 * p3)
+        C[8, n] = h * (4.0 * p3 - p2)
+
+
+@njit(cache=True, nogil=True)
+def _stage(t, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, P):
+    for n in range(zs.shape[0]):
+        a_work[n] = zs[n].imag / omega[n]
+    return layer_forcing(t, a_work, lay[L_LAM1], coef, cosq, wq, lay[L_DX], lay[L_V], lay[L_R],
+                         lay[L_HE], lay[L_K], delta, fvals, P)
+
+
+@njit(cache=True, nogil=True)
+def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cosq, wq, cw, rw,
+              fvals, delta, z_out, N_out, err):
+    """One step from (t, z) to t_new = t + h with N1 = P(t, z), F1 = F(t), W(t) = work.
+
+    C holds etd_coefficients(omega, h) (RK4 uses them for its error estimate); cw (2, N)
+    and rw (4, N) are scratch. Fills z_out = z(t_new), N_out = P(t_new, z_out), delta (the
+    nodes at t_new) and err (the local error estimate). Returns (status, F(t_new),
+    jmax(t_new), W(t_new), event): status 1 if a stage reached delta >= 1 (outputs then
+    meaningless); event if the number of contact intervals changed among the stages.
+    """
+    omega = modes[M_OMEGA]
+    coef = modes[M_COEF]
+    zs = cw[0]
+    incr = cw[1]
+    a_work = rw[0]
+    N2 = rw[1]
+    N3 = rw[2]
+    N4 = rw[3]
+    N = z.shape[0]
+    th = t + 0.5 * h
+    event = False
+    F2 = F3 = F4 = F5 = 0.0
+    jm = 0
+    if method == ETD34:
+        for n in range(N):
+            zs[n] = C[1, n] * z[n] + C[2, n] * N1[n]
+        st, F2, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        event = st == 0 and count_contacts(delta, jm) != contacts
+        if st == 0:
+            for n in range(N):
+                zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
+            st, F3, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            event = event or (st == 0 and count_contacts(delta, jm) != contacts)
+        if st == 0:
+            for n in range(N):
+                zs[n] = C[0, n] * z[n] + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
+            st, F4, jm = _stage(t_new, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            event = event or (st == 0 and count_contacts(delta, jm) != contacts)
+        if st == 0:
+            for n in range(N):
+                z_out[n] = C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n]) + C[8, n] * N4[n]
+            st, F5, jm = _stage(t_new, z_out, omega, a_work, lay, coef, cosq, wq, delta, fvals, N_out)
+        if st != 0:
+            return 1, 0.0, jm, work, event
+        event = event or count_contacts(delta, jm) != contacts
+        if event:
+            # z+ minus the exponential trapezoid e^{zeta} z + h(phi1 - phi2) N1 + h phi2 N5: the
+            # embedded estimate reads zero where the forcing is only (t - t*)^{3/2} smooth
+            for n in range(N):
+                err[n] = z_out[n] - (C[0, n] * z[n] + (C[4, n] - 0.5 * C[5, n]) * N1[n]
+                                     + 0.5 * C[5, n] * N_out[n])
+        else:
+            for n in range(N):
+                err[n] = C[8, n] * (N4[n] - N_out[n])
+    else:
+        # classical RK4 on z' = i w z + P
+        for n in range(N):
+            k1 = 1j * omega[n] * z[n] + N1[n]
+            incr[n] = k1                     # accumulates k1 + 2 k2 + 2 k3
+            zs[n] = z[n] + 0.5 * h * k1
+        st, F2, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        if st == 0:
+            for n in range(N):
+                k2 = 1j * omega[n] * zs[n] + N2[n]
+                incr[n] += 2.0 * k2
+                zs[n] = z[n] + 0.5 * h * k2
+            st, F3, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+        if st == 0:
+            for n in range(N):
+                k3 = 1j * omega[n] * zs[n] + N3[n]
+                incr[n] += 2.0 * k3
+                zs[n] = z[n] + h * k3
+            st, F4, jm = _stage(t_new, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+        if st == 0:
+            for n in range(N):
+                k4 = 1j * omega[n] * zs[n] + N4[n]
+                z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
+            st, F5, jm = _stage(t_new, z_out, omega, a_work, lay, coef, cosq, wq, delta, fvals, N_out)
+        if st != 0:
+            return 1, 0.0, jm, work, event
+        event = count_contacts(delta, jm) != contacts
+        # error estimate: RK4 against the exponential (Krogstad) update from the same stage
+        # values; RK4's Taylor approximation of e^{i w h} dominates its error
+        for n in range(N):
+            err[n] = z_out[n] - (C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n])
+                                 + C[8, n] * N4[n])
+    w_new = work + h * lay[L_V] * (F1 / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
+    return 0, F5, jm, w_new, event
+
+
+@njit(cache=True, nogil=True)
+def dense_states(z0, N1, Nm, N5, omega, h, A, AD):
+    """a_n and a_n' at t0 + k h / K, k = 1..K-1 (K = A.shape[0] + 1), inside an accepted step.
+
+    Exponential dense output: the modal oscillation exact, the forcing quadratic in time
+    through P(t0) = N1, the mid stage Nm ~ P(t0 + h/2) and P(t0 + h) = N5:
+        P(t0 + s) = N1 + b1 s + b2 s^2,  z(s) = e^{i w s} z0 + s phi1 N1 + b1 s^2 phi2 + 2 b2 s^3 phi3
+    (phi_k of i w s). It resolves modes that oscillate within the step, which a polynomial
+    through the step ends cannot.
+    """
+    K = A.shape[0] + 1
+    for n in range(z0.shape[0]):
+        w = omega[n]
+        b1 = (4.0 * Nm[n] - 3.0 * N1[n] - N5[n]) / h
+        b2 = 2.0 * (N1[n] - 2.0 * Nm[n] + N5[n]) / (h * h)
+        rot = complex(math.cos(w * h / K), math.sin(w * h / K))
+        e = 1.0 + 0j
+        for k in range(1, K):
+            sk = k * h / K
+            y = w * sk
+            e *= rot
+            if y < 1.0:
+                p1, p2, p3 = phi_functions(y)
+            else:                       # closed forms; 1 / (i y) = -i / y
+                inv = -1j / y
+                iy = 1j * y
+                p1 = (e - 1.0) * inv
+                p2 = (e - 1.0 - iy) * inv * inv
+                p3 = (e - 1.0 - iy + 0.5 * y * y) * inv * inv * inv
+            z = e * z0[n] + sk * p1 * N1[n] + b1 * sk * sk * p2 + 2.0 * b2 * sk * sk * sk * p3
+            A[k - 1, n] = z.imag / w
+            AD[k - 1, n] = z.real
+
+
+@njit(cache=True, nogil=True)
+def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
+    """Peak of sign * sum_n w_n a_n cos(lambda_n x) near x (Newton, kept in [xlo, xhi]) and its
+    rate sign * sum_n w_n a_n' cos(lambda_n x*): track[:3] = (value, rate, x)."""
+    for _ in range(8):
+        s0, s1, s2 = mode_sums(w, a, lam1, x)
+        if not sign * s2 < 0.0:
+            break
+        xn = min(max(x - s1 / s2, xlo), xhi)
+        done = abs(xn - x) <= 1e-12 * (xhi - xlo)
+        x = xn
+        if done:
+            break
+    s0, s1, s2 = mode_sums(w, a, lam1, x)
+    track[0] = sign * s0
+    track[1] = sign * mode_sum(w, adot, lam1, x)
+    track[2] = x
+
+
+# ---------------------------------------------------------------------------------------
+# observers: tension record, contact events, the gap
+# ---------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _append(buf, n, row0, row1, row2, row3, row4):
+    """Append a row (the first columns of it) to a growable record; returns (buf, n)."""
+    if n == buf.shape[0]:
+        bigger = np.empty((2 * buf.shape[0], buf.shape[1]))
+        bigger[:n] = buf[:n]
+        buf = bigger
+    buf[n, 0] = row0
+    buf[n, 1] = row1
+    if buf.shape[1] > 2:
+        buf[n, 2] = row2
+        buf[n, 3] = row3
+        buf[n, 4] = row4
+    return buf, n + 1
+
+
+@njit(cache=True, nogil=True)
+def peak_state(eps, sign, j, a, adot, strain_coef, lam1, dx, track):
+    """Peak of sign * eps over continuous x near node j (climbing to the local peak) and its
+    time derivative d/dt = sign * eps_t at the peak (envelope theorem):
+    track[:] = (value, rate, x, node)."""
+    J = eps.shape[0]
+    jp = climb(eps, sign, j, J)
+    v, x = continuous_peak(eps, sign, jp, J, dx, strain_coef, a, lam1, 1.0, 0.0, 0.0)
+    track[0] = v
+    track[1] = sign * mode_sum(strain_coef, adot, lam1, x)
+    track[2] = x
+    track[3] = jp
+
+
+@njit(cache=True, nogil=True)
+def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples, rec, n,
+                   joinable, run_max, best):
+    """The peak of one track over the step: from p0 (t0) to p1 (t0 + h), each (value, rate,
+    x), through the dense-output states A, AD inside the step (computed from dz = (z0, N1,
+    N_mid, N5, omega) when dense[0] is False; samples[k] receives the larger of the peaks
+    followed forward from x0 and backward from x1). Stored as consecutive record rows when it rises above
+    run_max; best receives (max, time, x) of the piece. Returns (rec, n, stored).
+    """
+    K = A.shape[0] + 1
+    c0, c1, c2, c3 = hermite(p0[0], p1[0], p0[1], p1[1], h)
+    vmax, th = cubic_max(c0, c1, c2, c3)
+    if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
+        best[0] = vmax
+        best[1] = t0 + th * h
+        best[2] = p0[2] + th * (p1[2] - p0[2])
+        return rec, n, False
+    if not dense[0]:                             # the step's dense states, once per step
+        dense_states(dz[0], dz[1], dz[2], dz[3], dz[4], h, A, AD)
+        dense[0] = True
+    # follow the peak forward from p0 and backward from p1, each sample by Newton near the
+    # previous one; keep the larger (the global peak may pass from one local peak to another)
+    xf = p0[2]
+    for k in range(1, K):
+        peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, strain_coef, A[k - 1],
+                  AD[k - 1], lam1, samples[k])
+        xf = samples[k, 2]
+    xb = p1[2]
+    back = np.empty(3)
+    for k in range(K - 1, 0, -1):
+        peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, strain_coef, A[k - 1],
+                  AD[k - 1], lam1, back)
+        xb = back[2]
+        if back[0] > samples[k, 0]:
+            samples[k, :3] = back
+    samples[0, :3] = p0[:3]
+    samples[K, :3] = p1[:3]
+    hk = h / K
+    best[0] = -np.inf
+    for k in range(K):
+        c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
+        vmax, th = cubic_max(c0, c1, c2, c3)
+        if vmax > best[0]:
+            best[0] = vmax
+            best[1] = t0 + (k + th) * hk
+            best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
+    if not best[0] > run_max:
+        return rec, n, False
+    if not joinable:
+        rec, n = _append(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
+    for k in range(1, K + 1):
+        rec, n = _append(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
+    return rec, n, True
+
+
+@njit(cache=True, nogil=True)
+def observe_tension(sign, t0, h, eps0, eps1, a0, a1, adot0, adot1, dz, A, AD, dense, strain_coef, lam1,
+                    dx, L, state, scratch, samples, rec, n, joinable, run_max, best):
+    """Running-maximum record of the tension sign * eps over the step [t0, t0 + h].
+
+    ``state`` holds (value, rate, x, node) of the global peak at t0 and receives it at t1.
+    The peak is followed from the step's start to its end through TENSION_SAMPLES - 1 samples
+    of the dense output inside the step (see _tension_piece); between consecutive samples the
+    record is the cubic Hermite interpolant of (value, rate). A step is stored when it rises
+    above ``run_max``, the running maximum so far. Where the global peak switches from one
+    local peak (A) to another (B) within the step, both tracks are followed on their own. Rows of rec: (t, value, rate, x, join), join = 1 when the
+    row continues the previous one. Returns (rec, n, joinable, run_max); best receives the
+    (max, time, x) of the step.
+    """
+    J = eps1.shape[0]
+    p0 = scratch[4]
+    p0[:] = state[:4]
+    j0 = int(p0[3])
+    p1 = scratch[0]
+    peak_state(eps1, sign, global_peak(eps1, sign, dx, strain_coef, a1, lam1)[2], a1, adot1, strain_coef,
+               lam1, dx, p1)
+    jb0 = climb(eps0, sign, int(p1[3]), J)
+    best[0] = -np.inf
+    piece = scratch[2]
+    if jb0 == j0:                                   # one track through the step
+        rec, n, stored = _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples,
+                                        rec, n, joinable, run_max, piece)
+        joinable = stored
+        if piece[0] > best[0]:
+            best[:3] = piece[:3]
+    else:                                           # the global peak moved to another local peak
+        pa1 = scratch[1]                            # track A (the old peak) at t1
+        peak_state(eps1, sign, j0, a1, adot1, strain_coef, lam1, dx, pa1)
+        rec, n, stored = _tension_piece(sign, t0, h, p0, pa1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples,
+                                        rec, n, joinable, run_max, piece)
+        if piece[0] > best[0]:
+            best[:3] = piece[:3]
+        pb0 = scratch[3]                            # track B (the new peak) at t0
+        peak_state(eps0, sign, jb0, a0, adot0, strain_coef, lam1, dx, pb0)
+        rec, n, stored = _tension_piece(sign, t0, h, pb0, p1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples,
+                                        rec, n, False, run_max, piece)
+        joinable = stored
+        if piece[0] > best[0]:
+            best[:3] = piece[:3]
+    if best[0] > run_max:
+        run_max = best[0]
+    state[:4] = p1[:4]
+    return rec, n, joinable, run_max
+
+
+@njit(cache=True, nogil=True)
+def node_delta(a, cosq, j, t, lay):
+    """delta at node j from the amplitudes a at time t."""
+    w = 0.0
+    for n in range(a.shape[0]):
+        w += a[n] * cosq[n, j]
+    x = j * lay[L_DX]
+    return (w + lay[L_V] * t - x * x / (2.0 * lay[L_R])) / lay[L_HE]
+
+
+@njit(cache=True, nogil=True)
+def _node_rate(adot, cosq, j, lay):
+    w = 0.0
+    for n in range(adot.shape[0]):
+        w += adot[n] * cosq[n, j]
+    return (w + lay[L_V]) / lay[L_HE]
+
+
+@njit(cache=True, nogil=True)
+def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, cosq, lay, sgn,
+                     ev_th, ev_j, contacts, rec, n):
+    """Changes of the number of contact intervals inside the step [t0, t0 + h].
+
+    delta at a node near the contact boundary is interpolated by the cubic Hermite of its
+    end values and rates; every sign change is an event, applied in time order to the sign
+    pattern, which is recounted. A node whose interval opens and closes within the step is
+    seen too. Rows of rec: (t, count after the change). Returns (contacts at t1, rec, n,
+    largest count in the step).
+    """
+    he = lay[L_HE]
+    V = lay[L_V]
+    jm = max(jm0, jm1)
+    for j in range(jm0, jm):            # nodes outside the computed range: certainly < 0
+        delta0[j] = node_delta(a0, cosq, j, t0, lay)
+    for j in range(jm1, jm):
+        delta1[j] = node_delta(a1, cosq, j, t0 + h, lay)
+    speed = 0.0
+    s0 = 0.0
+    s1 = 0.0
+    for k in range(adot0.shape[0]):
+        s0 += abs(adot0[k])
+        s1 += abs(adot1[k])
+    speed = (2.0 * max(s0, s1) + V) / he    # a bound on |d delta / dt| within the step
+    n_ev = 0
+    roots = np.empty(3)
+    for j in range(jm):
+        d0 = delta0[j]
+        d1 = delta1[j]
+        sgn[j] = 1.0 if d0 > 0.0 else -1.0
+        mid = 0.5 * (d0 + d1)
+        if (d0 > 0.0) == (d1 > 0.0):
+            if d0 > 0.0 and mid - 0.5 * speed * h > 0.0:
+                continue
+            if not d0 > 0.0 and mid + 0.5 * speed * h <= 0.0:
+                continue
+        c0, c1, c2, c3 = hermite(d0, d1, _node_rate(adot0, cosq, j, lay),
+                                 _node_rate(adot1, cosq, j, lay), h)
+        k = cubic_sign_changes(c0, c1, c2, c3, roots)
+        for i in range(k):
+            if n_ev < ev_th.shape[0]:
+                ev_th[n_ev] = roots[i]
+                ev_j[n_ev] = j
+                n_ev += 1
+    largest = contacts
+    if n_ev == 0:
+        return contacts, rec, n, largest
+    for i in range(1, n_ev):            # insertion sort by time
+        th = ev_th[i]
+        jj = ev_j[i]
+        m = i - 1
+        while m >= 0 and ev_th[m] > th:
+            ev_th[m + 1] = ev_th[m]
+            ev_j[m + 1] = ev_j[m]
+            m -= 1
+        ev_th[m + 1] = th
+        ev_j[m + 1] = jj
+    for i in range(n_ev):
+        j = int(ev_j[i])
+        sgn[j] = -sgn[j]
+        c = count_contacts(sgn, jm)
+        if c != contacts:
+            rec, n = _append(rec, n, t0 + ev_th[i] * h, c, 0.0, 0.0, 0.0)
+            contacts = c
+            if c > largest:
+                largest = c
+    final = count_contacts(delta1, jm)
+    if final != contacts:               # the end pattern is exact: it wins
+        rec, n = _append(rec, n, t0 + h, final, 0.0, 0.0, 0.0)
+        contacts = final
+        if final > largest:
+            largest = final
+    return contacts, rec, n, largest
+
+
+@njit(cache=True, nogil=True)
+def gap_peak(t, delta, jm, a, adot, ones, lay, out):
+    """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x).
+
+    delta holds the nodes j < jm (beyond them delta < 0); the peak is refined on the modes.
+    """
+    he = lay[L_HE]
+    n = jm if jm < delta.shape[0] else delta.shape[0]
+    j = argmax_node(delta, 1.0, n)
+    if j == n - 1 and n < delta.shape[0]:
+        v, x = delta[j], j * lay[L_DX]     # the next node is outside the computed range
+    else:
+        v, x = continuous_peak(delta, 1.0, j, n, lay[L_DX], ones, a, lay[L_LAM1], 1.0 / he,
+                               -0.5 / (lay[L_R] * he), lay[L_V] * t / he)
+    out[0] = v
+    out[1] = (mode_sum(ones, adot, lay[L_LAM1], x) + lay[L_V]) / he
+    out[2] = x
+
+
+@njit(cache=True, nogil=True)
+def substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals,
+            delta, z_out, N_out, err, a_out, adot_out):
+    """A step of length s from (t, z) into the given buffers, its own coefficients in Cs;
+    a_out, adot_out receive a_n and a_n' at t + s. Returns take_step's tuple."""
+    etd_coefficients(modes[M_OMEGA], s, Cs)
+    res = take_step(method, t, t + s, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw,
+                    rw, fvals, delta, z_out, N_out, err)
+    omega = modes[M_OMEGA]
+    for k in range(z.shape[0]):
+        a_out[k] = z_out[k].imag / omega[k]
+        adot_out[k] = z_out[k].real
+    return res
+
+
+@njit(cache=True, nogil=True)
+def event_value(kind, t, jm, delta, a, adot, modes, lay, cosq, eps, ones, out):
+    """The quantity an event is defined on, at a state: kind 0, the largest delta on the plate
+    (gap_peak); kind +1 / -1, the peak of +eps / -eps over x. out[:] = (value, rate, x)."""
+    if kind == 0:
+        gap_peak(t, delta, jm, a, adot, ones, lay, out)
+        return out[0]
+    sign = float(kind)
+    strain_nodes(a, modes[M_STRAIN], cosq, eps)
+    v, x, j = global_peak(eps, sign, lay[L_DX], modes[M_STRAIN], a, lay[L_LAM1])
+    out[0] = v
+    out[2] = x
+    return v
+
+
+@njit(cache=True, nogil=True)
+def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, Cs, modes, lay,
+                 cosq, wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, ones, out):
+    """First time in the accepted step [t, t + h] at which event_value(kind) reaches level,
+    found on true sub-steps of the integrator from (t, z): Illinois regula falsi, bisection
+    where a sub-step fails (a stage with delta >= 1 counts as past the level). p0, p1:
+    (value, rate) at the two ends (p1 unused: the step is scanned at SCAN points first).
+
+    On return the buffers hold the state at t + s_lo, the last sub-step still below the level
+    (so a located bottoming ends on a state with delta < 1 everywhere), out its event value.
+    Returns (s_lo, s_hi, F, jmax, W, found).
+    """
+    # the first crossing: scan the step forward on sub-steps to the first point past the level
+    # (the value may cross the level more than once within a step, as two peaks take turns)
+    lo, f_lo = 0.0, p0[0] - level
+    hi, f_hi = -1.0, 0.0
+    for k in range(1, SCAN + 1):
+        sk = h * k / SCAN
+        st, F, jm, w, ev = substep(method, t, sk, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
+                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out)
+        f = np.inf if st != 0 else event_value(kind, t + sk, jm, delta, a_out, adot_out, modes, lay,
+                                                cosq, eps, ones, out) - level
+        if f >= 0.0:
+            hi, f_hi = sk, f
+            break
+        lo, f_lo = sk, f
+    if hi < 0.0:
+        return 0.0, 0.0, 0.0, 0, 0.0, False
+    s = 0.5 * (lo + hi)
+    side = 0
+    for _ in range(100):
+        st, F, jm, w, ev = substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
+                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out)
+        f = np.inf if st != 0 else event_value(kind, t + s, jm, delta, a_out, adot_out, modes, lay,
+                                                cosq, eps, ones, out) - level
+        if f >= 0.0:
+            hi, f_hi = s, f
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = s, f
+            if side == -1 and math.isfinite(f_hi):
+                f_hi *= 0.5
+            side = -1
+        if hi - lo <= 1e-13 * (t + hi):
+            break
+        if math.isfinite(f_hi) and f_hi > f_lo:
+            s = lo + (hi - lo) * (-f_lo) / (f_hi - f_lo)
+        else:
+            s = 0.5 * (lo + hi)
+        if not (lo < s < hi):
+            s = 0.5 * (lo + hi)
+    st, F, jm, w, ev = substep(method, t, lo, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq,
+                               cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out)
+    event_value(kind, t + lo, jm, delta, a_out, adot_out, modes, lay, cosq, eps, ones, out)
+    return lo, hi, F, jm, w, True
 
 
 # ---------------------------------------------------------------------------------------
 # main loop
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
-              V, R, he, K, eps_Y, t_start, t_end, t_out, tolerance, fixed_step, h_init, h_min,
-              h_max, max_steps, a0, adot0, out_a, out_adot, out_contacts, out_force, out_energy,
-              out_err, diag):
+def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fixed_step, h_init,
+              h_min, h_max, max_steps, a0, adot0, levels, out_a, out_adot,
+              out_contacts, out_force, out_energy, out_err, diag, level_t, level_x):
     """Integrate the mode equations from t_start to t_end, landing on every t_out.
 
     Parameters
     ----------
-    method : ETD34 or RK4.  omega, coef, strain_coef, LM : per-mode omega_n [s-1],
-        -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].  lam1 : lambda_1 [m-1].
-    cosq (N, J), wq (J, N), dx : quadrature nodes, see :func:`layer_forcing`.
-    V, R, he, K, eps_Y : case parameters (SI).
+    method : ETD34 or RK4.
+    modes : (4, N) rows omega_n [s-1], -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].
+    lay : (6,) lambda_1 [m-1], dx [m], V [m s-1], R [m], he [m], K [Pa] (see L_* indices).
+    cosq (N, J), wq (J, N) : quadrature nodes, see :func:`layer_forcing`.
     t_start, t_end : start and end of the run [s] (the body is at y = x^2/2R + he - V t).
     t_out : sorted output times in [t_start, t_end] [s].
     tolerance : relative error per step in the energy norm (ETD34 adaptive).
@@ -385,98 +1143,146 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
         estimate vanish, and only h_max stops a step from jumping deep into a new contact.
     max_steps : attempted steps before STEP_LIMIT.
     a0, adot0 : a_n [m] and a_n' [m s-1] at t_start.
+    levels : tension levels to locate exactly on sub-steps (verification; usually empty).
     out_a, out_adot (T, N), out_contacts (T,), out_force (T,), out_energy (T, 3), out_err (T,):
         filled at each output time reached: a, a', contact intervals, F, (E_plate, E_layer, W),
-        and the sum over accepted steps of the local error estimate in strain amplitude,
-        sqrt(sum_n ((hi/2) lambda_n^2 |err_n| / omega_n)^2) (an estimate of the time-integration
-        error of the strain, without cancellation).
+        and the sum over accepted steps of the local error estimate in strain amplitude.
     diag : (N_DIAG,) diagnostics, see the D_* indices.
+    level_t, level_x : (2, len(levels)) NaN on entry; the located time [s] and place [m] at
+        which the upper (row 0) and lower (row 1) tension first reaches each level.
 
     Returns
     -------
-    status : OK, LAYER_BOTTOMED_OUT, NONFINITE or STEP_LIMIT.
-    n_out : number of output times filled.
+    (status, n_out, upper, n_upper, lower, n_lower, contacts, n_contacts): status OK,
+    LAYER_BOTTOMED_OUT, NONFINITE, STEP_LIMIT or ENERGY_VIOLATION; the number of output
+    times filled; the tension records of both surfaces (rows R_T..R_JOIN, first n valid) and
+    the contact record (rows (t, count)).
     """
+    omega = modes[M_OMEGA]
+    strain_coef = modes[M_STRAIN]
+    LM = modes[M_LM]
+    lam1 = lay[L_LAM1]
+    dx = lay[L_DX]
+    K = lay[L_K]
+    he = lay[L_HE]
     N = omega.shape[0]
     J = cosq.shape[1]
     T = t_out.shape[0]
-    nan = np.nan
     for i in range(N_DIAG):
-        diag[i] = nan
-    diag[D_MAX_UPPER] = -np.inf
-    diag[D_MAX_LOWER] = -np.inf
-    diag[D_MAX_ABS] = -np.inf
+        diag[i] = np.nan
     diag[D_MAX_CONTACTS] = 0.0
     diag[D_MAX_FORCE] = 0.0
-    diag[D_MAX_FORCE_T] = 0.0
-    diag[D_MAX_DELTA] = -np.inf
+    diag[D_MAX_FORCE_T] = t_start
     diag[D_H_MIN] = np.inf
     diag[D_H_MAX] = 0.0
     diag[D_FAIL_KIND] = FAIL_NONE
+    diag[D_ENERGY_JUMPS] = 0.0
 
-    # work arrays
     z = np.empty(N, np.complex128)
-    z_prev = np.empty(N, np.complex128)
-    zs = np.empty(N, np.complex128)
     znew = np.empty(N, np.complex128)
+    zsub = np.empty(N, np.complex128)
     err = np.empty(N, np.complex128)
-    incr = np.empty(N, np.complex128)
+    errsub = np.empty(N, np.complex128)
+    cw = np.empty((2, N), np.complex128)
+    rw = np.empty((4, N))
+    C = np.empty((9, N), np.complex128)
+    Cs = np.empty((9, N), np.complex128)
     N1 = np.empty(N)
-    N2 = np.empty(N)
-    N3 = np.empty(N)
-    N4 = np.empty(N)
     N5 = np.empty(N)
-    N_prev = np.empty(N)
+    Nsub = np.empty(N)
     a = np.empty(N)
-    a_work = np.empty(N)
+    adot = np.empty(N)
+    a_new = np.empty(N)
+    adot_new = np.empty(N)
+    a_sub = np.empty(N)
+    adot_sub = np.empty(N)
+    ones = np.ones(N)
     delta = np.empty(J)
+    delta_new = np.empty(J)
+    delta_sub = np.empty(J)
     fvals = np.empty(J)
     eps = np.empty(J)
-    cE = np.empty(N, np.complex128)
-    cE2 = np.empty(N, np.complex128)
-    cA2 = np.empty(N, np.complex128)
-    cA3 = np.empty(N, np.complex128)
-    cA4a = np.empty(N, np.complex128)
-    cA4b = np.empty(N, np.complex128)
-    cB1 = np.empty(N, np.complex128)
-    cB23 = np.empty(N, np.complex128)
-    cB4 = np.empty(N, np.complex128)
-    h_coeffs = -1.0
+    eps_new = np.empty(J)
+    eps_sub = np.empty(J)
+    sgn = np.empty(J)
+    ev_th = np.empty(4 * J + 16)
+    ev_j = np.empty(4 * J + 16)
+    rec_up = np.empty((256, N_REC))
+    rec_lo = np.empty((256, N_REC))
+    rec_c = np.empty((64, 2))
+    n_up = 0
+    n_lo = 0
+    n_c = 0
+    tension = np.empty((2, 4))
+    tension0 = np.empty((2, 4))
+    scratch = np.empty((5, 4))
+    samples = np.empty((TENSION_SAMPLES + 1, 3))
+    A = np.empty((TENSION_SAMPLES - 1, N))
+    AD = np.empty((TENSION_SAMPLES - 1, N))
+    L = dx * (J - 1)
+    dense = np.zeros(1, np.bool_)
+    best = np.empty(3)
+    gap0 = np.empty(3)
+    gap1 = np.empty(3)
+    out3 = np.empty(3)
+    joinable = np.zeros(2, np.bool_)
+    run_max = np.empty(2)
+    bottom_level = 1.0 - BOTTOM_GAP
 
     for n in range(N):
         z[n] = complex(adot0[n], omega[n] * a0[n])
         a[n] = a0[n]
+        adot[n] = adot0[n]
     t = t_start
     work = 0.0
     err_sum = 0.0
     rhs_count = 1
-    st, force, jmax = layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N1)
+    st, force, jmax = layer_forcing(t, a, lam1, modes[M_COEF], cosq, wq, dx, lay[L_V], lay[L_R],
+                                    he, K, delta, fvals, N1)
     if st != 0:
         diag[D_T_REACHED] = t
         diag[D_FAIL_T] = t
         diag[D_FAIL_KIND] = FAIL_BOTTOMED
-        return LAYER_BOTTOMED_OUT, 0
+        return LAYER_BOTTOMED_OUT, 0, rec_up, 0, rec_lo, 0, rec_c, 0
     contacts = count_contacts(delta, jmax)
-    energy_norm_floor = V * math.sqrt(LM[0])
+    rec_c, n_c = _append(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
+    diag[D_MAX_CONTACTS] = contacts
+    strain_nodes(a, strain_coef, cosq, eps)
+    for s in range(2):
+        sign = 1.0 - 2.0 * s
+        peak_state(eps, sign, global_peak(eps, sign, dx, strain_coef, a, lam1)[2], a, adot, strain_coef,
+                   lam1, dx, tension[s])
+        run_max[s] = tension[s, 0]
+        diag[D_MAX_UPPER + 3 * s] = tension[s, 0]
+        diag[D_MAX_UPPER_X + 3 * s] = tension[s, 2]
+        diag[D_MAX_UPPER_T + 3 * s] = t
+    gap_peak(t, delta, jmax, a, adot, ones, lay, gap0)
+    diag[D_MAX_DELTA] = gap0[0]
+    diag[D_MAX_DELTA_T] = t
+    e0 = layer_energy(delta, jmax, dx, K, he)
+    for n in range(N):
+        e0 += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+    resid = 0.0                 # E_plate + E_layer - W - E(t_start)
     max_residual = 0.0
+    energy_norm_floor = lay[L_V] * math.sqrt(LM[0])
 
     k = 0
     status = OK
     steps = 0
     rejected = 0
     h = min(h_init, h_max)
+    h_coeffs = -1.0
     fixed_target = -1.0
     fixed_h = 0.0
-    t_prev = t_start
-    dmax_now = 0.0
     prev_ratio = 1.0
+    bottomed = False
     while True:
         # ----- record outputs due at the current time
         while k < T and t_out[k] <= t:
             e_plate = 0.0
             for n in range(N):
-                out_a[k, n] = z[n].imag / omega[n]
-                out_adot[k, n] = z[n].real
+                out_a[k, n] = a[n]
+                out_adot[k, n] = adot[n]
                 e_plate += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
             out_contacts[k] = count_contacts(delta, jmax)
             out_force[k] = force
@@ -485,7 +1291,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
             out_energy[k, 2] = work
             out_err[k] = err_sum
             k += 1
-        if t >= t_end:
+        if bottomed or t >= t_end:
             break
         if steps + rejected >= max_steps:
             status = STEP_LIMIT
@@ -502,136 +1308,29 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                 fixed_target = target
                 n_sub = math.ceil(remaining / fixed_step * (1.0 - 1e-12))
                 fixed_h = remaining / max(n_sub, 1)
-            # the last step takes exactly what remains (it differs from fixed_h by rounding)
             landing = remaining <= 1.5 * fixed_h
             h_step = remaining if landing else fixed_h
         else:
-            h_step = h
+            h_step = min(h, max(h_init, GROWTH * (t - t_start)))
             if h_step >= remaining * (1.0 - 1e-12) or remaining - h_step < 0.01 * h_step:
                 h_step = remaining
             landing = h_step >= remaining * (1.0 - 1e-12)
         t_new = target if landing else t + h_step
+        if h_step != h_coeffs:
+            etd_coefficients(omega, h_step, C)
+            h_coeffs = h_step
 
         # ----- one step
-        bottom = False
-        w_new = 0.0
-        F2 = F3 = F4 = F5 = 0.0
-        jm5 = jmax
-        event = False      # the number of contact intervals changes within the step
-        expo = 0.25
-        if h_step != h_coeffs:          # ETD coefficients (rk4 uses them for its error estimate)
-            for n in range(N):
-                y = omega[n] * h_step
-                p1, p2, p3 = phi_functions(y)
-                q1, q2, q3 = phi_functions(0.5 * y)
-                cE[n] = complex(math.cos(y), math.sin(y))
-                cE2[n] = complex(math.cos(0.5 * y), math.sin(0.5 * y))
-                cA2[n] = 0.5 * h_step * q1
-                cA3[n] = h_step * q2
-                cA4a[n] = h_step * p1
-                cA4b[n] = 2.0 * h_step * p2
-                cB1[n] = h_step * (p1 - 3.0 * p2 + 4.0 * p3)
-                cB23[n] = h_step * (2.0 * p2 - 4.0 * p3)
-                cB4[n] = h_step * (4.0 * p3 - p2)
-            h_coeffs = h_step
-        if method == ETD34:
-            th = t + 0.5 * h_step
-            # stage 2
-            for n in range(N):
-                zs[n] = cE2[n] * z[n] + cA2[n] * N1[n]
-                a_work[n] = zs[n].imag / omega[n]
-            st, F2, jm = layer_forcing(th, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N2)
-            rhs_count += 1
-            if st == 0 and count_contacts(delta, jm) != contacts:
-                event = True
-            if st == 0:
-                for n in range(N):
-                    zs[n] = zs[n] + cA3[n] * (N2[n] - N1[n])
-                    a_work[n] = zs[n].imag / omega[n]
-                st, F3, jm = layer_forcing(th, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N3)
-                rhs_count += 1
-                if st == 0 and count_contacts(delta, jm) != contacts:
-                    event = True
-            if st == 0:
-                for n in range(N):
-                    zs[n] = cE[n] * z[n] + cA4a[n] * N1[n] + cA4b[n] * (N3[n] - N1[n])
-                    a_work[n] = zs[n].imag / omega[n]
-                st, F4, jm = layer_forcing(t_new, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N4)
-                rhs_count += 1
-                if st == 0 and count_contacts(delta, jm) != contacts:
-                    event = True
-            if st == 0:
-                for n in range(N):
-                    znew[n] = cE[n] * z[n] + cB1[n] * N1[n] + cB23[n] * (N2[n] + N3[n]) + cB4[n] * N4[n]
-                    a_work[n] = znew[n].imag / omega[n]
-                st, F5, jm5 = layer_forcing(t_new, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N5)
-                rhs_count += 1
-            if st != 0:
-                bottom = True
-            else:
-                w_new = work + h_step * V * (force / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
-                if count_contacts(delta, jm5) != contacts:
-                    event = True
-                if event:
-                    # z+ minus the exponential trapezoid e^{zeta} z + h(phi1 - phi2) N1 + h phi2 N5
-                    for n in range(N):
-                        err[n] = znew[n] - (cE[n] * z[n] + (cA4a[n] - 0.5 * cA4b[n]) * N1[n]
-                                            + 0.5 * cA4b[n] * N5[n])
-                else:
-                    for n in range(N):
-                        err[n] = cB4[n] * (N4[n] - N5[n])
-        else:
-            # classical RK4 on z' = i w z + P
-            for n in range(N):
-                k1 = 1j * omega[n] * z[n] + N1[n]
-                incr[n] = k1                     # accumulates k1 + 2 k2 + 2 k3
-                zs[n] = z[n] + 0.5 * h_step * k1
-                a_work[n] = zs[n].imag / omega[n]
-            th = t + 0.5 * h_step
-            st, F2, jm = layer_forcing(th, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N2)
-            rhs_count += 1
-            if st == 0:
-                for n in range(N):
-                    k2 = 1j * omega[n] * zs[n] + N2[n]
-                    incr[n] += 2.0 * k2
-                    zs[n] = z[n] + 0.5 * h_step * k2
-                    a_work[n] = zs[n].imag / omega[n]
-                st, F3, jm = layer_forcing(th, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N3)
-                rhs_count += 1
-            if st == 0:
-                for n in range(N):
-                    k3 = 1j * omega[n] * zs[n] + N3[n]
-                    incr[n] += 2.0 * k3
-                    zs[n] = z[n] + h_step * k3
-                    a_work[n] = zs[n].imag / omega[n]
-                st, F4, jm = layer_forcing(t_new, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N4)
-                rhs_count += 1
-            if st == 0:
-                for n in range(N):
-                    k4 = 1j * omega[n] * zs[n] + N4[n]
-                    znew[n] = z[n] + h_step / 6.0 * (incr[n] + k4)
-                    a_work[n] = znew[n].imag / omega[n]
-                st, F5, jm5 = layer_forcing(t_new, a_work, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, N5)
-                rhs_count += 1
-            if st != 0:
-                bottom = True
-            else:
-                w_new = work + h_step * V * (force / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
-                # error estimate: RK4 against the exponential (Krogstad) update from the same
-                # stage values; RK4's Taylor approximation of e^{i w h} dominates its error
-                for n in range(N):
-                    err[n] = znew[n] - (cE[n] * z[n] + cB1[n] * N1[n] + cB23[n] * (N2[n] + N3[n])
-                                        + cB4[n] * N4[n])
-
-        # ----- accept or reject
-        finite = not bottom
+        st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work, contacts,
+                                              C, modes, lay, cosq, wq, cw, rw, fvals, delta_new,
+                                              znew, N5, err)
+        rhs_count += 4
+        finite = st == 0 and math.isfinite(w_new)
         if finite:
             for n in range(N):
                 if not (math.isfinite(znew[n].real) and math.isfinite(znew[n].imag)):
                     finite = False
                     break
-            if not math.isfinite(w_new):
-                finite = False
         adaptive = method == ETD34 and fixed_step <= 0.0
         if not finite:
             if not adaptive:
@@ -643,7 +1342,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
             h = 0.25 * h_step
             if h < h_min:
                 diag[D_FAIL_T] = t
-                if bottom:
+                if st != 0:
                     status = LAYER_BOTTOMED_OUT
                     diag[D_FAIL_KIND] = FAIL_BOTTOMED
                 else:
@@ -652,6 +1351,7 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                 break
             continue
         ratio = 0.0
+        expo = 1.0 / 3.0 if event else 0.25
         if adaptive:
             num = 0.0
             den_old = 0.0
@@ -660,17 +1360,23 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                 num += LM[n] * (err[n].real ** 2 + err[n].imag ** 2)
                 den_old += LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
                 den_new += LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
-            scale = tolerance * max(math.sqrt(max(den_old, den_new)), energy_norm_floor)
-            ratio = math.sqrt(num) / scale
+            ratio = math.sqrt(num) / (tolerance * max(math.sqrt(max(den_old, den_new)), energy_norm_floor))
+            if K > 0.0 and gap0[0] > 1.0 - GAP_WATCH:
+                # near bottoming the local error of delta at the gap must be small against the
+                # gap itself, or a grazing approach crosses the threshold in one run and not in
+                # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
+                for n in range(N):
+                    rw[0, n] = err[n].imag / omega[n]
+                e_delta = abs(mode_sum(ones, rw[0], lam1, gap0[2])) / he
+                ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap0[0])))
             if not math.isfinite(ratio):
                 ratio = 1e10
-            expo = 1.0 / 3.0 if event else 0.25
             if ratio > 1.0:
                 rejected += 1
                 h = h_step * max(0.2, 0.9 * ratio ** -expo)
                 if h < h_min:
                     diag[D_FAIL_T] = t
-                    if dmax_now > BOTTOM_DELTA:
+                    if gap0[0] > 1.0 - 10.0 * BOTTOM_GAP:
                         status = LAYER_BOTTOMED_OUT
                         diag[D_FAIL_KIND] = FAIL_BOTTOMED
                     else:
@@ -679,74 +1385,124 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                     break
                 continue
 
-        # ----- accepted: accumulate the error estimate in strain amplitude, shift the state
-        e_step = 0.0
+        # ----- the energy identity may not jump (a step that breaks it is rejected)
+        e_new = layer_energy(delta_new, jm5, dx, K, he)
         for n in range(N):
-            e_step += (strain_coef[n] / omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
-        err_sum += math.sqrt(e_step)
+            e_new += 0.5 * LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
+        resid_new = e_new - w_new - e0
+        compressed = 0
+        for j in range(jm5):
+            if delta_new[j] > 0.0:
+                compressed += 1
+        under = min(1.0, (RESOLVED_NODES / max(compressed, 1)) ** 2)
+        allowed = ENERGY_JUMP * max(e_new, w_new, e0) + under * abs(w_new - work)
+        if not abs(resid_new - resid) <= allowed:
+            diag[D_ENERGY_JUMPS] += 1.0
+            rejected += 1
+            h = 0.25 * h_step
+            if not adaptive or h < h_min:
+                status = ENERGY_VIOLATION
+                diag[D_FAIL_T] = t
+                diag[D_FAIL_KIND] = FAIL_ENERGY_JUMP
+                break
+            continue
+
+        # ----- bottoming: the gap closes to BOTTOM_GAP inside the step
+        for n in range(N):
+            a_new[n] = znew[n].imag / omega[n]
+            adot_new[n] = znew[n].real
+        gap_peak(t_new, delta_new, jm5, a_new, adot_new, ones, lay, gap1)
+        h_eff = h_step
+        c0, c1, c2, c3 = hermite(gap0[0], gap1[0], gap0[1], gap1[1], h_step)
+        if K > 0.0 and (gap1[0] >= bottom_level or cubic_max(c0, c1, c2, c3)[0] >= bottom_level):
+            s_lo, s_hi, F5, jm5, w_new, found = locate_event(
+                0, bottom_level, method, t, h_step, gap0, gap1, z, N1, force, work, contacts, Cs,
+                modes, lay, cosq, wq, cw, rw, fvals, delta_new, znew, N5, err, a_new, adot_new,
+                eps_sub, ones, gap1)
+            h_coeffs = -1.0
+            if found:
+                bottomed = True
+                h_eff = s_lo
+                t_new = t + s_lo
+                e_new = layer_energy(delta_new, jm5, dx, K, he)
+                for n in range(N):
+                    e_new += 0.5 * LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
+                resid_new = e_new - w_new - e0
+
+        # ----- accepted: observers on [t, t_new], then shift the state
         steps += 1
+        if not bottomed:
+            e_step = 0.0
+            for n in range(N):
+                e_step += (strain_coef[n] / omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
+            err_sum += math.sqrt(e_step)
+            diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
+            diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
+        strain_nodes(a_new, strain_coef, cosq, eps_new)
+        tension0[:, :] = tension
+        dense[0] = not h_eff > 0.0           # computed on demand by the tension observer
+        dz = (z, N1, rw[2], N5, omega)
+        for s in range(2):
+            sign = 1.0 - 2.0 * s
+            if s == 0:
+                rec_up, n_up, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
+                                                      dz, A, AD, dense, strain_coef, lam1, dx, L, tension[0], scratch, samples,
+                                                      rec_up, n_up, joinable[0], run_max[0], best)
+            else:
+                rec_lo, n_lo, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
+                                                      dz, A, AD, dense, strain_coef, lam1, dx, L, tension[1], scratch, samples,
+                                                      rec_lo, n_lo, joinable[1], run_max[1], best)
+            joinable[s] = jn
+            run_max[s] = rm
+            if best[0] > diag[D_MAX_UPPER + 3 * s]:
+                diag[D_MAX_UPPER + 3 * s] = best[0]
+                diag[D_MAX_UPPER_T + 3 * s] = best[1]
+                diag[D_MAX_UPPER_X + 3 * s] = best[2]
+            for i in range(levels.shape[0]):      # exact crossings, for verification
+                if math.isnan(level_t[s, i]) and levels[i] <= rm:
+                    lo_, hi_, _, _, _, found = locate_event(
+                        int(sign), levels[i], method, t, h_eff, tension0[s], tension[s], z, N1,
+                        force, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals, delta_sub,
+                        zsub, Nsub, errsub, a_sub, adot_sub, eps_sub, ones, out3)
+                    h_coeffs = -1.0
+                    if found:
+                        level_t[s, i] = t + 0.5 * (lo_ + hi_)
+                        level_x[s, i] = out3[2]
+        contacts, rec_c, n_c, largest = observe_contacts(t, h_eff, delta, jmax, delta_new, jm5, a,
+                                                         adot, a_new, adot_new, cosq, lay, sgn, ev_th,
+                                                         ev_j, contacts, rec_c, n_c)
+        if largest > diag[D_MAX_CONTACTS]:
+            diag[D_MAX_CONTACTS] = largest
         for n in range(N):
-            z_prev[n] = z[n]
-            N_prev[n] = N1[n]
             z[n] = znew[n]
             N1[n] = N5[n]
-            a[n] = z[n].imag / omega[n]
-        t_prev = t
+            a[n] = a_new[n]
+            adot[n] = adot_new[n]
+        delta, delta_new = delta_new, delta
+        eps, eps_new = eps_new, eps
+        gap0[:] = gap1
         t = t_new
         work = w_new
         force = F5
         jmax = jm5
-        if h_step < diag[D_H_MIN]:
-            diag[D_H_MIN] = h_step
-        if h_step > diag[D_H_MAX]:
-            diag[D_H_MAX] = h_step
-
-        # ----- diagnostics at the new state (delta, fvals hold the N5 evaluation)
-        _strain_nodes(a, strain_coef, cosq, eps)
-        up, up_x = _peak(eps, 1.0, dx)
-        lo, lo_x = _peak(eps, -1.0, dx)
-        if up > diag[D_MAX_UPPER]:
-            diag[D_MAX_UPPER] = up
-            diag[D_MAX_UPPER_X] = up_x
-            diag[D_MAX_UPPER_T] = t
-        if lo > diag[D_MAX_LOWER]:
-            diag[D_MAX_LOWER] = lo
-            diag[D_MAX_LOWER_X] = lo_x
-            diag[D_MAX_LOWER_T] = t
-        if max(up, lo) > diag[D_MAX_ABS]:
-            diag[D_MAX_ABS] = max(up, lo)
-            diag[D_MAX_ABS_X] = up_x if up >= lo else lo_x
-            diag[D_MAX_ABS_T] = t
-        if math.isnan(diag[D_CRACK_UPPER_T]) and up > eps_Y:
-            tc, xc = _locate_crossing(z_prev, N_prev, N1, omega, h_step, t_prev, 1.0, eps_Y,
-                                      strain_coef, cosq, dx, a_work, eps)
-            diag[D_CRACK_UPPER_T] = tc
-            diag[D_CRACK_UPPER_X] = xc
-        if math.isnan(diag[D_CRACK_LOWER_T]) and lo > eps_Y:
-            tc, xc = _locate_crossing(z_prev, N_prev, N1, omega, h_step, t_prev, -1.0, eps_Y,
-                                      strain_coef, cosq, dx, a_work, eps)
-            diag[D_CRACK_LOWER_T] = tc
-            diag[D_CRACK_LOWER_X] = xc
-        contacts = count_contacts(delta, jmax)
-        if contacts > diag[D_MAX_CONTACTS]:
-            diag[D_MAX_CONTACTS] = contacts
+        resid = resid_new
+        max_residual = max(max_residual, abs(resid))
         if force > diag[D_MAX_FORCE]:
             diag[D_MAX_FORCE] = force
             diag[D_MAX_FORCE_T] = t
-        dmax = -np.inf
-        for j in range(jmax):
-            if delta[j] > dmax:
-                dmax = delta[j]
-        dmax_now = dmax
-        if dmax > diag[D_MAX_DELTA]:
-            diag[D_MAX_DELTA] = dmax
+        if gap0[0] > diag[D_MAX_DELTA]:
+            diag[D_MAX_DELTA] = gap0[0]
             diag[D_MAX_DELTA_T] = t
-        e_plate = 0.0
-        for n in range(N):
-            e_plate += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
-        residual = abs(e_plate + layer_energy(delta, jmax, dx, K, he) - work)
-        if residual > max_residual:
-            max_residual = residual
+        if bottomed:
+            status = LAYER_BOTTOMED_OUT
+            diag[D_FAIL_T] = t
+            diag[D_FAIL_KIND] = FAIL_LOCATED
+            diag[D_BOTTOM_T] = t
+            diag[D_BOTTOM_X] = gap0[2]
+            diag[D_BOTTOM_SPEED] = he * gap0[1]
+            diag[D_MAX_FORCE] = np.inf      # K f(delta) is unbounded as the gap closes
+            diag[D_MAX_FORCE_T] = t
+            continue
 
         # ----- next step size
         if adaptive:
@@ -760,10 +1516,22 @@ def integrate(method, omega, coef, strain_coef, LM, lam1, cosq, wq, dx,
                 h_next = max(h_next, h)   # a step shortened to land keeps the old proposal
             h = min(h_next, h_max)
 
+    if status == LAYER_BOTTOMED_OUT and math.isnan(diag[D_BOTTOM_T]):
+        diag[D_BOTTOM_T] = t                # not located: the last state the steps reached
+        diag[D_BOTTOM_X] = gap0[2]
+        diag[D_BOTTOM_SPEED] = he * gap0[1]
     diag[D_T_REACHED] = t
     diag[D_WORK] = work
     diag[D_ENERGY_RESIDUAL] = max_residual / work if work > 0.0 else 0.0
+    if (status == OK or status == LAYER_BOTTOMED_OUT) and diag[D_ENERGY_RESIDUAL] > ENERGY_BOUND:
+        status = ENERGY_VIOLATION
+        diag[D_FAIL_T] = t
+        diag[D_FAIL_KIND] = FAIL_ENERGY_BOUND
+    up, lo = diag[D_MAX_UPPER], diag[D_MAX_LOWER]
+    diag[D_MAX_ABS] = max(up, lo)
+    diag[D_MAX_ABS_X] = diag[D_MAX_UPPER_X] if up >= lo else diag[D_MAX_LOWER_X]
+    diag[D_MAX_ABS_T] = diag[D_MAX_UPPER_T] if up >= lo else diag[D_MAX_LOWER_T]
     diag[D_STEPS] = steps
     diag[D_REJECTED] = rejected
     diag[D_RHS] = rhs_count
-    return status, k
+    return status, k, rec_up, n_up, rec_lo, n_lo, rec_c, n_c

@@ -1,10 +1,10 @@
 """Physical parameters, solver settings and their derived scales.
 
-All values are SI. The keys are those of ``MODEL_NOTES.md`` (the language of the field and
+All values are SI. The keys are those of ``docs/model.md`` (the language of the field and
 of the study files); :data:`PARAMETER_INFO` gives each its long name and units, and
 :data:`SETTING_INFO` does the same for the solver settings.
 
-Derived quantities (MODEL_NOTES, "Equations" and "Scales")::
+Derived quantities (docs/model.md, "Equations" and "Scales")::
 
     m   = rho_i hi                          plate mass per unit area        [kg m-2]
     D   = E hi^3 / (12 (1 - nu^2))          flexural rigidity               [N m]
@@ -35,12 +35,11 @@ PARAMETER_INFO = {
     "rho_i": ("ice density", "kg m-3"),
     "rho_w": ("water density", "kg m-3"),
     "g": ("gravitational acceleration", "m s-2"),
-    "eps_Y": ("yield strain of ice", "1"),
 }
 
 #: key -> (long_name, units) for every solver setting.
 SETTING_INFO = {
-    "integrator": ("time integrator (etd34: adaptive exponential; rk4: the seed's fixed-step RK4; "
+    "integrator": ("time integrator (etd34: adaptive exponential; rk4: the paper's fixed-step RK4; "
                    "dop853: scipy's DOP853, the outside reference)", ""),
     "tolerance": ("relative error tolerance per step (etd34: energy norm; dop853: rtol)", "1"),
     "subintervals": ("subintervals of [0, L] in the forcing quadrature", "1"),
@@ -84,7 +83,6 @@ class Parameters:
     L : plate half-length [m].        E : Young's modulus [Pa].
     nu : Poisson's ratio, 0 <= nu < 0.5 [1].
     rho_i, rho_w : ice and water density [kg/m^3].  g : gravity [m/s^2].
-    eps_Y : yield strain [1].
     """
 
     K: float = 8e6
@@ -99,7 +97,6 @@ class Parameters:
     rho_i: float = 917.0
     rho_w: float = 1000.0
     g: float = 9.81
-    eps_Y: float = 8e-5
 
     def __post_init__(self):
         for f in fields(self):
@@ -188,11 +185,11 @@ class Settings:
     Parameters
     ----------
     integrator : "etd34" (default: adaptive exponential Runge-Kutta 4(3), Krogstad stages)
-        or "rk4" (the seed's classical RK4 with a fixed step), or "dop853" (scipy's DOP853 on
+        or "rk4" (the paper's classical RK4 with a fixed step), or "dop853" (scipy's DOP853 on
         the same right-hand side, rtol = tolerance; no in-loop diagnostics).
     tolerance : relative error per step of etd34, measured in the energy norm [1].
-    subintervals : subintervals of [0, L] in the forcing quadrature (seed: 1000) [1].
-    rk4_step_fraction : rk4 step = fraction * 2 pi / omega_N (seed: 1/20) [1].
+    subintervals : subintervals of [0, L] in the forcing quadrature (the paper: 1000) [1].
+    rk4_step_fraction : rk4 step = fraction * 2 pi / omega_N (the paper: 1/20) [1].
     fixed_step : if > 0, etd34 takes this fixed step, in units of t_sc, with no error
         control (for convergence-order studies) [1].
     max_steps : attempted steps after which a run stops with status ``step_limit`` [1].

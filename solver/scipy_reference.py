@@ -1,9 +1,13 @@
 """scipy's DOP853 on the same right-hand side: the outside reference users would reach for.
 
 Same equations and forcing kernel as :mod:`solver.kernels`, written as a first-order system
-y = (a_n, da_n/dt, W) for :func:`scipy.integrate.solve_ivp`. It has no step rejection on
-delta >= 1 and no in-loop diagnostics: max strain and crack onset stay NaN; contact intervals,
-force and the energy identity are evaluated at the output times. scipy is imported here only.
+y = (a_n, da_n/dt, W) and stepped with :class:`scipy.integrate.DOP853` at rtol = tolerance,
+atol = tolerance * 1e-3. Outputs come from its 7th-order dense output. Bottoming out is a
+located event, as in the kernels: the first time the largest delta on the continuous plate
+reaches 1 - BOTTOM_GAP, found by brentq on the dense output. DOP853 has no step rejection
+on delta >= 1: a stage there ends the run, with the time and scipy's step in the message,
+and so does a step failure, with scipy's own reason. It has no in-loop diagnostics: max
+strain and the tension and contact records stay empty. scipy is imported here only.
 """
 from __future__ import annotations
 
@@ -12,16 +16,17 @@ import numpy as np
 from . import kernels as kn
 
 
-class _Bottomed(Exception):
-    pass
+class _StageDeltaOne(Exception):
+    """A stage evaluated delta >= 1 (the forcing is undefined there)."""
 
 
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps):
     """Returns (status, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err,
-    diag) with the meaning of :func:`solver.kernels.integrate` (out_err all NaN: DOP853 gives
-    no local error estimates back)."""
+    diag, failure) with the meaning of :func:`solver.kernels.integrate` (out_err all NaN:
+    DOP853 gives no local error estimates back); failure names what stopped it, or ""."""
     try:
-        from scipy.integrate import solve_ivp
+        from scipy.integrate import DOP853
+        from scipy.optimize import brentq
     except ImportError:                                      # pragma: no cover
         from .parameters import ParameterError
         raise ParameterError("integrator dop853 needs scipy: pip install scipy") from None
@@ -29,59 +34,104 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     J = tab.xq.size
     delta, fvals, P = np.empty(J), np.empty(J), np.empty(N)
     om2 = tab.omega**2
+    ones = np.ones(N)
+    gap = np.empty(3)
     nfev = [0]
+    level = 1.0 - kn.BOTTOM_GAP
 
     def forcing(t, a):
-        st, F, jmax = kn.layer_forcing(t, a, tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx,
-                                       p.V, p.R, p.he, p.K, delta, fvals, P)
-        return st, F, jmax
+        return kn.layer_forcing(t, np.ascontiguousarray(a), tab.lam[0], tab.coef, tab.cosq, tab.wq,
+                                tab.dx, p.V, p.R, p.he, p.K, delta, fvals, P)
 
     def rhs(t, y):
         nfev[0] += 1
-        if nfev[0] > max_steps * 12:
-            raise _Bottomed("max_steps")
         st, F, _ = forcing(t, y[:N])
         if st != 0:
-            raise _Bottomed(t)
+            raise _StageDeltaOne(t)
         return np.concatenate([y[N:2 * N], -om2 * y[:N] + P, [p.V * F]])
+
+    def largest_delta(t, y):
+        st, _, jmax = forcing(t, y[:N])
+        if st != 0:
+            return np.inf
+        kn.gap_peak(t, delta, jmax, np.ascontiguousarray(y[:N]), np.ascontiguousarray(y[N:2 * N]), ones,
+                    tab.lay, gap)
+        return gap[0]
 
     T = times.size
     out_a, out_v = np.full((T, N), np.nan), np.full((T, N), np.nan)
     out_c, out_f, out_e = np.full(T, np.nan), np.full(T, np.nan), np.full((T, 3), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
     diag[kn.D_FAIL_KIND] = kn.FAIL_NONE
-    status, reason = kn.OK, None
+    status, reason, failure = kn.OK, kn.FAIL_NONE, ""
     y0 = np.concatenate([a0, v0, [0.0]])
-    try:
-        sol = solve_ivp(rhs, (t_start, t_end), y0, method="DOP853", rtol=tolerance,
-                        atol=tolerance * 1e-3, t_eval=times)
-        ys, ts = sol.y.T, sol.t
-        if not sol.success:
-            status, reason = kn.NONFINITE, kn.FAIL_NONFINITE
-    except _Bottomed as stop:
-        ys, ts = np.empty((0, 2 * N + 1)), np.empty(0)
-        status = kn.STEP_LIMIT if str(stop) == "max_steps" else kn.NONFINITE
-        reason = kn.FAIL_MAX_STEPS if status == kn.STEP_LIMIT else kn.FAIL_FIXED_STEP
-    n_out = ts.size
-    for k in range(n_out):
-        a, v, work = ys[k, :N], ys[k, N:2 * N], ys[k, 2 * N]
-        st, F, jmax = forcing(ts[k], a)
+    k = 0
+
+    def record(t, y):
+        nonlocal k
+        a, v, work = y[:N], y[N:2 * N], y[2 * N]
+        st, F, jmax = forcing(t, a)
         out_a[k], out_v[k] = a, v
         out_c[k] = kn.count_contacts(delta, jmax)
         out_f[k] = F
         out_e[k] = (0.5 * np.sum(tab.LM * (v**2 + om2 * a**2)),
                     kn.layer_energy(delta, jmax, tab.dx, p.K, p.he), work)
-    t_reached = ts[-1] if n_out else t_start
+        k += 1
+
+    while k < T and times[k] <= t_start:
+        record(t_start, y0)
+    solver = DOP853(rhs, t_start, y0, t_end, rtol=tolerance, atol=tolerance * 1e-3)
+    t_reached, steps = t_start, 0
+    while solver.status == "running":
+        if steps >= max_steps:
+            status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS
+            break
+        t_old = solver.t
+        try:
+            message = solver.step()
+        except _StageDeltaOne as stage:
+            status, reason = kn.NONFINITE, kn.FAIL_FIXED_STEP
+            failure = (f"evaluated a stage with delta >= 1 at t = {float(str(stage)):.9g} s (scipy's step "
+                       f"{solver.h_abs:.3g} s) and cannot retry such a stage;")
+            break
+        if solver.status == "failed":
+            status, reason = kn.NONFINITE, kn.FAIL_NONFINITE
+            failure = f"{message} (scipy's step {solver.h_abs:.3g} s)"
+            break
+        steps += 1
+        dense = solver.dense_output()
+        # bottoming: the step end, and inside the step where the gap is already small
+        probe = [solver.t]
+        if largest_delta(solver.t, solver.y) > 0.99 or largest_delta(t_old, dense(t_old)) > 0.99:
+            probe = list(np.linspace(t_old, solver.t, 9)[1:])
+        t_bottom = None
+        for tp in probe:
+            if largest_delta(tp, dense(tp)) >= level:
+                t_bottom = brentq(lambda tt: min(largest_delta(tt, dense(tt)), 2.0) - level, t_old, tp,
+                                  xtol=1e-16, rtol=4e-16)
+                break
+        t_stop = solver.t if t_bottom is None else t_bottom
+        while k < T and times[k] <= t_stop:
+            record(times[k], dense(times[k]))
+        t_reached = t_stop
+        if t_bottom is not None:
+            y = dense(t_bottom)
+            largest_delta(t_bottom, y)
+            status, reason = kn.LAYER_BOTTOMED_OUT, kn.FAIL_LOCATED
+            diag[kn.D_BOTTOM_T], diag[kn.D_BOTTOM_X], diag[kn.D_BOTTOM_SPEED] = t_bottom, gap[2], p.he * gap[1]
+            diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = np.inf, t_bottom
+            break
     if status != kn.OK:
         diag[kn.D_FAIL_T] = t_reached
         diag[kn.D_FAIL_KIND] = reason
-    diag[kn.D_T_REACHED] = t_end if status == kn.OK else t_reached
+    diag[kn.D_T_REACHED] = t_reached
+    n_out = k
     if n_out:
         work = out_e[n_out - 1, 2]
         diag[kn.D_WORK] = work
-        residual = np.abs(out_e[:n_out, 0] + out_e[:n_out, 1] - out_e[:n_out, 2])
+        residual = np.abs(out_e[:n_out, 0] + out_e[:n_out, 1] - out_e[:n_out, 2] - out_e[0, 0] - out_e[0, 1])
         diag[kn.D_ENERGY_RESIDUAL] = residual.max() / work if work > 0 else 0.0
     diag[kn.D_RHS] = nfev[0]
-    diag[kn.D_STEPS] = nfev[0] / 12            # DOP853 evaluates 12 stages a step
+    diag[kn.D_STEPS] = steps
     diag[kn.D_REJECTED] = 0
-    return status, n_out, out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag
+    return status, n_out, out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag, failure

@@ -54,8 +54,8 @@ def _check_modal_part(p, modes, reference_modes):
 def test_time_part_etd34_and_rk4_reference_case():
     p = Parameters(Nmod=20)
     _check_time_part(p, [Settings(tolerance=1e-6), Settings(tolerance=1e-8),
-                         Settings(integrator="rk4", rk4_step_fraction=0.2),
-                         Settings(integrator="rk4", rk4_step_fraction=0.1)])
+                         Settings(integrator="rk4", rk4_step_fraction=0.1),
+                         Settings(integrator="rk4", rk4_step_fraction=0.05)])
 
 
 def test_modal_part_reference_case():

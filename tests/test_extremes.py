@@ -1,10 +1,11 @@
-"""Stiff and extreme cases: each ends ok with a small energy residual, or with a named failure
-whose time is converged in the tolerance (so it is the model's, not the integrator's), and
-never with NaN or inf in data marked valid. studies/extremes.toml has the full list."""
+"""Stiff and extreme cases: each ends ok with a small energy residual, or with the layer
+bottomed out at a located time converged in the tolerance (so it is the model's, not the
+integrator's), and never with NaN or inf, or delta >= 1, in data marked valid.
+studies/extremes.toml has the full list (docs/model.md, "Statuses")."""
 import numpy as np
 import pytest
 
-from solver import FIELDS, Parameters, Settings, solve
+from solver import FIELDS, Parameters, Settings, kernels as kn, solve
 
 FAST = {
     "fast V=40": {"V": 40.0},
@@ -34,18 +35,29 @@ def _check(overrides, Nmod):
     for name, f in r.fields.items():
         assert np.all(np.isfinite(f[v])), name
         assert np.all(np.isnan(f[~v])), name
+    if r.status == "energy_violation":
+        # the quadrature cannot resolve the identity in a run this short (thin+soft+fast bottoms
+        # out at 0.2% of the stage): flagged, and finer subintervals mend it at the same event
+        assert "energy identity broken" in r.message and "bottomed out" in r.message
+        finer = solve(p, Settings(subintervals=4000), times=times, fields=FIELDS)
+        assert finer.status == "layer_bottomed_out", finer.message
+        assert finer.diagnostics["bottoming_time"] == pytest.approx(r.diagnostics["bottoming_time"], rel=1e-4)
+        r = finer
     assert r.status in ("ok", "layer_bottomed_out"), r.message
     if r.status == "ok":
         assert r.time_reached == pytest.approx(p.stage_duration)
         assert r.diagnostics["energy_residual"] < 1e-3
         assert r.diagnostics["max_compression"] < 1
     else:
-        assert r.diagnostics["max_compression"] > 1 - 1e-6
+        assert r.diagnostics["max_compression"] == pytest.approx(1 - kn.BOTTOM_GAP, abs=1e-3 * kn.BOTTOM_GAP)
+        assert r.diagnostics["bottoming_time"] == r.time_reached
+        assert r.diagnostics["max_force"] == np.inf
         assert "layer bottomed out at t =" in r.message
-        tight = solve(p, Settings(tolerance=1e-10, error_estimate=False), times=times, fields=())
+        tight = solve(p, Settings(tolerance=1e-11, error_estimate=False), times=times, fields=())
         assert tight.status == "layer_bottomed_out"
-        assert tight.time_reached == pytest.approx(r.time_reached, rel=1e-2), \
-            "the bottoming-out time must not depend on the tolerance"
+        assert tight.diagnostics["bottoming_time"] == pytest.approx(r.time_reached, rel=1e-4), \
+            "the bottoming time must not depend on the tolerance"
+    assert np.all(r.fields["compression"][v] < 1)
     return r
 
 

@@ -98,10 +98,13 @@ def _free_oscillation(method, fraction, times, t_end, p, tab, n):
     out_c, out_f, out_e = np.full(T, np.nan), np.full(T, np.nan), np.full((T, 3), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
     fixed = 0.0 if method == kn.ETD34 else fraction * 2 * np.pi / tab.omega[-1]
-    status, n_out = kn.integrate(method, tab.omega, tab.coef, tab.strain_coef, tab.LM, tab.lam[0],
-                                 tab.cosq, tab.wq, tab.dx, p.V, p.R, p.he, 0.0, p.eps_Y, 0.0, t_end,
-                                 times, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, a0, np.zeros(p.Nmod),
-                                 out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag)
+    lay = tab.lay.copy()
+    lay[kn.L_K] = 0.0                                   # the layer switched off
+    no_levels = np.empty(0)
+    status, n_out, *_ = kn.integrate(method, tab.modes, lay, tab.cosq, tab.wq, 0.0, t_end, times, 1e-8,
+                                     fixed, 1e-6, 1e-15, 1.0, 10**7, a0, np.zeros(p.Nmod), no_levels,
+                                     out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag,
+                                     np.empty((2, 0)), np.empty((2, 0)))
     assert status == kn.OK and n_out == T
     return out_a, out_v, out_e, fixed
 

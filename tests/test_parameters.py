@@ -46,7 +46,6 @@ def test_nu_zero_gives_the_seed_typo_scales():
     ("Nmod", 10**7, "Nmod must be at most 4096"),
     ("nu", 0.5, "nu must be in [0, 0.5)"),
     ("nu", -0.1, "nu must be in [0, 0.5)"),
-    ("eps_Y", 0.0, "eps_Y must be finite and > 0"),
     ("rho_w", None, "rho_w must be a number"),
 ])
 def test_bad_parameter_names_key_and_range(key, value, words):

@@ -1,0 +1,104 @@
+r"""Crack onset for any yield strain from one run: the running-maximum tension record.
+
+A run stores, for each surface, the record of the running maximum over time of the peak
+tension, m(t) = max_x (+eps) on the upper surface and max_x (-eps) on the lower one
+(docs/model.md, "Crack onset"). Each accepted step in which the running maximum rose adds a
+*piece*: the cubic Hermite interpolant of the peak between the two step ends, from its value
+and its exact time derivative d/dt max_x eps = eps_t(x*) at both ends. Rows of a record::
+
+    (t [s], value [1], rate [s-1], x [m], join)      join = 1: a piece from the previous row
+
+The first time the tension reaches a yield strain eps_Y is then the first root of
+piece(t) = eps_Y in the first piece whose maximum reaches eps_Y; its place is x interpolated
+linearly along the piece. This answers any list of eps_Y with no solver run, to the accuracy
+of the in-loop located crossing (tests/test_fracture.py: <= 1e-6 relative against crossings
+located on true sub-steps of the integrator).
+"""
+import numpy as np
+from numba import njit
+
+from .kernels import R_JOIN, R_RATE, R_T, R_VALUE, R_X, cubic_first_reach, cubic_max, hermite
+
+#: key -> (long_name, units) of the yield strain, a post-processing axis (not a solver input)
+EPS_Y_INFO = ("yield strain of ice: tension above it is expected to crack the ice", "1")
+#: the paper's yield strain
+PAPER_EPS_Y = 8e-5
+
+
+def default_eps_Y() -> np.ndarray:
+    """The default axis: 10 values a decade from 1e-5 to 1e-1, and the paper's 8e-5."""
+    return np.unique(np.r_[np.logspace(-5, -1, 41), PAPER_EPS_Y])
+
+
+@njit(cache=True, nogil=True)
+def _first_reach(rec, levels, out_t, out_x):
+    n = rec.shape[0]
+    starts = np.empty(n, np.int64)
+    n_pieces = 0
+    for i in range(1, n):
+        if rec[i, R_JOIN] == 1.0:
+            starts[n_pieces] = i - 1
+            n_pieces += 1
+    starts = starts[:n_pieces]
+    t0s = np.empty(n_pieces)
+    for p in range(n_pieces):
+        t0s[p] = rec[starts[p], R_T]
+    order = np.argsort(t0s, kind="mergesort")
+    maxima = np.empty(n_pieces)
+    running = -np.inf
+    for q in range(n_pieces):
+        i = starts[order[q]]
+        h = rec[i + 1, R_T] - rec[i, R_T]
+        c0, c1, c2, c3 = hermite(rec[i, R_VALUE], rec[i + 1, R_VALUE], rec[i, R_RATE],
+                                 rec[i + 1, R_RATE], h)
+        v, _ = cubic_max(c0, c1, c2, c3)
+        running = max(running, v)
+        maxima[q] = running
+    for k in range(levels.shape[0]):
+        out_t[k] = np.nan
+        out_x[k] = np.nan
+        level = levels[k]
+        q = np.searchsorted(maxima, level)          # first piece whose running max reaches it
+        if q >= n_pieces:
+            continue
+        t_first = t0s[order[q]]
+        best = np.inf
+        # pieces that start together (the two tracks of a step where the peak switched)
+        while q < n_pieces and t0s[order[q]] == t_first:
+            i = starts[order[q]]
+            h = rec[i + 1, R_T] - rec[i, R_T]
+            c0, c1, c2, c3 = hermite(rec[i, R_VALUE], rec[i + 1, R_VALUE], rec[i, R_RATE],
+                                     rec[i + 1, R_RATE], h)
+            th = cubic_first_reach(c0, c1, c2, c3, level)
+            if th >= 0.0 and rec[i, R_T] + th * h < best:
+                best = rec[i, R_T] + th * h
+                out_x[k] = rec[i, R_X] + th * (rec[i + 1, R_X] - rec[i, R_X])
+            q += 1
+        if best < np.inf:
+            out_t[k] = best
+
+
+def crack_onset(record, eps_Y):
+    """First time and place at which the tension of a record reaches each yield strain.
+
+    Parameters
+    ----------
+    record : (n, 5) array, a tension record (``Result.tension_record["upper"]`` or
+        ``["lower"]``, or the rows of a case file's ``tension_record``); NaN rows are ignored.
+    eps_Y : yield strain(s) [1], any order.
+
+    Returns
+    -------
+    time : array like eps_Y [s]; NaN where the tension never reaches it in the run.
+    x : array like eps_Y [m], x >= 0 (the field is mirrored at -x).
+    """
+    rec = np.asarray(record, dtype=float)
+    rec = rec[np.isfinite(rec[:, R_T])] if rec.size else np.empty((0, 5))
+    levels = np.atleast_1d(np.asarray(eps_Y, dtype=float))
+    out_t = np.full(levels.shape, np.nan)
+    out_x = np.full(levels.shape, np.nan)
+    if rec.shape[0] >= 2:
+        _first_reach(np.ascontiguousarray(rec), levels.ravel(), out_t.reshape(-1), out_x.reshape(-1))
+    if np.ndim(eps_Y) == 0:
+        return float(out_t[0]), float(out_x[0])
+    return out_t, out_x
