@@ -328,7 +328,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     started = _time.perf_counter()
     if s.integrator == "dop853":
         code, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, fail = integrate_dop853(
-            p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps)
+            p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init)
         records = {"upper": empty, "lower": empty}
         contact_record = np.empty((0, 2))
     else:

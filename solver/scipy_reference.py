@@ -2,7 +2,8 @@
 
 Same equations and forcing kernel as :mod:`solver.kernels`, written as a first-order system
 y = (a_n, da_n/dt, W) and stepped with :class:`scipy.integrate.DOP853` at rtol = tolerance,
-atol = tolerance * 1e-3. Outputs come from its 7th-order dense output. Bottoming out is a
+atol = tolerance * 1e-3, first step that of etd34 (scipy's own guess can jump from first
+touch straight into delta >= 1). Outputs come from its 7th-order dense output. Bottoming out is a
 located event, as in the kernels: the first time the largest delta on the continuous plate
 reaches 1 - BOTTOM_GAP, found by brentq on the dense output. DOP853 has no step rejection
 on delta >= 1: a stage there ends the run, with the time and scipy's step in the message,
@@ -20,7 +21,7 @@ class _StageDeltaOne(Exception):
     """A stage evaluated delta >= 1 (the forcing is undefined there)."""
 
 
-def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps):
+def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None):
     """Returns (status, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err,
     diag, failure) with the meaning of :func:`solver.kernels.integrate` (out_err all NaN:
     DOP853 gives no local error estimates back); failure names what stopped it, or ""."""
@@ -80,7 +81,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
 
     while k < T and times[k] <= t_start:
         record(t_start, y0)
-    solver = DOP853(rhs, t_start, y0, t_end, rtol=tolerance, atol=tolerance * 1e-3)
+    solver = DOP853(rhs, t_start, y0, t_end, rtol=tolerance, atol=tolerance * 1e-3, first_step=first_step)
     t_reached, steps = t_start, 0
     while solver.status == "running":
         if steps >= max_steps:
@@ -102,14 +103,19 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         dense = solver.dense_output()
         # bottoming: the step end, and inside the step where the gap is already small
         probe = [solver.t]
-        if largest_delta(solver.t, solver.y) > 0.99 or largest_delta(t_old, dense(t_old)) > 0.99:
+        if largest_delta(solver.t, solver.y) > 0.9 or largest_delta(t_old, dense(t_old)) > 0.9:
             probe = list(np.linspace(t_old, solver.t, 9)[1:])
         t_bottom = None
+        below = t_old
         for tp in probe:
             if largest_delta(tp, dense(tp)) >= level:
-                t_bottom = brentq(lambda tt: min(largest_delta(tt, dense(tt)), 2.0) - level, t_old, tp,
-                                  xtol=1e-16, rtol=4e-16)
+                if largest_delta(below, dense(below)) >= level:
+                    t_bottom = below
+                else:
+                    t_bottom = brentq(lambda tt: min(largest_delta(tt, dense(tt)), 2.0) - level, below, tp,
+                                      xtol=1e-16, rtol=1e-15)
                 break
+            below = tp
         t_stop = solver.t if t_bottom is None else t_bottom
         while k < T and times[k] <= t_stop:
             record(times[k], dense(times[k]))

@@ -26,20 +26,6 @@ def run20():
                  fields=("strain",), x=np.linspace(-p.L, p.L, 2001))
 
 
-@pytest.mark.parametrize("surface, sign", [("", 1.0), ("_lower", -1.0)])
-def test_crack_onset_located_within_the_step(run20, surface, sign):
-    p = run20.parameters
-    tc = run20.diagnostics["crack_onset_time" + surface]
-    xc = run20.diagnostics["crack_onset_x" + surface]
-    assert 0 < tc < 0.1 * p.stage_duration
-    x = np.linspace(0, p.L, 6001)
-    r = solve(p, Settings(tolerance=1e-10), times=[0.98 * tc, tc], fields=("strain",), x=x)
-    before, at = sign * r.fields["strain"]
-    assert before.max() < p.eps_Y
-    assert at.max() == pytest.approx(p.eps_Y, rel=0.01)
-    assert x[np.argmax(at)] == pytest.approx(xc, abs=0.05)
-
-
 def test_maxima_tracked_between_snapshots(run20):
     d = run20.diagnostics
     eps = run20.fields["strain"][run20.valid]
