@@ -2,7 +2,9 @@
 
 Each case file ``cases/<case_id>.nc`` holds one case along a ``case`` dimension of length 1,
 with the requested fields over (t, x), the per-time series, the in-loop diagnostics, the
-status and message, and the case's parameters and settings. It is written by the worker that
+event records (the running-maximum tension record of each surface, from which crack onset
+follows for any yield strain, and every change of the contact-interval count), the status
+and message, and the case's parameters and settings. It is written by the worker that
 ran it, atomically: temporary file in the same directory, fsync, ``os.replace``, fsync of the
 directory. A reader accepts a file only if it opens, carries this schema and case id, and has
 every variable with the expected shape; anything else is not "done".
@@ -18,7 +20,7 @@ import dask
 import numpy as np
 import xarray as xr
 
-from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, solve
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, STATUS_INFO, solve
 
 from . import provenance
 from .study import SCHEMA_VERSION, Case
@@ -32,8 +34,6 @@ SERIES_INFO = {
 RECORD_INFO = {
     "t_sc": ("time scale 1/omega_1 of the case", "s"),
     "stage_duration": ("impact stage L^2/(6 R V) of the case", "s"),
-    "crack_onset_time_tsc": ("crack_onset_time in units of the case's t_sc", "1"),
-    "crack_onset_time_lower_tsc": ("crack_onset_time_lower in units of the case's t_sc", "1"),
     "time_reached": ("time the integration reached", "s"),
     "run_time": ("wall time of the solver for this case (the integration alone)", "s"),
     "error_estimate_run_time": ("wall time of the error estimate's companion run (0: none)", "s"),
@@ -42,12 +42,27 @@ RECORD_INFO = {
     "smallest_step": ("smallest accepted time step", "s"),
 }
 TEXT_INFO = {
-    "status": "ok | layer_bottomed_out | nonfinite | step_limit | error",
+    "status": " | ".join([*STATUS_INFO, "error"]),
     "message": "what went wrong, empty when status is ok",
 }
+#: the running-maximum tension record of each surface (solver.fracture): node variables along
+#: ("surface", "tension_node"), NaN-padded; crack onset for any eps_Y follows from it
+TENSION_RECORD_INFO = {
+    "tension_record_time": ("time of a node of the running-maximum tension record", "s"),
+    "tension_record_value": ("peak tension over x at the node (upper: +strain, lower: -strain)", "1"),
+    "tension_record_rate": ("time derivative of the peak tension at the node", "s-1"),
+    "tension_record_x": ("position of the peak at the node (x >= 0; mirrored at -x)", "m"),
+    "tension_record_join": ("1: the node continues the previous one (a Hermite piece between them)", "1"),
+}
+CONTACT_RECORD_INFO = {
+    "contact_change_time": ("time at which the number of contact intervals changed (first entry: "
+                            "first touch)", "s"),
+    "contact_change_count": ("number of contact intervals on -L..L from that time on", "1"),
+}
+SURFACES = ("upper", "lower")
 #: statuses of a case that did not end ok: the model's own end, and numerical failures
 ENDED_EARLY = ("layer_bottomed_out",)
-NUMERICAL_FAILURES = ("nonfinite", "step_limit", "error")
+NUMERICAL_FAILURES = ("nonfinite", "step_limit", "energy_violation", "error")
 FAILED = ENDED_EARLY + NUMERICAL_FAILURES
 
 
@@ -99,9 +114,8 @@ def case_dataset(case: Case, result=None, status=None, message="") -> xr.Dataset
         if not np.isfinite(value):
             value = np.nan
         data[name] = (("case",), [value], {"long_name": long_name, "units": units})
+    _event_records(data, result)
     records = {"t_sc": p.time_scale, "stage_duration": p.stage_duration,
-               "crack_onset_time_tsc": data["crack_onset_time"][1][0] / p.time_scale,
-               "crack_onset_time_lower_tsc": data["crack_onset_time_lower"][1][0] / p.time_scale,
                "time_reached": np.nan if result is None else result.time_reached,
                "run_time": np.nan if result is None else result.wall_time,
                "error_estimate_run_time": np.nan if result is None else
@@ -122,6 +136,8 @@ def case_dataset(case: Case, result=None, status=None, message="") -> xr.Dataset
     t_long = "time in units of the case's t_sc" if case.times_spec["unit"] == "t_sc" \
         else "time as a fraction of the case's impact stage L^2/(6RV)"
     coords = {"case": ("case", np.array([case.case_id], dtype=object), {"long_name": "case id"}),
+              "surface": ("surface", np.array(SURFACES, dtype=object),
+                          {"long_name": "ice surface: upper (tension = +strain), lower (tension = -strain)"}),
               "t": ("t", t_coord, {"long_name": t_long, "units": "1"}),
               "x": ("x", x, {"long_name": "position along the plate", "units": "m"})}
     ds = xr.Dataset(data, coords=coords)
@@ -138,6 +154,35 @@ def case_dataset(case: Case, result=None, status=None, message="") -> xr.Dataset
         **provenance.attributes(),
     })
     return ds
+
+
+def _event_records(data: dict, result) -> None:
+    """The tension records of both surfaces and the contact record, NaN-padded, into data."""
+    recs = [np.empty((0, 5)) if result is None else result.tension_record[s] for s in SURFACES]
+    nodes = max(1, max(r.shape[0] for r in recs))
+    for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
+        arr = np.full((1, 2, nodes), np.nan)
+        for i, r in enumerate(recs):
+            arr[0, i, :r.shape[0]] = r[:, col]
+        data[name] = (("case", "surface", "tension_node"), arr, {"long_name": long_name, "units": units})
+    contacts = np.empty((0, 2)) if result is None or result.contact_record is None else result.contact_record
+    n = max(1, contacts.shape[0])
+    for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):
+        arr = np.full((1, n), np.nan)
+        arr[0, :contacts.shape[0]] = contacts[:, col]
+        data[name] = (("case", "contact_change"), arr, {"long_name": long_name, "units": units})
+
+
+def tension_records(ds: xr.Dataset, index=()) -> dict:
+    """surface -> (n, 5) record rows of one case in a case file or study.nc dataset (index:
+    the case's position along the leading dimensions of study.nc; () for a case file)."""
+    out = {}
+    for i, surface in enumerate(SURFACES):
+        cols = [np.asarray(ds[name].values)[(0,) if not index else tuple(index)][i]
+                for name in TENSION_RECORD_INFO]
+        rows = np.stack(cols, axis=-1)
+        out[surface] = rows[np.isfinite(rows[:, 0])]
+    return out
 
 
 def compute_case(case: Case):
@@ -216,6 +261,8 @@ def read_case(path: Path, case: Case):
         return None
     expected = {name: ("case", "t", "x") for name in case.fields}
     expected.update({name: ("case", "t") for name in SERIES_INFO})
+    expected.update({name: ("case", "surface", "tension_node") for name in TENSION_RECORD_INFO})
+    expected.update({name: ("case", "contact_change") for name in CONTACT_RECORD_INFO})
     expected.update({name: ("case",) for name in (*DIAGNOSTIC_INFO, *RECORD_INFO, *TEXT_INFO)})
     try:
         if ds.attrs.get("schema_version") != SCHEMA_VERSION or ds.attrs.get("case_id") != case.case_id:

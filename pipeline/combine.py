@@ -15,7 +15,8 @@ import xarray as xr
 from solver import PARAMETER_INFO, SETTING_INFO
 
 from . import provenance
-from .casefile import case_path, read_case, write_atomic
+from .casefile import case_path, read_case, tension_records, write_atomic
+from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
 from .study import SCHEMA_VERSION, Study
 
 
@@ -23,8 +24,8 @@ ERROR_INFO = {
     "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
                      "both reached", "1"),
     "error_max_strain": ("relative difference of max_strain from the reference run", "1"),
-    "error_crack_onset_time": ("absolute difference of crack_onset_time from the reference run", "s"),
-    "error_crack_onset_time_tsc": ("error_crack_onset_time in units of the case's t_sc", "1"),
+    "error_crack_onset_time": ("largest relative difference over eps_Y of crack_onset_time from the "
+                               "reference run", "1"),
     "error_contact_intervals": ("largest difference of contact_intervals from the reference run "
                                 "over the snapshots", "1"),
 }
@@ -38,7 +39,7 @@ def _parameter_coord(key, values):
     return (key, np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units})
 
 
-def errors_against(ds, ref) -> dict:
+def errors_against(ds, ref, eps_Y) -> dict:
     """Errors of one case file's data against its reference run (both loaded datasets)."""
     out = {name: np.nan for name in ERROR_INFO}
     if ds is None or ref is None:
@@ -49,9 +50,11 @@ def errors_against(ds, ref) -> dict:
         out["error_strain"] = float(np.linalg.norm(a[both] - b[both]) / np.linalg.norm(b[both]))
     m, mr = float(ds["max_strain"].values[0]), float(ref["max_strain"].values[0])
     out["error_max_strain"] = abs(m - mr) / abs(mr) if mr else np.nan
-    tc, tr = float(ds["crack_onset_time"].values[0]), float(ref["crack_onset_time"].values[0])
-    out["error_crack_onset_time"] = abs(tc - tr)
-    out["error_crack_onset_time_tsc"] = abs(tc - tr) / float(ds["t_sc"].values[0])
+    tc = onset_from_records(tension_records(ds), eps_Y)["crack_onset_time"]
+    tr = onset_from_records(tension_records(ref), eps_Y)["crack_onset_time"]
+    both = np.isfinite(tc) & np.isfinite(tr)
+    if both.any():
+        out["error_crack_onset_time"] = float(np.max(np.abs(tc[both] / tr[both] - 1)))
     c, cr = ds["contact_intervals"].values[0], ref["contact_intervals"].values[0]
     ok = np.isfinite(c) & np.isfinite(cr)
     out["error_contact_intervals"] = float(np.max(np.abs(c[ok] - cr[ok]))) if ok.any() else np.nan
@@ -69,11 +72,13 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
     first = study.cases[0]
     L_values = {c.parameters.L for c in study.cases}
     data = {}
+    # record dimensions differ in length from case to case: the study's is the longest
+    sizes = {d: max(ds.sizes[d] for ds in per_case if ds is not None) for d in template.dims}
     for name, var in template.data_vars.items():
         if name in PARAMETER_INFO:
             continue
         tail = var.dims[1:]
-        full_shape = shape + tuple(template.sizes[d] for d in tail)
+        full_shape = shape + tuple(sizes[d] for d in tail)
         if var.dtype.kind in "OUS":
             arr = np.full(full_shape, "missing", dtype=object)
         else:
@@ -83,8 +88,18 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
                 if name == "message":
                     arr[case.index] = "no valid case file"
                 continue
-            arr[case.index] = ds[name].values[0]
+            values = ds[name].values[0]
+            arr[case.index + tuple(slice(0, n) for n in values.shape)] = values
         data[name] = (tuple(dims) + tail, arr, dict(var.attrs))
+    # crack onset along the study's eps_Y, from each case's tension records
+    eps_Y = study.output["eps_Y"]
+    onset = {name: np.full(shape + (len(eps_Y),), np.nan) for name in CRACK_INFO}
+    for case, ds in zip(study.cases, per_case):
+        if ds is not None:
+            for name, values in onset_from_records(tension_records(ds), eps_Y).items():
+                onset[name][case.index] = values
+    for name, (long_name, units) in CRACK_INFO.items():
+        data[name] = (tuple(dims) + ("eps_Y",), onset[name], {"long_name": long_name, "units": units})
     data["case_id"] = (tuple(dims), np.array([c.case_id for c in study.cases], dtype=object).reshape(shape),
                        {"long_name": "id of the case file in cases/"})
     if study.references:
@@ -97,12 +112,12 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
             if ref is None:
                 continue
             ref_ids[case.index] = ref.case_id
-            for name, value in errors_against(ds_case, ref_data[ref.case_id]).items():
+            for name, value in errors_against(ds_case, ref_data[ref.case_id], study.output["eps_Y"]).items():
                 errors[name][case.index] = value
         for name, (long_name, units) in ERROR_INFO.items():
             data[name] = (tuple(dims), errors[name], {"long_name": long_name, "units": units})
         data["reference_case_id"] = (tuple(dims), ref_ids, {"long_name": "case file of the reference run"})
-    coords = {"t": template["t"].copy()}
+    coords = {"t": template["t"].copy(), "surface": template["surface"].copy(), "eps_Y": eps_Y_coord(eps_Y)}
     if "x" in template.dims:
         if len(L_values) == 1:
             coords["x"] = template["x"].copy()

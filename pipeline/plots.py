@@ -12,15 +12,15 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import xarray as xr  # noqa: E402
 
-from solver import PARAMETER_INFO  # noqa: E402
+from solver import PAPER_EPS_Y, PARAMETER_INFO, SETTING_INFO  # noqa: E402
 
 DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper surface"),
     ("max_strain_lower", "max tensile strain, lower surface"),
-    ("crack_onset_time_tsc", "crack onset, upper [t_sc]"),
-    ("crack_onset_time_lower_tsc", "crack onset, lower [t_sc]"),
+    ("crack_onset_time", "crack onset, upper [ms]"),
+    ("crack_onset_time_lower", "crack onset, lower [ms]"),
     ("max_contact_intervals", "max contact intervals"),
-    ("max_force", "max force [N/m]"),
+    ("max_force", "max force [N/m] (▲: layer bottomed out, unbounded)"),
     ("max_compression", "max layer compression δ"),
     ("energy_residual", "energy residual / work"),
     ("run_time", "solver wall time [s]"),
@@ -28,32 +28,90 @@ DIAGNOSTICS = [
 
 
 def _label(key, value):
-    units = PARAMETER_INFO[key][1]
-    return f"{key} = {value:g}" + ("" if units == "1" else f" {units}")
+    if isinstance(value, str):
+        return f"{key} = {value}"
+    units = (PARAMETER_INFO.get(key) or SETTING_INFO.get(key) or ("", "1"))[1]
+    return f"{key} = {value:g}" + ("" if units in ("1", "") else f" {units}")
+
+
+def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
+    """Crack-onset time [ms] against eps_Y (log axis), upper and lower surface: one line per
+    value of the first key, one panel row per combination of the others (at most 6 rows)."""
+    eps = ds["eps_Y"].values
+    if dims == ["case"]:
+        first, others = "case", []
+        labels = [str(ds["group"].values[i]) if "group" in ds.coords else f"case {i}"
+                  for i in range(ds.sizes["case"])]
+    else:
+        first, others = dims[0], dims[1:]
+        labels = [_label(first, v) for v in ds[first].values]
+    combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
+    rows = combos[:6]
+    fig, axes = plt.subplots(len(rows), 2, figsize=(12, 3.2 * len(rows) + 1.0), squeeze=False,
+                             constrained_layout=True, sharex=True)
+    colors = plt.cm.viridis(np.linspace(0, 0.9, ds.sizes[first]))
+    for row, combo in zip(axes, rows):
+        where = dict(zip(others, combo))
+        for ax, name, surface in ((row[0], "crack_onset_time", "upper"), (row[1], "crack_onset_time_lower", "lower")):
+            sel = ds[name].sel(where)
+            for i, (color, label) in enumerate(zip(colors, labels)):
+                ax.semilogx(eps, sel.isel({first: i}).values * 1e3, "-", color=color, label=label, lw=1.4)
+            ax.axvline(PAPER_EPS_Y, color="k", lw=0.8, ls="--")
+            ax.set_ylabel("crack onset [ms]")
+            ax.set_title(f"{surface} surface" + (", " + ", ".join(_label(k, v) for k, v in where.items())
+                                                   if where else ""), fontsize=10)
+            ax.grid(alpha=0.3, which="both")
+    for ax in axes[-1]:
+        ax.set_xlabel("yield strain εY")
+    handles, lab = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles[:12], lab[:12], loc="outside lower center", ncol=min(6, len(lab)), fontsize=9)
+    title = "First time the tension reaches εY (dashed: the paper's 8e-5); a line ends where εY is not reached"
+    if len(combos) > len(rows):
+        title += f"\n(first {len(rows)} of {len(combos)} combinations of {', '.join(others)})"
+    fig.suptitle(title, fontsize=11)
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def _paper_eps_Y(ds: xr.Dataset) -> float:
+    """The paper's yield strain 8e-5 if the study has it, else the eps_Y nearest to it."""
+    eps = ds["eps_Y"].values
+    return float(eps[np.argmin(np.abs(np.log(eps / PAPER_EPS_Y)))])
 
 
 def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
-    """Each diagnostic against the first grid key, one line per value of the other keys."""
+    """Each diagnostic against the first grid key, one line per value of the other keys.
+    Crack onsets are at the paper's yield strain (or the study's eps_Y nearest to it)."""
     first, others = dims[0], dims[1:]
+    eps_y = _paper_eps_Y(ds)
+    ds = ds.assign({name: ds[name].sel(eps_Y=eps_y) * 1e3
+                    for name in ("crack_onset_time", "crack_onset_time_lower")})
     fig, axes = plt.subplots(3, 3, figsize=(13, 10), constrained_layout=True)
     combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(combos)))
     xvals = ds[first].values
     for ax, (name, title) in zip(axes.flat, DIAGNOSTICS):
+        unbounded = []
         for color, combo in zip(colors, combos):
             where = dict(zip(others, combo))
-            sel = ds[name].sel(where)
+            values = np.asarray(ds[name].sel(where).values, dtype=float)
             ok = np.asarray(ds["status"].sel(where).values == "ok")
+            inf = np.isinf(values)
+            shown = np.where(inf, np.nan, values)        # no meaningless value on an axis
             label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
-            ax.plot(xvals, sel.values, "-", color=color, label=label)
-            ax.plot(xvals[ok], sel.values[ok], "o", color=color, ms=4)
-            ax.plot(xvals[~ok], sel.values[~ok], "o", mfc="white", mec=color, ms=5)
-        ax.set_title(title, fontsize=10)
+            ax.plot(xvals, shown, "-", color=color, label=label)
+            ax.plot(xvals[ok], shown[ok], "o", color=color, ms=4)
+            ax.plot(xvals[~ok], shown[~ok], "o", mfc="white", mec=color, ms=5)
+            unbounded.append((color, xvals[inf]))
+        if any(x.size for _, x in unbounded):           # drawn at the top edge of the axis
+            for color, x in unbounded:
+                ax.plot(x, np.ones(x.size), "^", color=color, ms=7, transform=ax.get_xaxis_transform(),
+                        clip_on=False)
+        ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(_label(first, 0).split(" = ")[0] + f" [{PARAMETER_INFO[first][1]}]")
         if name in ("max_strain", "max_strain_lower"):
-            eps_y = float(np.nanmin(ds["eps_Y"].values)) if "eps_Y" in ds else None
-            if eps_y:
-                ax.axhline(eps_y, color="k", lw=0.8, ls="--", label="εY")
+            ax.axhline(eps_y, color="k", lw=0.8, ls="--")
             ax.set_yscale("log")
         if name in ("energy_residual", "run_time", "max_force"):
             ax.set_yscale("log")
@@ -63,7 +121,8 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(labels)), fontsize=9)
     title = ds.attrs.get("description") or ds.attrs.get("study_name", "")
     if np.any(ds["status"].values != "ok"):
-        title += "\nopen markers: the case ended before its impact stage did (see status); values cover 0..time_reached"
+        title += ("\nopen markers: the case did not end ok (see status), e.g. the layer bottomed out: "
+                  "values cover the run up to then")
     fig.suptitle(title, fontsize=11)
     fig.savefig(path, dpi=120)
     plt.close(fig)
@@ -121,6 +180,8 @@ def make_plots(ds: xr.Dataset, dims: list, kinds: list, out_dir: Path) -> list:
                 notes.append("diagnostics figure needs a [grid]: skipped")
                 continue
             written.append(diagnostics_figure(ds, dims, out_dir / "diagnostics.png"))
+        elif kind == "crack_onset":
+            written.append(crack_onset_figure(ds, dims, out_dir / "crack_onset.png"))
         elif kind == "paper_fig2":
             needed = {"deflection", "layer_pressure", "strain"}
             if not needed <= set(ds.data_vars) or ds["t"].attrs.get("long_name", "").find("t_sc") < 0:

@@ -13,6 +13,8 @@ A study file ``studies/<name>.toml`` (read with :mod:`tomllib`)::
                   # run with these overrides and stored with its error against that run
     [output]      # times = {unit = "t_sc", step, stop} | {unit = "stage", count}
                   # fields = [...], x_points = 241
+                  # eps_Y = [...] | {min, max, count} (log range): the yield strains at which
+                  # crack onset is reported (post-processing: not part of a case's identity)
     [solver]      # keys of solver.SETTING_INFO
     [plots]       # kinds = ["diagnostics", "paper_fig2"]
 
@@ -32,18 +34,22 @@ from pathlib import Path
 
 import numpy as np
 
-from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
+from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings,
+                    default_eps_Y)
 
 from .errors import StudyError
 
 #: bump when the layout of a case file changes: old case files are then recomputed
-SCHEMA_VERSION = 4
+SCHEMA_VERSION = 5
 
 SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
 #: keys a [reference] may override: the same physical case, computed more accurately
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
-OUTPUT_KEYS = {"times", "fields", "x_points"}
-PLOT_KINDS = ("diagnostics", "paper_fig2", "work_precision", "extremes")
+OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y"}
+PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes")
+#: the one-line answer to eps_Y given as a parameter (it was one before schema 5)
+EPS_Y_AS_PARAMETER = ("eps_Y is not a solver input: crack onset is computed after the run for any "
+                      "yield strain; give the values as [output] eps_Y = [...] or {min, max, count}")
 DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
                   "fields": ["deflection", "strain", "layer_pressure"], "x_points": 241}
 
@@ -172,6 +178,8 @@ def _check_parameters(where: str, table: dict, settings=False, reference=False) 
                     raise StudyError(f"{where}.error_estimate must be true or false, got {value!r}")
             else:
                 _number(f"{where}.{key}", value)
+        elif key == "eps_Y":
+            raise StudyError(f"{where}: {EPS_Y_AS_PARAMETER}")
         else:
             known = ", ".join([*PARAMETER_INFO, *(SETTING_INFO if settings else ())])
             raise StudyError(f"{where}: unknown parameter {key!r}; known: {known}")
@@ -228,7 +236,35 @@ def _check_output(out) -> dict:
     if not 2 <= xp <= 100_001:
         raise StudyError(f"[output] x_points must be between 2 and 100001, got {xp!r}")
     result["x_points"] = int(xp)
+    result["eps_Y"] = _check_eps_Y(out.get("eps_Y"))
     return result
+
+
+def _check_eps_Y(spec) -> list:
+    """[output] eps_Y: a list of yield strains, or a log range {min, max, count}; default: 10 a
+    decade from 1e-5 to 1e-1 and the paper's 8e-5. Returned sorted, as floats."""
+    if spec is None:
+        return [float(v) for v in default_eps_Y()]
+    if isinstance(spec, dict):
+        if set(spec) != {"min", "max", "count"}:
+            raise StudyError("[output] eps_Y as a log range takes exactly min, max and count")
+        lo, hi = _number("[output] eps_Y.min", spec["min"]), _number("[output] eps_Y.max", spec["max"])
+        count = _number("[output] eps_Y.count", spec["count"], integer=True)
+        if not (0 < lo < hi < 1 and math.isfinite(hi)):
+            raise StudyError(f"[output] eps_Y needs 0 < min < max < 1, got min = {lo!r}, max = {hi!r}")
+        if not 2 <= count <= 10_000:
+            raise StudyError(f"[output] eps_Y.count must be between 2 and 10000, got {count!r}")
+        return [float(v) for v in np.logspace(math.log10(lo), math.log10(hi), int(count))]
+    if not isinstance(spec, list) or not spec:
+        raise StudyError("[output] eps_Y must be a non-empty list of yield strains or {min, max, count}")
+    values = [_number("[output] eps_Y value", v) for v in spec]
+    if not all(0 < v < 1 and math.isfinite(v) for v in values):
+        raise StudyError("[output] eps_Y values must lie in (0, 1)")
+    if len(set(values)) != len(values):
+        raise StudyError("[output] eps_Y has duplicate values")
+    if len(values) > 10_000:
+        raise StudyError("[output] eps_Y: more than 10000 values")
+    return sorted(float(v) for v in values)
 
 
 def _check_solver(table) -> dict:
@@ -271,6 +307,8 @@ def load_study(path: Path) -> Study:
         raise StudyError(f"{path}: TOML syntax error: {err}") from None
     unknown = set(data) - SECTIONS
     if unknown:
+        if "eps_Y" in unknown:
+            raise StudyError(f"{path}: {EPS_Y_AS_PARAMETER}")
         raise StudyError(f"{path}: unknown section or key {sorted(unknown)[0]!r}; known: {', '.join(sorted(SECTIONS))}")
     description = data.get("description", "")
     if not isinstance(description, str):
@@ -281,6 +319,8 @@ def load_study(path: Path) -> Study:
         raise StudyError("[grid] must be a table of lists")
     grid = {}
     for key, values in grid_raw.items():
+        if key == "eps_Y":
+            raise StudyError(f"[grid]: {EPS_Y_AS_PARAMETER}")
         if key not in PARAMETER_INFO and key not in SETTING_INFO:
             raise StudyError(f"[grid]: unknown parameter {key!r}; known: "
                              f"{', '.join([*PARAMETER_INFO, *SETTING_INFO])}")
@@ -321,7 +361,7 @@ def load_study(path: Path) -> Study:
     plots_table = data.get("plots", {})
     if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
         raise StudyError("[plots] takes one key: kinds = [...]")
-    plots = plots_table.get("kinds", ["diagnostics"])
+    plots = plots_table.get("kinds", ["diagnostics", "crack_onset"])
     if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
         raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
     study = Study(name=path.stem, path=path, text=text, description=description, base=base,

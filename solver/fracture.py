@@ -78,6 +78,60 @@ def _first_reach(rec, levels, out_t, out_x):
             out_t[k] = best
 
 
+#: a node is dropped from a record when the merged Hermite piece reproduces the dropped nodes
+#: and the midpoints of the original pieces to THIN_TIME (relative) of their time, in value
+#: over rate, and to THIN_VALUE (relative) of their value
+THIN_TIME = 1e-7
+THIN_VALUE = 1e-10
+
+
+@njit(cache=True, nogil=True)
+def _fits(rec, a, b):
+    h = rec[b, R_T] - rec[a, R_T]
+    if not h > 0.0:
+        return False
+    c0, c1, c2, c3 = hermite(rec[a, R_VALUE], rec[b, R_VALUE], rec[a, R_RATE], rec[b, R_RATE], h)
+    for k in range(a, b):
+        tk = rec[k, R_T]
+        hk = rec[k + 1, R_T] - tk
+        o0, o1, o2, o3 = hermite(rec[k, R_VALUE], rec[k + 1, R_VALUE], rec[k, R_RATE], rec[k + 1, R_RATE], hk)
+        for frac in (0.0, 0.5):
+            if k == a and frac == 0.0:
+                continue
+            t = tk + frac * hk
+            orig = o0 + frac * (o1 + frac * (o2 + frac * o3))
+            th = (t - rec[a, R_T]) / h
+            merged = c0 + th * (c1 + th * (c2 + th * c3))
+            rate = abs(rec[k, R_RATE]) if frac == 0.0 else 0.5 * (abs(rec[k, R_RATE]) + abs(rec[k + 1, R_RATE]))
+            tol = max(THIN_TIME * abs(t) * rate, THIN_VALUE * abs(orig))
+            if abs(merged - orig) > tol:
+                return False
+    return True
+
+
+@njit(cache=True, nogil=True)
+def thin_record(rec):
+    """Rows of a tension record to keep (bool mask): the first and last row of every chain, and
+    as few in between as keep the piecewise Hermite within THIN_TIME / THIN_VALUE of itself."""
+    n = rec.shape[0]
+    keep = np.zeros(n, np.bool_)
+    i = 0
+    while i < n:
+        end = i + 1
+        while end < n and rec[end, R_JOIN] == 1.0:
+            end += 1
+        keep[i] = True
+        a = i
+        while a < end - 1:
+            b = a + 1
+            while b + 1 < end and _fits(rec, a, b + 1):
+                b += 1
+            keep[b] = True
+            a = b
+        i = end
+    return keep
+
+
 def crack_onset(record, eps_Y):
     """First time and place at which the tension of a record reaches each yield strain.
 

@@ -58,6 +58,14 @@ BAD_FILES = [
                   "hi = [" + ", ".join(str(0.2 + i / 1000) for i in range(100)) + "]"),
      "more than 10000"),
     (GOOD.replace("fields = [\"strain\"]", "fields = [\"strain\", \"strain\"]"), "listed twice"),
+    # eps_Y is a post-processing axis, not a parameter
+    (GOOD.replace("Nmod = 4", "Nmod = 4\neps_Y = 8e-5"), "[output] eps_Y"),
+    (GOOD.replace("V = [3.0, 5.0]", "eps_Y = [8e-5, 1e-4]"), "eps_Y is not a solver input"),
+    (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = []"), "eps_Y must be a non-empty list"),
+    (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = [0.0, 1e-4]"), "eps_Y values must lie in (0, 1)"),
+    (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = [1e-4, 1e-4]"), "eps_Y has duplicate values"),
+    (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = {min = 1e-5, max = 1e-1}"), "takes exactly min, max and count"),
+    (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = {min = 1e-1, max = 1e-5, count = 9}"), "0 < min < max < 1"),
 ]
 
 

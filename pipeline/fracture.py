@@ -1,0 +1,90 @@
+"""Crack onset against the yield strain, from stored records: no solver run.
+
+Every case file and ``study.nc`` holds each case's running-maximum tension record on both
+surfaces (``tension_record_*``, docs/model.md "Crack onset"). :func:`crack_onset` turns it
+into the first time and place at which the tension reaches each yield strain::
+
+    import xarray as xr
+    from pipeline.fracture import crack_onset
+    onset = crack_onset("results/speed_sweep/study.nc", eps_Y=[5e-5, 8e-5, 2e-4])
+    onset["crack_onset_time"].sel(V=5.0, hi=0.5)          # [s] along eps_Y
+
+The combine uses the same function for the study's ``[output] eps_Y``, so a new list of
+yield strains never needs new runs; studies that differ only in eps_Y share their case files.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+from solver import EPS_Y_INFO, crack_onset as _from_record, default_eps_Y
+
+from .casefile import SURFACES, TENSION_RECORD_INFO, tension_records
+
+#: variable -> (long_name, units), each along eps_Y
+CRACK_INFO = {
+    "crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y (NaN: not "
+                         "within the run)", "s"),
+    "crack_onset_x": ("position of the upper-surface crack onset (x >= 0; mirrored at -x)", "m"),
+    "crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y (NaN: "
+                               "not within the run)", "s"),
+    "crack_onset_x_lower": ("position of the lower-surface crack onset (x >= 0; mirrored at -x)", "m"),
+}
+
+
+def onset_from_records(records: dict, eps_Y) -> dict:
+    """name -> array over eps_Y, for one case's records (surface -> (n, 5) rows)."""
+    out = {}
+    for surface, suffix in zip(SURFACES, ("", "_lower")):
+        t, x = _from_record(records[surface], np.asarray(eps_Y, dtype=float))
+        out["crack_onset_time" + suffix] = t
+        out["crack_onset_x" + suffix] = x
+    return out
+
+
+def eps_Y_coord(eps_Y) -> tuple:
+    long_name, units = EPS_Y_INFO
+    return ("eps_Y", np.asarray(eps_Y, dtype=float), {"long_name": long_name, "units": units})
+
+
+def crack_onset(source, eps_Y=None) -> xr.Dataset:
+    """Crack onset time and place on both surfaces for a list of yield strains.
+
+    Parameters
+    ----------
+    source : a case file ``cases/<id>.nc`` or a ``study.nc`` (path, or an open dataset).
+    eps_Y : yield strains [1] (default: 10 a decade from 1e-5 to 1e-1 and the paper's 8e-5).
+
+    Returns
+    -------
+    xarray.Dataset with ``crack_onset_time`` [s], ``crack_onset_x`` [m] and their ``_lower``
+    versions, over the source's case dimensions (a study's grid keys, or ``case``) and eps_Y.
+    """
+    eps = np.sort(np.atleast_1d(np.asarray(default_eps_Y() if eps_Y is None else eps_Y, dtype=float)))
+    if eps.ndim != 1 or not np.all((eps > 0) & (eps < 1)):
+        raise ValueError("eps_Y must be yield strains in (0, 1)")
+    if isinstance(source, (str, Path)):
+        with xr.open_dataset(source) as ds:
+            return crack_onset(ds.load(), eps)
+    ds = source
+    missing = [name for name in TENSION_RECORD_INFO if name not in ds]
+    if missing:
+        raise ValueError(f"no tension record in this dataset ({missing[0]} is missing): it was "
+                         f"written before schema 5; rerun the study")
+    var = ds["tension_record_time"]
+    lead = var.dims[:-2]                                  # the case dimensions
+    shape = tuple(ds.sizes[d] for d in lead)
+    arrays = {name: np.full(shape + (eps.size,), np.nan) for name in CRACK_INFO}
+    case_file = lead == ("case",) and ds.attrs.get("title") == "floe-impact case"
+    for index in np.ndindex(*shape):
+        records = tension_records(ds, () if case_file else index)
+        for name, values in onset_from_records(records, eps).items():
+            arrays[name][index] = values
+    coords = {d: ds[d] for d in lead if d in ds.coords}
+    coords["eps_Y"] = eps_Y_coord(eps)
+    data = {name: (lead + ("eps_Y",), arrays[name], {"long_name": CRACK_INFO[name][0],
+                                                     "units": CRACK_INFO[name][1]})
+            for name in CRACK_INFO}
+    return xr.Dataset(data, coords=coords)
