@@ -2,7 +2,7 @@
 
 All runs are timed side by side in one process, interleaved round-robin over several repeats
 (the machine is shared and noisy), and the medians are reported. Errors are relative L2 of the
-strain over the seed's snapshots (t~ = 0, 0.2, ..., 4.6) against a tight etd34 run of the same
+strain over the paper's snapshots (t~ = 0, 0.2, ..., 4.6) against a tight etd34 run of the same
 discretisation (same Nmod, same subintervals). Writes results/bench/solver.md.
 
     python benchmarks/bench_solver.py [--repeats 5] [--out results/bench/solver.md]
@@ -62,7 +62,7 @@ def profile_step(p, repeats=2000):
     _, _, jmax = kn.layer_forcing(*args)
     out = {}
     for name, fn in [("forcing (one stage)", lambda: kn.layer_forcing(*args)),
-                     ("strain at the nodes (diagnostics)", lambda: kn._strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
+                     ("strain at the nodes (diagnostics)", lambda: kn.strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
                      ("layer energy (diagnostics)", lambda: kn.layer_energy(delta, jmax, tab.dx, p.K, p.he)),
                      ("contact intervals", lambda: kn.count_contacts(delta, jmax))]:
         fn()
@@ -89,7 +89,7 @@ def main(argv=None):
 
     # the integrators alone: the error estimate's companion run is switched off
     candidates = {
-        "rk4, seed's rule (step = period of mode N / 20)": Settings(integrator="rk4", error_estimate=False),
+        "rk4, paper's rule (step = period of mode N / 20)": Settings(integrator="rk4", error_estimate=False),
         "etd34, tolerance 1e-8 (default)": Settings(tolerance=1e-8, error_estimate=False),
         "etd34, tolerance 1e-10": Settings(tolerance=1e-10, error_estimate=False),
         "etd34, tolerance 3e-11": Settings(tolerance=3e-11, error_estimate=False),
@@ -109,17 +109,17 @@ def main(argv=None):
         dop_walls.append(w)
 
     rows = []
-    seed = "rk4, seed's rule (step = period of mode N / 20)"
-    t_seed = statistics.median(walls[seed])
-    e_seed = rel(results[seed].fields["strain"], ref_strain)
+    paper = "rk4, paper's rule (step = period of mode N / 20)"
+    t_paper = statistics.median(walls[paper])
+    e_paper = rel(results[paper].fields["strain"], ref_strain)
     for name in candidates:
         r = results[name]
         med = statistics.median(walls[name])
         rows.append((name, med, rel(r.fields["strain"], ref_strain), r.steps, r.rejected_steps,
-                     r.forcing_evaluations, t_seed / med))
+                     r.forcing_evaluations, t_paper / med))
     t_dop = statistics.median(dop_walls)
     rows.append(("scipy DOP853, rtol 1e-9 (same right-hand side, Python callback)", t_dop,
-                 rel(dop_strain, ref_strain), None, None, nfev, t_seed / t_dop))
+                 rel(dop_strain, ref_strain), None, None, nfev, t_paper / t_dop))
 
     # cost against Nmod at the default tolerance and at 1e-10
     scaling = []
@@ -137,7 +137,7 @@ def main(argv=None):
     prof, jmax, ncontact = profile_step(p60)
 
     # the smallest etd34 tolerance cost at an error no larger than rk4's
-    better = [row for row in rows if row[0].startswith("etd34") and row[2] <= e_seed]
+    better = [row for row in rows if row[0].startswith("etd34") and row[2] <= e_paper]
     best = min(better, key=lambda row: row[1]) if better else None
     under_1e6 = [row for row in rows if row[0].startswith("etd34") and row[2] <= 1e-6]
     best6 = min(under_1e6, key=lambda row: row[1]) if under_1e6 else None
@@ -152,7 +152,7 @@ def main(argv=None):
         "Error: relative L2 of the strain at the 24 snapshots t~ = 0, 0.2, ..., 4.6 (241 points on -L..L) "
         "against etd34 at tolerance 1e-13 with the same Nmod and subintervals.",
         "",
-        "| run | wall time [s] | strain error | accepted steps | rejected | forcing evaluations | speed-up vs seed rk4 |",
+        "| run | wall time [s] | strain error | accepted steps | rejected | forcing evaluations | speed-up vs the paper's rk4 |",
         "|---|---|---|---|---|---|---|",
     ]
     for name, med, err, st, rj, nf, sp in rows:
@@ -173,11 +173,11 @@ def main(argv=None):
         lines.append(f"| {name} | {us:.1f} | {calls[name]} |")
     lines.append("")
     if best is not None:
-        lines.append(f"At an error no larger than the seed's rk4 ({e_seed:.1e}) the cheapest etd34 run here is "
+        lines.append(f"At an error no larger than the paper's rk4 ({e_paper:.1e}) the cheapest etd34 run here is "
                      f"'{best[0]}': {best[6]:.1f}x faster.")
     if best6 is not None:
         lines.append(f"The cheapest etd34 run with error <= 1e-6 is '{best6[0]}': {best6[1]:.3f} s, "
-                     f"{best6[6]:.1f}x faster than the seed's rk4.")
+                     f"{best6[6]:.1f}x faster than the paper's rk4.")
     text = "\n".join(lines) + "\n"
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)

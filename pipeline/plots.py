@@ -130,7 +130,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
 
 
 def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4, 4.6)) -> Path:
-    """The seed's figure 2 for the first case: (a) body and ice at 3.8 t_sc, (b) deflection,
+    """The paper's figure 2 for the first case: (a) body and ice at 3.8 t_sc, (b) deflection,
     (c) layer pressure, (d) upper-surface strain at 3.8 ... 4.6 t_sc."""
     case = ds.isel({d: 0 for d in dims})
     x = case["x"].values
@@ -283,7 +283,7 @@ def extremes_table(ds: xr.Dataset, path: Path) -> Path:
     """Markdown: per extreme case, how the default integrator fares and whether rk4 survives."""
     group, integ = ds["group"].values, ds["integrator"].values
     lines = ["| case | etd34 status | reached [% of stage] | steps (rejected) | smallest step [s] "
-             "| largest δ | energy residual | wall [s] | rk4 at the seed's rule |",
+             "| largest δ | energy residual | wall [s] | rk4 at the paper's rule |",
              "|---|---|---|---|---|---|---|---|---|"]
     seen = []
     for g in group:

@@ -83,6 +83,8 @@ def _first_reach(rec, levels, out_t, out_x):
 #: over rate, and to THIN_VALUE (relative) of their value
 THIN_TIME = 1e-7
 THIN_VALUE = 1e-10
+#: a merged piece spans at most this many original rows (keeps thinning linear in the rows)
+THIN_SPAN = 64
 
 
 @njit(cache=True, nogil=True)
@@ -124,7 +126,7 @@ def thin_record(rec):
         a = i
         while a < end - 1:
             b = a + 1
-            while b + 1 < end and _fits(rec, a, b + 1):
+            while b + 1 < end and b + 1 - a <= THIN_SPAN and _fits(rec, a, b + 1):
                 b += 1
             keep[b] = True
             a = b

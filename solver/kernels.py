@@ -123,25 +123,11 @@ RESOLVED_NODES = 4
 #: an adaptive step is at most GROWTH (t - t_start) (after a first step h_init): the tension
 #: grows like t^3.5 from first touch, and a cubic Hermite interpolant of t^a over a step h at
 #: time t misplaces a level by about 0.005 (h/t)^4 of t, 5e-7 at GROWTH = 0.1
-#: the peak tension is sampled at TENSION_SAMPLES - 1 points inside each step, from the
-#: exponential dense output: modes that oscillate within a step (omega h ~ 5 at N = 60) give
-#: the peak a 3e-4 wobble inside the step that the step ends alone cannot see
-TENSION_SAMPLES = 8
-#: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
-#: it (the wobble inside a step is ~3e-4): it is not sampled
-RIPPLE = 1e-2
-#: when the layer is within GAP_WATCH of bottoming, a step's local error of delta at the gap
-#: must stay below GAP_ACCURACY times the gap 1 - delta
-GAP_WATCH = 1e-2
-GAP_ACCURACY = 0.1
-#: local peaks within PEAK_MARGIN (relative) of the largest node compete for the global peak
-PEAK_MARGIN = 0.02
-#: an event is bracketed by scanning its step at SCAN sub-steps, so the first crossing is found
-SCAN = 8
 GROWTH = 0.1
 #: the peak tension is sampled at TENSION_SAMPLES - 1 points inside each step, from the
 #: exponential dense output: modes that oscillate within a step (omega h ~ 5 at N = 60) give
-#: the peak a 3e-4 wobble inside the step that the step ends alone cannot see
+#: the peak a 3e-4 wobble inside the step that the step ends alone cannot see (a step with
+#: omega_N h <= 0.4, such as rk4's, resolves every mode and is not sampled)
 TENSION_SAMPLES = 8
 #: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
 #: it (the wobble inside a step is ~3e-4): it is not sampled
@@ -829,6 +815,16 @@ def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx,
         best[1] = t0 + th * h
         best[2] = p0[2] + th * (p1[2] - p0[2])
         return rec, n, False
+    if dz[4][dz[4].shape[0] - 1] * h <= 0.4:    # every mode resolved by the step: its ends suffice
+        best[0] = vmax
+        best[1] = t0 + th * h
+        best[2] = p0[2] + th * (p1[2] - p0[2])
+        if not vmax > run_max:
+            return rec, n, False
+        if not joinable:
+            rec, n = _append(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
+        rec, n = _append(rec, n, t0 + h, p1[0], p1[1], p1[2], 1.0)
+        return rec, n, True
     if not dense[0]:                             # the step's dense states, once per step
         dense_states(dz[0], dz[1], dz[2], dz[3], dz[4], h, A, AD)
         dense[0] = True

@@ -11,7 +11,7 @@ def relative_l2(a, b):
 
 
 def snapshot_times(p, step=0.2, stop=4.6):
-    """0, step, ..., stop in units of the case's t_sc, in seconds (the seed's snapshots)."""
+    """0, step, ..., stop in units of the case's t_sc, in seconds (the paper's snapshots)."""
     return np.round(np.arange(0.0, stop + 1e-9, step), 10) * p.time_scale
 
 

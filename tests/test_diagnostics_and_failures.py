@@ -82,7 +82,7 @@ def test_step_limit_returns_what_was_computed():
 
 
 def test_thin_layer_never_returns_nan_as_valid():
-    """he = 5 mm: the seed's RK4 fails by name; the adaptive default rejects and retries."""
+    """he = 5 mm: the paper's RK4 fails by name; the adaptive default rejects and retries."""
     p = Parameters(he=0.005, Nmod=20)
     times = np.linspace(0, p.stage_duration, 25)
     rk4 = solve(p, Settings(integrator="rk4"), times=times, fields=FIELDS)

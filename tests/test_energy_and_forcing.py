@@ -1,4 +1,4 @@
-"""Energy identity (MODEL_NOTES) and the forcing quadrature."""
+"""Energy identity (docs/model.md) and the forcing quadrature."""
 import numpy as np
 import pytest
 
@@ -10,7 +10,7 @@ def test_energy_residual_small_at_default_settings(reference60):
     assert reference60.diagnostics["energy_residual"] < 1e-3
 
 
-def test_energy_residual_small_for_rk4_at_seed_rule():
+def test_energy_residual_small_for_rk4_at_paper_rule():
     r = solve(Parameters(Nmod=20), Settings(integrator="rk4"), fields=())
     assert r.status == "ok"
     assert r.diagnostics["energy_residual"] < 1e-3

@@ -1,4 +1,4 @@
-"""Parameters: the seed's scales, derived quantities and validation of bad values."""
+"""Parameters: the paper's scales, derived quantities and validation of bad values."""
 import math
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 from solver import ParameterError, Parameters, Settings
 
 
-def test_seed_time_scale_and_stage():
+def test_paper_time_scale_and_stage():
     p = Parameters()
     assert p.time_scale == pytest.approx(0.0253, rel=0.01)
     assert p.stage_duration / p.time_scale == pytest.approx(4.74, abs=0.01)
@@ -27,8 +27,8 @@ def test_derived_quantities_match_their_formulas():
     assert p.d3 == pytest.approx(36 / (2 * 10 * 0.02))
 
 
-def test_nu_zero_gives_the_seed_typo_scales():
-    # MODEL_NOTES correction 1: with nu = 0 the stage ends at 4.48 t_sc and t_sc = 0.0268 s
+def test_nu_zero_gives_the_paper_typo_scales():
+    # docs/model.md, correction 1: with nu = 0 the stage ends at 4.48 t_sc and t_sc = 0.0268 s
     p = Parameters(nu=0.0)
     assert p.time_scale == pytest.approx(0.0268, rel=0.01)
     assert p.stage_duration / p.time_scale == pytest.approx(4.48, abs=0.01)

@@ -1,4 +1,4 @@
-"""The paper's published numbers for the reference case (MODEL_NOTES, last section)."""
+"""The paper's published numbers for the reference case (docs/model.md, "Published numbers")."""
 import numpy as np
 import pytest
 
