@@ -111,7 +111,9 @@ def case_dataset(case: Case, result=None, status=None, message="") -> xr.Dataset
         data[name] = (("case", "t"), series(values), dict(zip(("long_name", "units"), SERIES_INFO[name])))
     for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
         value = np.nan if result is None else result.diagnostics[name]
-        if not np.isfinite(value):
+        if not value < np.inf:              # NaN stays NaN; +inf (max_force of a bottomed-out case) is
+            value = np.nan if np.isnan(value) else value   # kept: the model's force is unbounded there
+        elif value == -np.inf:              # nothing measured
             value = np.nan
         data[name] = (("case",), [value], {"long_name": long_name, "units": units})
     _event_records(data, result)

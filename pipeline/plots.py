@@ -55,7 +55,7 @@ def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         for ax, name, surface in ((row[0], "crack_onset_time", "upper"), (row[1], "crack_onset_time_lower", "lower")):
             sel = ds[name].sel(where)
             for i, (color, label) in enumerate(zip(colors, labels)):
-                ax.semilogx(eps, sel.isel({first: i}).values * 1e3, "-", color=color, label=label, lw=1.4)
+                ax.loglog(eps, sel.isel({first: i}).values * 1e3, "-", color=color, label=label, lw=1.4)
             ax.axvline(PAPER_EPS_Y, color="k", lw=0.8, ls="--")
             ax.set_ylabel("crack onset [ms]")
             ax.set_title(f"{surface} surface" + (", " + ", ".join(_label(k, v) for k, v in where.items())
@@ -104,10 +104,11 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
             ax.plot(xvals[ok], shown[ok], "o", color=color, ms=4)
             ax.plot(xvals[~ok], shown[~ok], "o", mfc="white", mec=color, ms=5)
             unbounded.append((color, xvals[inf]))
-        if any(x.size for _, x in unbounded):           # drawn at the top edge of the axis
+        if any(x.size for _, x in unbounded):           # drawn just inside the top edge
             for color, x in unbounded:
-                ax.plot(x, np.ones(x.size), "^", color=color, ms=7, transform=ax.get_xaxis_transform(),
-                        clip_on=False)
+                ax.plot(x, np.full(x.size, 0.95), "^", color=color, ms=7, transform=ax.get_xaxis_transform())
+        span = float(np.max(xvals) - np.min(xvals)) or 1.0
+        ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(_label(first, 0).split(" = ")[0] + f" [{PARAMETER_INFO[first][1]}]")
         if name in ("max_strain", "max_strain_lower"):
@@ -310,6 +311,8 @@ def extremes_table(ds: xr.Dataset, path: Path) -> Path:
             reached = 100 * float(ds["time_reached"].values[i] / ds["stage_duration"].values[i])
             if status == "ok":
                 verdict = f"survives ({float(ds['run_time'].values[i]):.1f} s)"
+            elif status == "layer_bottomed_out":
+                verdict = f"bottoms out too, at {reached:.1f}% of the stage"
             elif status == "step_limit":
                 verdict = f"not finished within the step cap ({reached:.0f}% of the stage)"
             else:

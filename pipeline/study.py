@@ -40,7 +40,7 @@ from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parame
 from .errors import StudyError
 
 #: bump when the layout of a case file changes: old case files are then recomputed
-SCHEMA_VERSION = 5
+SCHEMA_VERSION = 6
 
 SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
 #: keys a [reference] may override: the same physical case, computed more accurately
@@ -373,9 +373,10 @@ def load_study(path: Path) -> Study:
 
 #: the settings each integrator reads; the others do not change its result
 RELEVANT_SETTINGS = {
-    "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps", "error_estimate"),
-    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps", "error_estimate"),
-    "dop853": ("integrator", "tolerance", "subintervals", "max_steps", "error_estimate"),
+    "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps", "error_estimate",
+              "bottoming_gap"),
+    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps", "error_estimate", "bottoming_gap"),
+    "dop853": ("integrator", "tolerance", "subintervals", "max_steps", "error_estimate", "bottoming_gap"),
 }
 
 

@@ -20,8 +20,8 @@ from .scipy_reference import integrate_dop853
 #: status -> meaning (docs/model.md, "Statuses")
 STATUS_INFO = {
     "ok": "the run reached the end of its time window",
-    "layer_bottomed_out": "the layer's gap closed to 1e-3 of its thickness (delta = 1 - 1e-3, pressure "
-                          "1000 K) at bottoming_time: the model's own end; data up to then is valid",
+    "layer_bottomed_out": "the layer's gap closed to bottoming_gap (default 1e-3, pressure 1000 K) of its "
+                          "thickness at bottoming_time: the model's own end; data up to then is valid",
     "nonfinite": "a fixed-step run met delta >= 1 or a non-finite state, or the adaptive step "
                  "could not avoid one",
     "step_limit": "max_steps attempted, or error control drove the step below its floor",
@@ -57,8 +57,8 @@ DIAGNOSTIC_INFO = {
     "max_compression": ("largest relative compression delta of the layer over the continuous plate",
                         "1", kn.D_MAX_DELTA),
     "max_compression_time": ("time of max_compression", "s", kn.D_MAX_DELTA_T),
-    "bottoming_time": ("time at which the layer's gap first closed to 1e-3 of its thickness, "
-                       "anywhere on the plate (NaN: it never did)", "s", kn.D_BOTTOM_T),
+    "bottoming_time": ("time at which the layer's gap first closed to bottoming_gap (default 1e-3) of "
+                       "its thickness, anywhere on the plate (NaN: it never did)", "s", kn.D_BOTTOM_T),
     "bottoming_x": ("position where the gap first closed (x >= 0; mirrored at -x)", "m", kn.D_BOTTOM_X),
     "bottoming_closing_speed": ("speed at which the gap was closing at bottoming, he d(delta)/dt",
                                 "m s-1", kn.D_BOTTOM_SPEED),
@@ -328,13 +328,14 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     started = _time.perf_counter()
     if s.integrator == "dop853":
         code, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, fail = integrate_dop853(
-            p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init)
+            p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init,
+            s.bottoming_gap)
         records = {"upper": empty, "lower": empty}
         contact_record = np.empty((0, 2))
     else:
         code, n_out, up, n_up, lo, n_lo, cont, n_cont = kn.integrate(
             method, tab.modes, tab.lay, tab.cosq, tab.wq, float(t_start), float(t_end), times,
-            s.tolerance, fixed, h_init, 1e-13 * t_end, h_max, s.max_steps, a0, v0, levels,
+            s.tolerance, fixed, h_init, 1e-13 * t_end, h_max, s.max_steps, s.bottoming_gap, a0, v0, levels,
             out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, level_t, level_x)
         # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
         records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
@@ -387,7 +388,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         kind = int(diag[kn.D_FAIL_KIND])
         floor = f"{1e-13 * t_end:.1e} s"
         if kind == kn.FAIL_LOCATED:
-            message = (f"layer bottomed out {where}: its gap closed to {kn.BOTTOM_GAP:g} of its thickness "
+            message = (f"layer bottomed out {where}: its gap closed to {s.bottoming_gap:g} of its thickness "
                        f"at x = +-{diagnostics['bottoming_x']:.4g} m, closing at "
                        f"{diagnostics['bottoming_closing_speed']:.3g} m/s; the force there is unbounded")
         elif kind == kn.FAIL_BOTTOMED:

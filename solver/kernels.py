@@ -53,7 +53,7 @@ and time derivative are both known exactly at the two ends of an accepted step:
     d/dt max_x eps = eps_t at the peak (envelope theorem), eps_t from a_n' = Re z_n;
   * contacts: delta at each quadrature node near the contact boundary, delta_t = (w_t + V)/he;
   * bottoming: the largest delta over the continuous plate (parabola through the three
-    nodes around the largest node), located to the threshold 1 - BOTTOM_GAP by root finding
+    nodes around the largest node), located to the threshold 1 - bottom_gap by root finding
     on true sub-steps of the integrator, so the run ends on a state the integrator computed.
 
 Analytic benchmark used by the tests: with K = 0 (layer off) and z_n(0) = i omega_n
@@ -103,15 +103,15 @@ FAIL_STEP_UNDERFLOW = 2    # error control drove the step below h_min
 FAIL_BOTTOMED = 3          # every retry down to h_min had a stage with delta >= 1
 FAIL_FIXED_STEP = 4        # a fixed-step run met delta >= 1 or a non-finite state
 FAIL_NONFINITE = 5         # non-finite state with the adaptive step at h_min
-FAIL_LOCATED = 6           # the gap closed to BOTTOM_GAP: located bottoming event
+FAIL_LOCATED = 6           # the gap closed to bottom_gap: located bottoming event
 FAIL_ENERGY_JUMP = 7       # the energy identity jumped and no smaller step mended it
 FAIL_ENERGY_BOUND = 8      # the run ended with its energy residual above ENERGY_BOUND
 
-#: the layer has bottomed out when its gap he (1 - delta) closes to BOTTOM_GAP he anywhere
-#: on the plate; the pressure there is K / BOTTOM_GAP = 1000 K (8 GPa for the paper's layer:
-#: crushed). A larger threshold is less sensitive to grazing approaches: with 1e-6 a bounce
-#: whose smallest gap was 1.05e-6 at tolerance 1e-8 crossed it at 1e-9 (N = 40, V = 10 m/s,
-#: hi = 1 m); after the threshold the gap closes within ~he BOTTOM_GAP / V, ~1e-6 s
+#: default bottoming threshold (Settings.bottoming_gap): the layer has bottomed out when its
+#: gap he (1 - delta) closes to bottom_gap he anywhere on the plate; the pressure there is
+#: K / bottom_gap = 1000 K (8 GPa for the paper's layer: crushed). A larger threshold is less
+#: sensitive to grazing approaches: with 1e-6 a bounce whose smallest gap was 1.05e-6 at
+#: tolerance 1e-8 crossed it at 1e-9 (N = 40, V = 10 m/s, hi = 1 m)
 BOTTOM_GAP = 1e-3
 #: energy guard: a step may change the residual E_plate + E_layer - W by at most
 #:     ENERGY_JUMP max(W, E_plate + E_layer) + min(1, (RESOLVED_NODES / n_c)^2) |dW|,
@@ -1120,7 +1120,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fixed_step, h_init,
-              h_min, h_max, max_steps, a0, adot0, levels, out_a, out_adot,
+              h_min, h_max, max_steps, bottom_gap, a0, adot0, levels, out_a, out_adot,
               out_contacts, out_force, out_energy, out_err, diag, level_t, level_x):
     """Integrate the mode equations from t_start to t_end, landing on every t_out.
 
@@ -1138,6 +1138,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         resolve the contact oscillation: in free flight the forcing and hence the error
         estimate vanish, and only h_max stops a step from jumping deep into a new contact.
     max_steps : attempted steps before STEP_LIMIT.
+    bottom_gap : the layer bottoms out when its gap closes to this fraction of he.
     a0, adot0 : a_n [m] and a_n' [m s-1] at t_start.
     levels : tension levels to locate exactly on sub-steps (verification; usually empty).
     out_a, out_adot (T, N), out_contacts (T,), out_force (T,), out_energy (T, 3), out_err (T,):
@@ -1223,7 +1224,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     out3 = np.empty(3)
     joinable = np.zeros(2, np.bool_)
     run_max = np.empty(2)
-    bottom_level = 1.0 - BOTTOM_GAP
+    bottom_level = 1.0 - bottom_gap
 
     for n in range(N):
         z[n] = complex(adot0[n], omega[n] * a0[n])
@@ -1357,7 +1358,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 den_old += LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
                 den_new += LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
             ratio = math.sqrt(num) / (tolerance * max(math.sqrt(max(den_old, den_new)), energy_norm_floor))
-            if K > 0.0 and gap0[0] > 1.0 - GAP_WATCH:
+            if K > 0.0 and gap0[0] > 1.0 - max(GAP_WATCH, 10.0 * bottom_gap):
                 # near bottoming the local error of delta at the gap must be small against the
                 # gap itself, or a grazing approach crosses the threshold in one run and not in
                 # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
@@ -1372,7 +1373,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 h = h_step * max(0.2, 0.9 * ratio ** -expo)
                 if h < h_min:
                     diag[D_FAIL_T] = t
-                    if gap0[0] > 1.0 - 10.0 * BOTTOM_GAP:
+                    if gap0[0] > 1.0 - 10.0 * bottom_gap:
                         status = LAYER_BOTTOMED_OUT
                         diag[D_FAIL_KIND] = FAIL_BOTTOMED
                     else:
@@ -1403,7 +1404,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 break
             continue
 
-        # ----- bottoming: the gap closes to BOTTOM_GAP inside the step
+        # ----- bottoming: the gap closes to bottom_gap inside the step
         for n in range(N):
             a_new[n] = znew[n].imag / omega[n]
             adot_new[n] = znew[n].real

@@ -46,6 +46,8 @@ SETTING_INFO = {
     "rk4_step_fraction": ("rk4 step as a fraction of the period of the last mode, 2 pi / omega_N", "1"),
     "fixed_step": ("fixed step of etd34 in units of t_sc (0: adaptive)", "1"),
     "max_steps": ("largest number of attempted steps before the run stops with step_limit", "1"),
+    "bottoming_gap": ("the layer bottoms out when its gap closes to this fraction of its thickness "
+                      "(pressure K / bottoming_gap); smaller: a deeper but less robust criterion", "1"),
     "error_estimate": ("estimate the strain error of each run (etd34: a companion run at 10x the "
                        "tolerance, about +70% cost)", ""),
 }
@@ -195,6 +197,8 @@ class Settings:
     max_steps : attempted steps after which a run stops with status ``step_limit`` [1].
     error_estimate : estimate the relative strain error of the run (see
         ``solver.core.error_estimates``); for etd34 this runs a companion at 10x the tolerance.
+    bottoming_gap : the layer bottoms out when its gap he (1 - delta) first closes to this
+        fraction of he anywhere on the plate (docs/model.md, "Bottoming out") [1].
     """
 
     integrator: str = "etd34"
@@ -204,6 +208,7 @@ class Settings:
     fixed_step: float = 0.0
     max_steps: int = 500_000
     error_estimate: bool = True
+    bottoming_gap: float = 1e-3
 
     def __post_init__(self):
         if self.integrator not in INTEGRATORS:
@@ -221,9 +226,12 @@ class Settings:
                 or not math.isfinite(float(self.fixed_step)) or float(self.fixed_step) < 0.0:
             raise ParameterError(f"fixed_step must be finite and >= 0, got {self.fixed_step!r}")
         _check_positive("max_steps", self.max_steps, integer=True)
+        _check_positive("bottoming_gap", self.bottoming_gap)
+        if not 1e-12 <= float(self.bottoming_gap) <= 0.5:
+            raise ParameterError(f"bottoming_gap must be between 1e-12 and 0.5, got {self.bottoming_gap!r}")
         if not isinstance(self.error_estimate, bool):
             raise ParameterError(f"error_estimate must be true or false, got {self.error_estimate!r}")
-        for name in ("tolerance", "rk4_step_fraction", "fixed_step"):
+        for name in ("tolerance", "rk4_step_fraction", "fixed_step", "bottoming_gap"):
             object.__setattr__(self, name, float(getattr(self, name)))
         for name in ("subintervals", "max_steps"):
             object.__setattr__(self, name, int(getattr(self, name)))

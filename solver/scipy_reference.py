@@ -5,7 +5,7 @@ y = (a_n, da_n/dt, W) and stepped with :class:`scipy.integrate.DOP853` at rtol =
 atol = tolerance * 1e-3, first step that of etd34 (scipy's own guess can jump from first
 touch straight into delta >= 1). Outputs come from its 7th-order dense output. Bottoming out is a
 located event, as in the kernels: the first time the largest delta on the continuous plate
-reaches 1 - BOTTOM_GAP, found by brentq on the dense output. DOP853 has no step rejection
+reaches 1 - bottoming_gap, found by brentq on the dense output. DOP853 has no step rejection
 on delta >= 1: a stage there ends the run, with the time and scipy's step in the message,
 and so does a step failure, with scipy's own reason. It has no in-loop diagnostics: max
 strain and the tension and contact records stay empty. scipy is imported here only.
@@ -21,7 +21,8 @@ class _StageDeltaOne(Exception):
     """A stage evaluated delta >= 1 (the forcing is undefined there)."""
 
 
-def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None):
+def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
+                     bottom_gap=kn.BOTTOM_GAP):
     """Returns (status, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err,
     diag, failure) with the meaning of :func:`solver.kernels.integrate` (out_err all NaN:
     DOP853 gives no local error estimates back); failure names what stopped it, or ""."""
@@ -38,7 +39,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     ones = np.ones(N)
     gap = np.empty(3)
     nfev = [0]
-    level = 1.0 - kn.BOTTOM_GAP
+    level = 1.0 - bottom_gap
 
     def forcing(t, a):
         return kn.layer_forcing(t, np.ascontiguousarray(a), tab.lam[0], tab.coef, tab.cosq, tab.wq,

@@ -58,6 +58,7 @@ BAD_FILES = [
                   "hi = [" + ", ".join(str(0.2 + i / 1000) for i in range(100)) + "]"),
      "more than 10000"),
     (GOOD.replace("fields = [\"strain\"]", "fields = [\"strain\", \"strain\"]"), "listed twice"),
+    (GOOD + "\n[solver]\nbottoming_gap = 0.9", "bottoming_gap must be between 1e-12 and 0.5"),
     # eps_Y is a post-processing axis, not a parameter
     (GOOD.replace("Nmod = 4", "Nmod = 4\neps_Y = 8e-5"), "[output] eps_Y"),
     (GOOD.replace("V = [3.0, 5.0]", "eps_Y = [8e-5, 1e-4]"), "eps_Y is not a solver input"),

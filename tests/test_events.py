@@ -150,3 +150,17 @@ def test_dop853_failure_names_scipys_step():
     r = solve(Parameters(Nmod=20, V=40.0), Settings(integrator="dop853", tolerance=1e-3), fields=())
     assert r.status == "nonfinite"
     assert "scipy's step" in r.message and "delta >= 1" in r.message
+
+
+def test_bottoming_gap_is_a_setting():
+    """V = 40 m/s, 60 modes: the gap closes to 1e-3 of he at 42% of the stage and reopens; with
+    bottoming_gap = 1e-6 the run goes on to the full closure at 59%."""
+    p = Parameters(Nmod=60, V=40.0)
+    first = solve(p, Settings(error_estimate=False), fields=())
+    deep = solve(p, Settings(bottoming_gap=1e-6, error_estimate=False), fields=())
+    assert first.status == deep.status == "layer_bottomed_out"
+    assert 1 - first.diagnostics["max_compression"] == pytest.approx(1e-3, rel=1e-3)
+    assert 1 - deep.diagnostics["max_compression"] == pytest.approx(1e-6, rel=1e-3)
+    assert first.time_reached / p.stage_duration == pytest.approx(0.416, abs=0.005)
+    assert deep.time_reached / p.stage_duration == pytest.approx(0.590, abs=0.005)
+    assert "gap closed to 1e-06 of its thickness" in deep.message
