@@ -105,8 +105,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
             ax.plot(xvals[~ok], shown[~ok], "o", mfc="white", mec=color, ms=5)
             unbounded.append((color, xvals[inf]))
         if any(x.size for _, x in unbounded):           # drawn just inside the top edge
-            for color, x in unbounded:
-                ax.plot(x, np.full(x.size, 0.95), "^", color=color, ms=7, transform=ax.get_xaxis_transform())
+            for i, (color, x) in enumerate(unbounded):   # one row per line, so none hides another
+                ax.plot(x, np.full(x.size, 0.95 - 0.05 * i), "^", color=color, ms=7,
+                        transform=ax.get_xaxis_transform())
         span = float(np.max(xvals) - np.min(xvals)) or 1.0
         ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
