@@ -155,24 +155,46 @@ L_LAM1, L_DX, L_V, L_R, L_HE, L_K = 0, 1, 2, 3, 4, 5
 # ---------------------------------------------------------------------------------------
 # elementary functions
 # ---------------------------------------------------------------------------------------
+#: 1/k!, k = 0..22, for the phi series
+INV_FACT = np.array([1.0 / math.factorial(k) for k in range(23)])
+
+
+@njit(cache=True, nogil=True)
+def phi_from(y, e):
+    """phi_1, phi_2, phi_3 of zeta = i y, given e = e^{i y} (phi_k(z) = sum_m z^m / (m + k)!).
+
+    |y| >= 1: closed forms, with 1/(i y) = -i/y (no complex division). |y| < 1: the series to
+    m = 19 (1/22! < 1e-21), its real and imaginary parts summed in real arithmetic.
+    """
+    if abs(y) >= 1.0:
+        inv = -1j / y
+        inv2 = inv * inv
+        p1 = (e - 1.0) * inv
+        p2 = (e - 1.0 - 1j * y) * inv2
+        p3 = (e - 1.0 - 1j * y + 0.5 * y * y) * inv2 * inv
+        return p1, p2, p3
+    r1 = r2 = r3 = 0.0
+    i1 = i2 = i3 = 0.0
+    power = 1.0                        # y^m with the sign of i^m folded in below
+    for m in range(20):
+        if m % 2 == 0:
+            term = power if m % 4 == 0 else -power
+            r1 += term * INV_FACT[m + 1]
+            r2 += term * INV_FACT[m + 2]
+            r3 += term * INV_FACT[m + 3]
+        else:
+            term = power if m % 4 == 1 else -power
+            i1 += term * INV_FACT[m + 1]
+            i2 += term * INV_FACT[m + 2]
+            i3 += term * INV_FACT[m + 3]
+        power *= y
+    return complex(r1, i1), complex(r2, i2), complex(r3, i3)
+
+
 @njit(cache=True, nogil=True)
 def phi_functions(y):
-    """phi_1, phi_2, phi_3 of zeta = i y (phi_k(z) = sum_m z^m / (m + k)!)."""
-    z = 1j * y
-    if abs(y) < 1.0:
-        p1 = 1.0 + 0j
-        p2 = 1.0 + 0j
-        p3 = 1.0 + 0j
-        for m in range(20, 0, -1):
-            p1 = 1.0 + p1 * z / (1 + m)
-            p2 = 1.0 + p2 * z / (2 + m)
-            p3 = 1.0 + p3 * z / (3 + m)
-        return p1, p2 / 2.0, p3 / 6.0
-    e = complex(math.cos(y), math.sin(y))
-    p1 = (e - 1.0) / z
-    p2 = (e - 1.0 - z) / (z * z)
-    p3 = (e - 1.0 - z - 0.5 * z * z) / (z * z * z)
-    return p1, p2, p3
+    """phi_1, phi_2, phi_3 of zeta = i y (see phi_from)."""
+    return phi_from(y, complex(math.cos(y), math.sin(y)))
 
 
 # ---------------------------------------------------------------------------------------
@@ -600,10 +622,12 @@ def etd_coefficients(omega, h, C):
     then the stage and update weights of the scheme in the module docstring."""
     for n in range(omega.shape[0]):
         y = omega[n] * h
-        p1, p2, p3 = phi_functions(y)
-        q1, q2, q3 = phi_functions(0.5 * y)
-        C[0, n] = complex(math.cos(y), math.sin(y))
-        C[1, n] = complex(math.cos(0.5 * y), math.sin(0.5 * y))
+        e2 = complex(math.cos(0.5 * y), math.sin(0.5 * y))
+        e = e2 * e2                              # one sin/cos for both
+        p1, p2, p3 = phi_from(y, e)
+        q1, q2, q3 = phi_from(0.5 * y, e2)
+        C[0, n] = e
+        C[1, n] = e2
         C[2, n] = 0.5 * h * q1
         C[3, n] = h * q2
         C[4, n] = h * p1
@@ -733,14 +757,7 @@ def dense_states(z0, N1, Nm, N5, omega, h, A, AD):
             sk = k * h / K
             y = w * sk
             e *= rot
-            if y < 1.0:
-                p1, p2, p3 = phi_functions(y)
-            else:                       # closed forms; 1 / (i y) = -i / y
-                inv = -1j / y
-                iy = 1j * y
-                p1 = (e - 1.0) * inv
-                p2 = (e - 1.0 - iy) * inv * inv
-                p3 = (e - 1.0 - iy + 0.5 * y * y) * inv * inv * inv
+            p1, p2, p3 = phi_from(y, e)
             z = e * z0[n] + sk * p1 * N1[n] + b1 * sk * sk * p2 + 2.0 * b2 * sk * sk * sk * p3
             A[k - 1, n] = z.imag / w
             AD[k - 1, n] = z.real

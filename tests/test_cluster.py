@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from test_pipeline import NOT_COMPARED, REFERENCE, ROOT, pipeline
+from test_pipeline import NOT_COMPARED, REFERENCE, ROOT, assert_matches, pipeline
 
 DASK = str(Path(sys.executable).with_name("dask"))
 
@@ -66,4 +66,4 @@ def test_study_on_a_real_dask_cluster_matches_local(cluster, tmp_path):
         for name, var in ref.data_vars.items():
             if name in NOT_COMPARED or var.dtype.kind in "OUS":
                 continue
-            np.testing.assert_allclose(ds[name].values, var.values, rtol=1e-6, err_msg=name)
+            assert_matches(ds[name].values, var.values, name)

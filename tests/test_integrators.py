@@ -102,7 +102,8 @@ def _free_oscillation(method, fraction, times, t_end, p, tab, n):
     lay[kn.L_K] = 0.0                                   # the layer switched off
     no_levels = np.empty(0)
     status, n_out, *_ = kn.integrate(method, tab.modes, lay, tab.cosq, tab.wq, 0.0, t_end, times, 1e-8,
-                                     fixed, 1e-6, 1e-15, 1.0, 10**7, a0, np.zeros(p.Nmod), no_levels,
+                                     fixed, 1e-6, 1e-15, 1.0, 10**7, kn.BOTTOM_GAP, a0, np.zeros(p.Nmod),
+                                     no_levels,
                                      out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag,
                                      np.empty((2, 0)), np.empty((2, 0)))
     assert status == kn.OK and n_out == T
