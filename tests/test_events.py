@@ -32,6 +32,19 @@ def test_record_answers_any_eps_Y_as_exact_location(reference20, surface):
     np.testing.assert_allclose(x_rec[ok], x_loc[ok], atol=1e-3)
 
 
+def test_record_equals_ten_separate_runs(reference20):
+    """The same 10 eps_Y from 10 separate runs, each locating its own crossing on sub-steps."""
+    p = reference20.parameters
+    t_rec, _ = reference20.crack_onset(LEVELS, "upper")
+    for level, t in zip(LEVELS, t_rec):
+        alone = solve(p, Settings(error_estimate=False), fields=(), locate_eps_Y=[level])
+        t_alone = alone.extra["located_crack_onset"]["upper"][0][0]
+        if np.isnan(t):
+            assert np.isnan(t_alone)
+        else:
+            assert abs(t / t_alone - 1) <= 1e-6, (level, t, t_alone)
+
+
 def test_crack_onset_function_takes_scalars_and_any_order(reference20):
     rec = reference20.tension_record["upper"]
     t_all, _ = crack_onset(rec, LEVELS[::-1])
