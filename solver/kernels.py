@@ -5,7 +5,8 @@ never raise. :mod:`solver.core` is the one Python adapter that prepares their in
 module is split by what the model is made of: the layer forcing (``layer_forcing``,
 ``layer_energy``, ``count_contacts``), one integrator step (``etd_coefficients``,
 ``take_step``), the in-loop observers of events (``observe_tension``, ``observe_contacts``,
-``gap_peak`` and ``locate_bottoming``) and the loop that drives them (``integrate``).
+``gap_peak``, and ``locate_event`` on true sub-steps) and the loop that drives them
+(``integrate``).
 
 Model, SI units, symmetric half plate 0 <= x <= L::
 
@@ -44,7 +45,7 @@ Integrators (both land exactly on every requested output time):
     The modal oscillation is exact, so the step is limited only by how fast the forcing
     changes (the contact stiffness), not by omega_N.  A step is rejected and retried smaller
     when the error exceeds the tolerance, is not finite, any stage reaches delta >= 1, or the
-    energy identity jumps (see ``energy_jump``).
+    energy identity jumps (see ``ENERGY_JUMP``).
   * ``RK4``: the paper's classical Runge-Kutta on the same equations (fixed step).
 
 Events, located inside the step from cubic Hermite interpolants of quantities whose value
