@@ -227,3 +227,16 @@ def test_interrupted_combine_is_rebuilt_from_case_files(regression_run, tmp_path
     assert "0 to run, 4 already done" in err and not stale.exists()
     with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(regression_run / "study.nc") as ref:
         np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
+
+
+def test_workers_are_warm_before_the_first_case():
+    """Every local worker has the kernels loaded before any case runs, so run_time is solver
+    time (issue 9: the first case on each worker used to carry numba's cache load)."""
+    from pipeline.engine import cluster_client, kernels_loaded, warm_workers
+    from solver import compile_kernels
+    compile_kernels()
+    with cluster_client(2, None) as client:
+        assert not any(client.run(kernels_loaded).values()), "fresh workers have not loaded them yet"
+        warm_workers(client)
+        loaded = client.run(kernels_loaded)
+        assert len(loaded) == 2 and all(loaded.values())
