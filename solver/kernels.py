@@ -1430,19 +1430,29 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         h_eff = h_step
         c0, c1, c2, c3 = hermite(gap0[0], gap1[0], gap0[1], gap1[1], h_step)
         if K > 0.0 and (gap1[0] >= bottom_level or cubic_max(c0, c1, c2, c3)[0] >= bottom_level):
-            s_lo, s_hi, F5, jm5, w_new, found = locate_event(
+            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(
                 0, bottom_level, method, t, h_step, gap0, gap1, z, N1, force, work, contacts, Cs,
                 modes, lay, cosq, wq, cw, rw, fvals, delta_new, znew, N5, err, a_new, adot_new,
                 eps_sub, ones, gap1)
-            h_coeffs = -1.0
             if found:
                 bottomed = True
                 h_eff = s_lo
                 t_new = t + s_lo
+                F5, jm5, w_new = F_b, jm_b, w_b
                 e_new = layer_energy(delta_new, jm5, dx, K, he)
                 for n in range(N):
                     e_new += 0.5 * LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
                 resid_new = e_new - w_new - e0
+            else:
+                # the interpolant's crossing was not real: the search overwrote the step's
+                # buffers, so take the accepted step again (same size and coefficients, same result)
+                st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work,
+                                                      contacts, C, modes, lay, cosq, wq, cw, rw, fvals,
+                                                      delta_new, znew, N5, err)
+                for n in range(N):
+                    a_new[n] = znew[n].imag / omega[n]
+                    adot_new[n] = znew[n].real
+                gap_peak(t_new, delta_new, jm5, a_new, adot_new, ones, lay, gap1)
 
         # ----- accepted: observers on [t, t_new], then shift the state
         steps += 1
@@ -1473,13 +1483,17 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 diag[D_MAX_UPPER + 3 * s] = best[0]
                 diag[D_MAX_UPPER_T + 3 * s] = best[1]
                 diag[D_MAX_UPPER_X + 3 * s] = best[2]
-            for i in range(levels.shape[0]):      # exact crossings, for verification
+        # exact crossings, for verification: after both surfaces are observed (the search's
+        # sub-steps overwrite the scratch the dense output reads)
+        for s in range(2):
+            sign = 1.0 - 2.0 * s
+            rm = run_max[s]
+            for i in range(levels.shape[0]):
                 if math.isnan(level_t[s, i]) and levels[i] <= rm:
                     lo_, hi_, _, _, _, found = locate_event(
                         int(sign), levels[i], method, t, h_eff, tension0[s], tension[s], z, N1,
                         force, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals, delta_sub,
                         zsub, Nsub, errsub, a_sub, adot_sub, eps_sub, ones, out3)
-                    h_coeffs = -1.0
                     if found:
                         level_t[s, i] = t + 0.5 * (lo_ + hi_)
                         level_x[s, i] = out3[2]
