@@ -134,7 +134,11 @@ def run_pending(cases: list, cases_dir, workers: int = 2, scheduler: str | None 
     """Run the cases; returns their records (case_id, status, message, run_time)."""
     if not cases:
         return []
+    started = time.monotonic()
+    print("loading the solver's kernels (the first run after an install or an update compiles "
+          "them: about 40 s on this 2-core machine) ...", file=sys.stderr, flush=True)
     compile_kernels()                                  # fill numba's cache once, here
+    print(f"kernels ready in {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
     records = []
     with cluster_client(workers, scheduler) as client:
         warm_workers(client, one_at_a_time=bool(scheduler))

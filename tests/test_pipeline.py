@@ -42,6 +42,7 @@ def regression_run(tmp_path_factory):
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "2")
     assert code == 0, err
     assert "4 cases, 4 to run, 0 already done" in err
+    assert "loading the solver's kernels" in err and "kernels ready in" in err   # no silent compile
     return out
 
 
