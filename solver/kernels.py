@@ -822,21 +822,18 @@ def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx,
     """The peak of one track over the step: from p0 (t0) to p1 (t0 + h), each (value, rate,
     x), through the dense-output states A, AD inside the step (computed from dz = (z0, N1,
     N_mid, N5, omega) when dense[0] is False; samples[k] receives the larger of the peaks
-    followed forward from x0 and backward from x1). Stored as consecutive record rows when it rises above
-    run_max; best receives (max, time, x) of the piece. Returns (rec, n, stored).
+    followed forward from x0 and backward from x1). Stored as consecutive record rows when it
+    rises above run_max; best receives (max, time, x) of the piece. Returns (rec, n, stored).
     """
     K = A.shape[0] + 1
     c0, c1, c2, c3 = hermite(p0[0], p1[0], p0[1], p1[1], h)
     vmax, th = cubic_max(c0, c1, c2, c3)
+    best[0] = vmax                               # from the ends; refined by the samples below
+    best[1] = t0 + th * h
+    best[2] = p0[2] + th * (p1[2] - p0[2])
     if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
-        best[0] = vmax
-        best[1] = t0 + th * h
-        best[2] = p0[2] + th * (p1[2] - p0[2])
         return rec, n, False
     if dz[4][dz[4].shape[0] - 1] * h <= 0.4:    # every mode resolved by the step: its ends suffice
-        best[0] = vmax
-        best[1] = t0 + th * h
-        best[2] = p0[2] + th * (p1[2] - p0[2])
         if not vmax > run_max:
             return rec, n, False
         if not joinable:
