@@ -118,7 +118,8 @@ def _label(study, case) -> str:
 def _prepare_dirs(out_dir: Path) -> Path:
     cases_dir = out_dir / "cases"
     cases_dir.mkdir(parents=True, exist_ok=True)
-    for stale in [*cases_dir.glob(".*.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*")]:  # killed writers
+    for stale in [*cases_dir.glob(".*.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
+                  *out_dir.glob(".study.nc.inputs.tmp-*")]:                        # killed writers
         stale.unlink(missing_ok=True)
     return cases_dir
 
@@ -178,10 +179,18 @@ def _run_locked(args, study, out_dir: Path) -> int:
                           progress=Progress(len(everything), skipped))
     for record in records:
         states[record["case_id"]] = record["status"]
-    from .combine import write_study
-    path = write_study(study, out_dir)
-    print(f"wrote {path}", file=sys.stderr)
-    if not args.no_plots:
+    from .combine import inputs_fingerprint, is_up_to_date, write_study
+    fingerprint = inputs_fingerprint(study, out_dir)
+    path = out_dir / "study.nc"
+    fresh = bool(records) or not is_up_to_date(study, out_dir, fingerprint)
+    if fresh:
+        write_study(study, out_dir, fingerprint)
+        print(f"wrote {path}", file=sys.stderr)
+    else:                                              # a rerun with nothing new rewrites nothing
+        print(f"nothing new: {path} is up to date", file=sys.stderr)
+    from .plots import PLOT_FILES
+    figures = [out_dir / f for kind in study.plots for f in PLOT_FILES[kind]]
+    if not args.no_plots and (fresh or not all(f.exists() for f in figures)):
         import xarray as xr
 
         from .plots import make_plots

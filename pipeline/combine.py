@@ -162,8 +162,51 @@ def combine(study: Study, out_dir: Path) -> xr.Dataset:
     return ds
 
 
-def write_study(study: Study, out_dir: Path) -> Path:
+def inputs_fingerprint(study: Study, out_dir: Path) -> str:
+    """A hash of what study.nc is made from: the study file, the schema, the code (version,
+    commit, dirty) and each run's case file (size and mtime; missing files count too)."""
+    import hashlib
+    cases_dir = Path(out_dir) / "cases"
+    files = []
+    for case in study.all_cases():
+        try:
+            st = case_path(cases_dir, case.case_id).stat()
+            files.append([case.case_id, st.st_size, st.st_mtime_ns])
+        except FileNotFoundError:
+            files.append([case.case_id, None, None])
+    commit, dirty = provenance.git_state()
+    blob = json.dumps({"study": study.text, "schema": SCHEMA_VERSION, "files": files,
+                       "code": [provenance.package_version(), commit, dirty]}, sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def _sidecar(out_dir: Path) -> Path:
+    return Path(out_dir) / ".study.nc.inputs"
+
+
+def is_up_to_date(study: Study, out_dir: Path, fingerprint: str) -> bool:
+    """True if study.nc was built from exactly these inputs and has not been touched since:
+    the sidecar written with it records the fingerprint and study.nc's size and mtime (no
+    netCDF file is opened)."""
+    path = Path(out_dir) / "study.nc"
+    try:
+        record = json.loads(_sidecar(out_dir).read_text())
+        st = path.stat()
+    except (OSError, ValueError):
+        return False
+    return record == {"fingerprint": fingerprint, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+
+
+def write_study(study: Study, out_dir: Path, fingerprint: str | None = None) -> Path:
+    """Combine and write study.nc atomically; with a fingerprint, also its sidecar."""
     ds = combine(study, out_dir)
     path = Path(out_dir) / "study.nc"
     write_atomic(ds, path)
+    if fingerprint is not None:
+        import os
+        st = path.stat()
+        side = _sidecar(out_dir)
+        tmp = side.with_name(f"{side.name}.tmp-{os.getpid()}")
+        tmp.write_text(json.dumps({"fingerprint": fingerprint, "size": st.st_size, "mtime_ns": st.st_mtime_ns}))
+        os.replace(tmp, side)
     return path

@@ -1,5 +1,6 @@
 """The study runner end to end: regression on a real 2-worker LocalCluster, the combined file,
 resume, corrupt case files, dry run and status."""
+import os
 import shutil
 import subprocess
 import sys
@@ -122,6 +123,27 @@ def test_a_study_that_differs_only_in_eps_Y_computes_nothing(regression_run, tmp
         np.testing.assert_array_equal(one["crack_onset_time_lower"].values[0],
                                       ds["crack_onset_time_lower"].sel(V=5.0, hi=0.5).values)
     assert (regression_run / "crack_onset.png").stat().st_size > 10_000
+
+
+def test_a_rerun_with_nothing_new_rewrites_nothing(regression_run, tmp_path):
+    """study.nc and the figures keep their mtimes when nothing is computed; touching study.nc
+    (or changing a case file) makes the next run rebuild them."""
+    out = tmp_path / "noop"
+    shutil.copytree(regression_run, out)
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
+    assert code == 0, err                         # the copy's mtimes differ: rebuilt once
+    products = [out / "study.nc", out / "diagnostics.png", out / "crack_onset.png"]
+    stamps = {p: p.stat().st_mtime_ns for p in products}
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
+    assert code == 0, err
+    assert "nothing new" in err and "wrote" not in err
+    assert all(p.stat().st_mtime_ns == stamps[p] for p in products), "a no-op rerun rewrote a file"
+    (out / "crack_onset.png").unlink()            # a missing figure is drawn again, study.nc kept
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
+    assert (out / "crack_onset.png").exists() and (out / "study.nc").stat().st_mtime_ns == stamps[out / "study.nc"]
+    os.utime(out / "study.nc")                    # touched by hand: no longer what the sidecar says
+    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+    assert code == 0 and f"wrote {out / 'study.nc'}" in err
 
 
 def test_second_run_computes_nothing(regression_run):
