@@ -19,6 +19,9 @@ from numba import njit
 
 from .kernels import R_JOIN, R_RATE, R_T, R_VALUE, R_X, cubic_first_reach, cubic_max, hermite
 
+#: record nodes whose places differ by more than this [m] belong to two different peaks
+PEAK_JUMP = 0.05
+
 #: key -> (long_name, units) of the yield strain, a post-processing axis (not a solver input)
 EPS_Y_INFO = ("yield strain of ice: tension above it is expected to crack the ice", "1")
 #: the paper's yield strain
@@ -72,7 +75,10 @@ def _first_reach(rec, levels, out_t, out_x):
             th = cubic_first_reach(c0, c1, c2, c3, level)
             if th >= 0.0 and rec[i, R_T] + th * h < best:
                 best = rec[i, R_T] + th * h
-                out_x[k] = rec[i, R_X] + th * (rec[i + 1, R_X] - rec[i, R_X])
+                x0, x1 = rec[i, R_X], rec[i + 1, R_X]
+                # one peak moving: interpolate its place; two peaks (the global peak passed from
+                # one to another between the nodes): the place of the one that reaches the level
+                out_x[k] = x0 + th * (x1 - x0) if abs(x1 - x0) <= PEAK_JUMP else x1
             q += 1
         if best < np.inf:
             out_t[k] = best

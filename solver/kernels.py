@@ -137,6 +137,10 @@ RIPPLE = 1e-2
 #: must stay below GAP_ACCURACY times the gap 1 - delta
 GAP_WATCH = 1e-2
 GAP_ACCURACY = 0.1
+#: samples of the global peak in a step where it passes from one local peak to another
+SWITCH_SAMPLES = 32
+#: a peak that moves more than SWITCH_DISTANCE nodes within one step is taken for a switch
+SWITCH_DISTANCE = 10
 #: local peaks within PEAK_MARGIN (relative) of the largest node compete for the global peak
 PEAK_MARGIN = 0.02
 #: an event is bracketed by scanning its step at SCAN sub-steps, so the first crossing is found
@@ -879,16 +883,57 @@ def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx,
 
 
 @njit(cache=True, nogil=True)
+def _global_piece(sign, t0, h, p0, p1, dz, A, AD, eps, cosq, strain_coef, lam1, dx, samples, rec, n,
+                  joinable, run_max, best):
+    """The global peak over a step in which it passes from one local peak to another (a new
+    peak may emerge inside the step, where no track can follow it): at SWITCH_SAMPLES - 1
+    points of the dense output the strain is evaluated at every node and the global peak
+    searched among all local peaks (global_peak). Stored like _tension_piece."""
+    K = SWITCH_SAMPLES
+    if max(p0[0], p1[0]) < run_max - RIPPLE * abs(run_max):   # far below the record: not needed
+        best[0] = max(p0[0], p1[0])
+        best[1] = t0 if p0[0] >= p1[0] else t0 + h
+        best[2] = p0[2] if p0[0] >= p1[0] else p1[2]
+        return rec, n, False
+    dense_states(dz[0], dz[1], dz[2], dz[3], dz[4], h, A, AD)
+    samples[0, :3] = p0[:3]
+    samples[K, :3] = p1[:3]
+    for k in range(1, K):
+        strain_nodes(A[k - 1], strain_coef, cosq, eps)
+        v, x, j = global_peak(eps, sign, dx, strain_coef, A[k - 1], lam1)
+        samples[k, 0] = v
+        samples[k, 1] = sign * mode_sum(strain_coef, AD[k - 1], lam1, x)
+        samples[k, 2] = x
+    hk = h / K
+    best[0] = -np.inf
+    for k in range(K):
+        c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
+        vmax, th = cubic_max(c0, c1, c2, c3)
+        if vmax > best[0]:
+            best[0] = vmax
+            best[1] = t0 + (k + th) * hk
+            best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
+    if not best[0] > run_max:
+        return rec, n, False
+    if not joinable:
+        rec, n = _append(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
+    for k in range(1, K + 1):
+        rec, n = _append(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
+    return rec, n, True
+
+
+@njit(cache=True, nogil=True)
 def observe_tension(sign, t0, h, eps0, eps1, a0, a1, adot0, adot1, dz, A, AD, dense, strain_coef, lam1,
-                    dx, L, state, scratch, samples, rec, n, joinable, run_max, best):
+                    dx, L, state, scratch, samples, rec, n, joinable, run_max, best, A2, AD2, eps_s, cosq,
+                    samples2):
     """Running-maximum record of the tension sign * eps over the step [t0, t0 + h].
 
     ``state`` holds (value, rate, x, node) of the global peak at t0 and receives it at t1.
     The peak is followed from the step's start to its end through TENSION_SAMPLES - 1 samples
     of the dense output inside the step (see _tension_piece); between consecutive samples the
     record is the cubic Hermite interpolant of (value, rate). A step is stored when it rises
-    above ``run_max``, the running maximum so far. Where the global peak switches from one
-    local peak (A) to another (B) within the step, both tracks are followed on their own. Rows of rec: (t, value, rate, x, join), join = 1 when the
+    above ``run_max``, the running maximum so far. Where the global peak passes from one local
+    peak to another within the step, the global peak itself is sampled (_global_piece). Rows of rec: (t, value, rate, x, join), join = 1 when the
     row continues the previous one. Returns (rec, n, joinable, run_max); best receives the
     (max, time, x) of the step.
     """
@@ -902,23 +947,17 @@ def observe_tension(sign, t0, h, eps0, eps1, a0, a1, adot0, adot1, dz, A, AD, de
     jb0 = climb(eps0, sign, int(p1[3]), J)
     best[0] = -np.inf
     piece = scratch[2]
-    if jb0 == j0:                                   # one track through the step
+    # one track through the step, unless the peak at t1 climbs back to another local peak at t0
+    # or jumped too far for one track (a peak that emerged inside the step)
+    if jb0 == j0 and abs(p1[2] - p0[2]) <= SWITCH_DISTANCE * dx:
         rec, n, stored = _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples,
                                         rec, n, joinable, run_max, piece)
         joinable = stored
         if piece[0] > best[0]:
             best[:3] = piece[:3]
     else:                                           # the global peak moved to another local peak
-        pa1 = scratch[1]                            # track A (the old peak) at t1
-        peak_state(eps1, sign, j0, a1, adot1, strain_coef, lam1, dx, pa1)
-        rec, n, stored = _tension_piece(sign, t0, h, p0, pa1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples,
-                                        rec, n, joinable, run_max, piece)
-        if piece[0] > best[0]:
-            best[:3] = piece[:3]
-        pb0 = scratch[3]                            # track B (the new peak) at t0
-        peak_state(eps0, sign, jb0, a0, adot0, strain_coef, lam1, dx, pb0)
-        rec, n, stored = _tension_piece(sign, t0, h, pb0, p1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples,
-                                        rec, n, False, run_max, piece)
+        rec, n, stored = _global_piece(sign, t0, h, p0, p1, dz, A2, AD2, eps_s, cosq, strain_coef, lam1,
+                                       dx, samples2, rec, n, joinable, run_max, piece)
         joinable = stored
         if piece[0] > best[0]:
             best[:3] = piece[:3]
@@ -1231,6 +1270,9 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     samples = np.empty((TENSION_SAMPLES + 1, 3))
     A = np.empty((TENSION_SAMPLES - 1, N))
     AD = np.empty((TENSION_SAMPLES - 1, N))
+    A2 = np.empty((SWITCH_SAMPLES - 1, N))
+    AD2 = np.empty((SWITCH_SAMPLES - 1, N))
+    samples2 = np.empty((SWITCH_SAMPLES + 1, 3))
     L = dx * (J - 1)
     dense = np.zeros(1, np.bool_)
     best = np.empty(3)
@@ -1469,11 +1511,13 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
             if s == 0:
                 rec_up, n_up, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
                                                       dz, A, AD, dense, strain_coef, lam1, dx, L, tension[0], scratch, samples,
-                                                      rec_up, n_up, joinable[0], run_max[0], best)
+                                                      rec_up, n_up, joinable[0], run_max[0], best,
+                                                      A2, AD2, eps_sub, cosq, samples2)
             else:
                 rec_lo, n_lo, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
                                                       dz, A, AD, dense, strain_coef, lam1, dx, L, tension[1], scratch, samples,
-                                                      rec_lo, n_lo, joinable[1], run_max[1], best)
+                                                      rec_lo, n_lo, joinable[1], run_max[1], best,
+                                                      A2, AD2, eps_sub, cosq, samples2)
             joinable[s] = jn
             run_max[s] = rm
             if best[0] > diag[D_MAX_UPPER + 3 * s]:
