@@ -821,6 +821,29 @@ def peak_state(eps, sign, j, a, adot, strain_coef, lam1, dx, track):
 
 
 @njit(cache=True, nogil=True)
+def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
+    """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
+    receives the (max, time, x) of the Hermite pieces between samples; the samples are stored
+    as consecutive record rows when that maximum rises above run_max. Returns (rec, n, stored)."""
+    hk = h / K
+    best[0] = -np.inf
+    for k in range(K):
+        c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
+        vmax, th = cubic_max(c0, c1, c2, c3)
+        if vmax > best[0]:
+            best[0] = vmax
+            best[1] = t0 + (k + th) * hk
+            best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
+    if not best[0] > run_max:
+        return rec, n, False
+    if not joinable:
+        rec, n = _append(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
+    for k in range(1, K + 1):
+        rec, n = _append(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
+    return rec, n, True
+
+
+@njit(cache=True, nogil=True)
 def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx, L, samples, rec, n,
                    joinable, run_max, best):
     """The peak of one track over the step: from p0 (t0) to p1 (t0 + h), each (value, rate,
@@ -864,22 +887,7 @@ def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx,
             samples[k, :3] = back
     samples[0, :3] = p0[:3]
     samples[K, :3] = p1[:3]
-    hk = h / K
-    best[0] = -np.inf
-    for k in range(K):
-        c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
-        vmax, th = cubic_max(c0, c1, c2, c3)
-        if vmax > best[0]:
-            best[0] = vmax
-            best[1] = t0 + (k + th) * hk
-            best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
-    if not best[0] > run_max:
-        return rec, n, False
-    if not joinable:
-        rec, n = _append(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
-    for k in range(1, K + 1):
-        rec, n = _append(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
-    return rec, n, True
+    return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
 @njit(cache=True, nogil=True)
@@ -904,22 +912,7 @@ def _global_piece(sign, t0, h, p0, p1, dz, A, AD, eps, cosq, strain_coef, lam1, 
         samples[k, 0] = v
         samples[k, 1] = sign * mode_sum(strain_coef, AD[k - 1], lam1, x)
         samples[k, 2] = x
-    hk = h / K
-    best[0] = -np.inf
-    for k in range(K):
-        c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
-        vmax, th = cubic_max(c0, c1, c2, c3)
-        if vmax > best[0]:
-            best[0] = vmax
-            best[1] = t0 + (k + th) * hk
-            best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
-    if not best[0] > run_max:
-        return rec, n, False
-    if not joinable:
-        rec, n = _append(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
-    for k in range(1, K + 1):
-        rec, n = _append(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
-    return rec, n, True
+    return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
 @njit(cache=True, nogil=True)
