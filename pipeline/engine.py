@@ -9,6 +9,7 @@ disk is the result), and at most ``2 x workers`` tasks are in flight.
 """
 from __future__ import annotations
 
+import logging
 import signal
 import sys
 import time
@@ -63,8 +64,12 @@ def cluster_client(workers: int, scheduler: str | None):
         # reacts, abandons the in-flight cases and shuts the cluster down
         previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
         try:
+            # CRITICAL: a case's failure reaches the runner as its record (run_case catches
+            # everything); what dask logs at ERROR is its own shutdown races (a worker's heartbeat
+            # to a scheduler already gone when a full disk stops the study), a traceback the
+            # user cannot act on
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=40)
+                                   dashboard_address=None, silence_logs=logging.CRITICAL)
         finally:
             signal.signal(signal.SIGINT, previous)
         client = Client(cluster)
