@@ -1,26 +1,33 @@
-"""One case: run it (on a worker) and write its file; read a case file back, validated.
+"""Cases -> batch files: run a batch of cases on a worker and write one file for all of them.
 
-Each case file ``cases/<case_id>.nc`` holds one case along a ``case`` dimension of length 1,
-with the requested fields over (t, x), the per-time series, the in-loop diagnostics, the
-event records (the running-maximum tension record of each surface, from which crack onset
-follows for any yield strain, and every change of the contact-interval count), the status
-and message, and the case's parameters and settings. It is written by the worker that
-ran it, atomically: temporary file in the same directory, fsync, ``os.replace``, fsync of the
-directory. A reader accepts a file only if it opens, carries this schema and case id, and has
-every variable with the expected shape; anything else is not "done".
+A batch file ``batches/<sha256>.nc`` holds the cases of one task along a ``case`` dimension
+(coordinate: the case ids), each with everything a case produces:
+
+- the requested fields over (case, t, x), x as a fraction of the case's L;
+- the series over (case, t): ``time``, ``contact_intervals``, ``force``;
+- per case: the diagnostics, the run records (t_sc, steps, run_time, ...), ``status`` and
+  ``message``, its parameters and ``solver_settings`` (JSON);
+- the event records as contiguous ragged arrays: ``tension_record_count`` (case, surface)
+  nodes of each case and surface, in that order, along ``tension_node``; and
+  ``contact_change_entries`` (case) along ``contact_change``.
+
+The file is named by the SHA-256 of its bytes and written atomically (temporary file in the
+same directory, fsync, ``os.replace``, fsync of the directory). Its name is therefore its
+checksum: a reader hashes the bytes before it opens anything (:func:`read_batch`), so a
+damaged file is recognised without being parsed, and no netCDF library ever sees one.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import time
+from functools import lru_cache
 from pathlib import Path
 
-import dask
 import numpy as np
-import xarray as xr
 
-from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, STATUS_INFO, solve
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, STATUS_INFO
 
 from . import provenance
 from .study import SCHEMA_VERSION, Case
@@ -45,8 +52,8 @@ TEXT_INFO = {
     "status": " | ".join([*STATUS_INFO, "error"]),
     "message": "what went wrong, empty when status is ok",
 }
-#: the running-maximum tension record of each surface (solver.fracture): node variables along
-#: ("surface", "tension_node"), NaN-padded; crack onset for any eps_Y follows from it
+#: the running-maximum tension record of each surface (solver.fracture), ragged along
+#: tension_node; crack onset for any eps_Y follows from it
 TENSION_RECORD_INFO = {
     "tension_record_time": ("time of a node of the running-maximum tension record", "s"),
     "tension_record_value": ("peak tension over x at the node (upper: +strain, lower: -strain)", "1"),
@@ -67,142 +74,144 @@ FAILED = ENDED_EARLY + NUMERICAL_FAILURES
 
 
 class CaseWriteError(OSError):
-    """A case file could not be written (disk full, permissions): the study stops (exit 74)."""
+    """A batch file could not be written (disk full, permissions): the study stops (exit 74)."""
 
 
-#: record status of a case whose file could not be written (not a case status: no file exists)
+#: record status of a batch whose file could not be written (not a case status: no file exists)
 WRITE_FAILED = "write_failed"
-
-
-def case_path(cases_dir: Path, case_id: str) -> Path:
-    return Path(cases_dir) / f"{case_id}.nc"
-
-
-def _x_positions(case: Case) -> np.ndarray:
-    L = case.parameters.L
-    return np.linspace(-L, L, case.x_points)
-
-
-def case_dataset(case: Case, result=None, status=None, message="") -> xr.Dataset:
-    """The dataset of one case from a solver Result (or all-NaN with a status, result=None)."""
-    p = case.parameters
-    t_coord = case.requested_times()
-    t_sec = case.times_seconds()
-    inside = t_sec <= p.stage_duration * (1 + 1e-12)
-    T, X = t_coord.size, case.x_points
-    x = _x_positions(case)
-
-    def series(values):
-        out = np.full(T, np.nan)
-        if values is not None:
-            out[inside] = values
-        return out[None, :]
-
-    data = {}
-    for name in case.fields:
-        arr = np.full((T, X), np.nan)
-        if result is not None:
-            arr[inside] = result.fields[name]
-        long_name, units = FIELD_INFO[name]
-        data[name] = (("case", "t", "x"), arr[None], {"long_name": long_name, "units": units})
-    data["time"] = (("case", "t"), np.where(inside, t_sec, np.nan)[None], dict(zip(("long_name", "units"), SERIES_INFO["time"])))
-    for name in ("contact_intervals", "force"):
-        values = None if result is None else getattr(result, name)
-        data[name] = (("case", "t"), series(values), dict(zip(("long_name", "units"), SERIES_INFO[name])))
-    for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
-        value = np.nan if result is None else result.diagnostics[name]
-        if not value < np.inf:              # NaN stays NaN; +inf (max_force of a bottomed-out case) is
-            value = np.nan if np.isnan(value) else value   # kept: the model's force is unbounded there
-        elif value == -np.inf:              # nothing measured
-            value = np.nan
-        data[name] = (("case",), [value], {"long_name": long_name, "units": units})
-    _event_records(data, result)
-    records = {"t_sc": p.time_scale, "stage_duration": p.stage_duration,
-               "time_reached": np.nan if result is None else result.time_reached,
-               "run_time": np.nan if result is None else result.wall_time,
-               "error_estimate_run_time": np.nan if result is None else
-               result.extra.get("error_estimate_wall_time", 0.0),
-               "steps": np.nan if result is None else result.steps,
-               "rejected_steps": np.nan if result is None else result.rejected_steps,
-               "smallest_step": np.nan if result is None else result.smallest_step}
-    for name, value in records.items():
-        long_name, units = RECORD_INFO[name]
-        data[name] = (("case",), [float(value)], {"long_name": long_name, "units": units})
-    status = status or result.status
-    message = message if result is None else result.message
-    data["status"] = (("case",), np.array([status], dtype=object), {"long_name": TEXT_INFO["status"]})
-    data["message"] = (("case",), np.array([message], dtype=object), {"long_name": TEXT_INFO["message"]})
-    for key, value in p.as_dict().items():
-        long_name, units = PARAMETER_INFO[key]
-        data[key] = (("case",), [value], {"long_name": long_name, "units": units})
-    t_long = "time in units of the case's t_sc" if case.times_spec["unit"] == "t_sc" \
-        else "time as a fraction of the case's impact stage L^2/(6RV)"
-    coords = {"case": ("case", np.array([case.case_id], dtype=object), {"long_name": "case id"}),
-              "surface": ("surface", np.array(SURFACES, dtype=object),
-                          {"long_name": "ice surface: upper (tension = +strain), lower (tension = -strain)"}),
-              "t": ("t", t_coord, {"long_name": t_long, "units": "1"}),
-              "x": ("x", x, {"long_name": "position along the plate", "units": "m"})}
-    ds = xr.Dataset(data, coords=coords)
-    ds.attrs.update({
-        "title": "floe-impact case",
-        "schema_version": SCHEMA_VERSION,
-        "case_id": case.case_id,
-        "case_index": json.dumps(list(case.index)),
-        "parameters": json.dumps(p.as_dict()),
-        "solver_settings": json.dumps(case.settings.as_dict()),
-        "output_times": json.dumps(case.times_spec),
-        "fields": json.dumps(list(case.fields)),
-        "status": status,
-        **provenance.attributes(),
-    })
-    return ds
-
-
-def _event_records(data: dict, result) -> None:
-    """The tension records of both surfaces and the contact record, NaN-padded, into data."""
-    recs = [np.empty((0, 5)) if result is None else result.tension_record[s] for s in SURFACES]
-    nodes = max(1, max(r.shape[0] for r in recs))
-    for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
-        arr = np.full((1, 2, nodes), np.nan)
-        for i, r in enumerate(recs):
-            arr[0, i, :r.shape[0]] = r[:, col]
-        data[name] = (("case", "surface", "tension_node"), arr, {"long_name": long_name, "units": units})
-    contacts = np.empty((0, 2)) if result is None or result.contact_record is None else result.contact_record
-    n = max(1, contacts.shape[0])
-    for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):
-        arr = np.full((1, n), np.nan)
-        arr[0, :contacts.shape[0]] = contacts[:, col]
-        data[name] = (("case", "contact_change"), arr, {"long_name": long_name, "units": units})
-
-
-def tension_records(ds: xr.Dataset, index=()) -> dict:
-    """surface -> (n, 5) record rows of one case in a case file or study.nc dataset (index:
-    the case's position along the leading dimensions of study.nc; () for a case file)."""
-    out = {}
-    for i, surface in enumerate(SURFACES):
-        cols = [np.asarray(ds[name].values)[(0,) if not index else tuple(index)][i]
-                for name in TENSION_RECORD_INFO]
-        rows = np.stack(cols, axis=-1)
-        out[surface] = rows[np.isfinite(rows[:, 0])]
-    return out
+BATCH_TITLE = "floe-impact batch"
 
 
 def compute_case(case: Case):
-    """Run the solver on one case; times past the impact stage are not integrated."""
+    """Run the solver on one case; times past the end of its run are not integrated."""
+    from solver import solve
     t_sec = case.times_seconds()
     inside = t_sec <= case.t_end * (1 + 1e-12)
     times = np.minimum(t_sec[inside], case.t_end)
-    return solve(case.parameters, case.settings, times=times, fields=case.fields, x=_x_positions(case))
+    x = np.linspace(-1.0, 1.0, case.x_points) * case.parameters.L
+    return solve(case.parameters, case.settings, times=times, fields=case.fields, x=x, t_end=case.t_end)
 
 
-def write_atomic(ds: xr.Dataset, path: Path) -> None:
-    """Write ds to path so that path is either absent or complete (temp, fsync, replace, fsync dir)."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{time.monotonic_ns()}")
+def case_arrays(case: Case, result=None, status=None, message="") -> dict:
+    """One case's data as plain arrays (no case dimension), from a solver Result or, with
+    result=None, all NaN with the given status and message."""
+    p = case.parameters
+    t_sec = case.times_seconds()
+    inside = t_sec <= case.t_end * (1 + 1e-12)
+    T = t_sec.size
+    out = {}
+    for name in case.fields:
+        arr = np.full((T, case.x_points), np.nan)
+        if result is not None:
+            arr[inside] = result.fields[name]
+        out[name] = arr
+
+    def series(values):
+        arr = np.full(T, np.nan)
+        if values is not None:
+            arr[inside] = values
+        return arr
+
+    out["time"] = np.where(inside, t_sec, np.nan)
+    for name in ("contact_intervals", "force"):
+        out[name] = series(None if result is None else getattr(result, name))
+    for name in DIAGNOSTIC_INFO:
+        value = np.nan if result is None else float(result.diagnostics[name])
+        if value == -np.inf:                 # nothing measured; +inf (max_force of a bottomed-out
+            value = np.nan                   # case) is kept: the model's force is unbounded there
+        out[name] = value
+    none = result is None
+    out.update({"t_sc": p.time_scale, "stage_duration": p.stage_duration,
+                "time_reached": np.nan if none else result.time_reached,
+                "run_time": np.nan if none else result.wall_time,
+                "error_estimate_run_time": np.nan if none else result.extra.get("error_estimate_wall_time", 0.0),
+                "steps": np.nan if none else result.steps,
+                "rejected_steps": np.nan if none else result.rejected_steps,
+                "smallest_step": np.nan if none else result.smallest_step})
+    out["status"] = status or result.status
+    out["message"] = message if none else result.message
+    for key, value in p.as_dict().items():
+        out[key] = value
+    out["solver_settings"] = json.dumps(case.settings.as_dict())
+    out["tension_records"] = [np.empty((0, 5)) if none else np.asarray(result.tension_record[s]) for s in SURFACES]
+    contacts = None if none else result.contact_record
+    out["contact_record"] = np.empty((0, 2)) if contacts is None else np.asarray(contacts)
+    return out
+
+
+def _attrs(long_name, units=None):
+    return {"long_name": long_name, **({"units": units} if units is not None else {})}
+
+
+def batch_dataset(cases: list, arrays: list):
+    """The xarray Dataset of one batch from its cases (same output request) and their arrays."""
+    import xarray as xr
+    first = cases[0]
+    n = len(cases)
+    data = {}
+    for name in first.fields:
+        long_name, units = FIELD_INFO[name]
+        data[name] = (("case", "t", "x"), np.stack([a[name] for a in arrays]), _attrs(long_name, units))
+    for name, (long_name, units) in SERIES_INFO.items():
+        data[name] = (("case", "t"), np.stack([a[name] for a in arrays]), _attrs(long_name, units))
+    for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
+        data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
+    for name, (long_name, units) in RECORD_INFO.items():
+        data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
+    for name, long_name in TEXT_INFO.items():
+        data[name] = (("case",), np.array([a[name] for a in arrays], dtype=object), _attrs(long_name))
+    data["solver_settings"] = (("case",), np.array([a["solver_settings"] for a in arrays], dtype=object),
+                               _attrs("solver settings of the case (JSON)"))
+    for key, (long_name, units) in PARAMETER_INFO.items():
+        data[key] = (("case",), np.array([a[key] for a in arrays]), _attrs(long_name, units))
+    counts = np.array([[r.shape[0] for r in a["tension_records"]] for a in arrays], dtype=np.int64).reshape(n, 2)
+    data["tension_record_count"] = (("case", "surface"), counts,
+                                    {**_attrs("nodes of the case's tension record on the surface", "1"),
+                                     "sample_dimension": "tension_node"})
+    rows = np.concatenate([r for a in arrays for r in a["tension_records"]] or [np.empty((0, 5))])
+    for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
+        data[name] = (("tension_node",), rows[:, col], _attrs(long_name, units))
+    entries = np.array([a["contact_record"].shape[0] for a in arrays], dtype=np.int64)
+    data["contact_change_entries"] = (("case",), entries,
+                                      {**_attrs("entries of the case's contact record", "1"),
+                                       "sample_dimension": "contact_change"})
+    rows = np.concatenate([a["contact_record"] for a in arrays] or [np.empty((0, 2))])
+    for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):
+        data[name] = (("contact_change",), rows[:, col], _attrs(long_name, units))
+    t_long = "time in units of the case's t_sc" if first.times_spec["unit"] == "t_sc" \
+        else "time as a fraction of the case's impact stage L^2/(6RV)"
+    coords = {"case": ("case", np.array([c.case_id for c in cases], dtype=object), _attrs("case id")),
+              "surface": ("surface", np.array(SURFACES, dtype=object),
+                          _attrs("ice surface: upper (tension = +strain), lower (tension = -strain)")),
+              "t": ("t", first.requested_times(), _attrs(t_long, "1")),
+              "x": ("x", np.linspace(-1.0, 1.0, first.x_points),
+                    _attrs("position along the plate as a fraction of the case's half-length L", "1"))}
+    ds = xr.Dataset(data, coords=coords)
+    ds.attrs.update({"title": BATCH_TITLE, "schema_version": SCHEMA_VERSION,
+                     "output_times": json.dumps(first.times_spec), "fields": json.dumps(list(first.fields)),
+                     "end": first.end, **provenance.attributes()})
+    return ds
+
+
+def _fsync_dir(directory: Path) -> None:
+    dfd = os.open(directory, os.O_RDONLY)
     try:
-        # each worker writes only its own file: no need for the scheduler-wide lock xarray takes
-        # under dask.distributed (it cost 0.5 s a case); the data are numpy, nothing to compute
-        with dask.config.set(scheduler="synchronous"):
+        os.fsync(dfd)
+    finally:
+        os.close(dfd)
+
+
+def _temporary(path: Path) -> Path:
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}-{time.monotonic_ns()}")
+
+
+def write_atomic(ds, path: Path) -> None:
+    """Write ds to path so that path is either absent or complete (temp, fsync, replace, fsync dir)."""
+    import dask
+    path = Path(path)
+    tmp = _temporary(path)
+    try:
+        with dask.config.set(scheduler="synchronous"):     # numpy data: nothing to compute
             ds.to_netcdf(tmp, engine="netcdf4")
         fd = os.open(tmp, os.O_RDONLY)
         try:
@@ -213,70 +222,132 @@ def write_atomic(ds: xr.Dataset, path: Path) -> None:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    dfd = os.open(path.parent, os.O_RDONLY)
+    _fsync_dir(path.parent)
+
+
+def file_sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def write_batch(ds, batches_dir: Path) -> dict:
+    """Write a batch atomically under the name of its checksum; returns its ledger fields."""
+    import dask
+    batches_dir = Path(batches_dir)
+    tmp = _temporary(batches_dir / "batch.nc")
     try:
-        os.fsync(dfd)
-    finally:
-        os.close(dfd)
+        with dask.config.set(scheduler="synchronous"):
+            ds.to_netcdf(tmp, engine="netcdf4")
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        sha = file_sha256(tmp)
+        path = batches_dir / f"{sha[:32]}.nc"
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(batches_dir)
+    st = path.stat()
+    return {"file": path.name, "sha256": sha, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
 
 
-def run_case(case_dict: dict, cases_dir: str) -> dict:
-    """Worker entry point: run one case, write its file, return a small record (no arrays).
+@lru_cache(maxsize=4)
+def _worker_study(text: str, name: str):
+    """The study on a worker, parsed once per study text (a grid's cases are built on demand)."""
+    from .study import load_study_text
+    return load_study_text(text, name)
 
-    A numerical failure is a status, and so is an exception in the solver ('error'); the case
-    file is written in both cases. A failure to write the file returns status WRITE_FAILED, on
-    which the runner stops the study.
+
+def run_batch(study_text: str, study_name: str, items: list, batches_dir: str) -> dict:
+    """Worker entry point: run the cases ``items`` ([case_id, position or -1]) of a study,
+    write their batch file, return its ledger entry (no arrays).
+
+    A numerical failure is a status, and so is an exception in the solver ('error'); every
+    case is written. A failure to write the file returns status WRITE_FAILED, on which the
+    runner stops the study.
     """
-    case = Case.from_dict(case_dict)
-    started = time.perf_counter()
+    study = _worker_study(study_text, study_name)
+    cases, arrays = [], []
+    for case_id, position in items:
+        case = study.case(position) if position >= 0 else study.run(case_id)
+        if case.case_id != case_id:
+            raise RuntimeError(f"case {case_id}: the worker's study gives id {case.case_id}")
+        try:
+            result = compute_case(case)
+            values = case_arrays(case, result)
+        except Exception as err:                   # a bug in one case must not stop the study
+            values = case_arrays(case, None, status="error", message=f"{type(err).__name__}: {err}")
+        cases.append(case)
+        arrays.append(values)
     try:
-        result = compute_case(case)
-        ds = case_dataset(case, result)
-    except Exception as err:                       # a bug in one case must not stop the study
-        ds = case_dataset(case, None, status="error", message=f"{type(err).__name__}: {err}")
-    path = case_path(Path(cases_dir), case.case_id)
-    try:
-        write_atomic(ds, path)
+        entry = write_batch(batch_dataset(cases, arrays), Path(batches_dir))
     except Exception as err:                       # netCDF reports a full disk as "HDF error"
         import shutil
         try:
-            free = f"{shutil.disk_usage(path.parent).free // 2**20} MiB free"
+            free = f"{shutil.disk_usage(batches_dir).free // 2**20} MiB free"
         except OSError:
             free = "free space unknown"
         # returned, not raised: the runner stops the study (a raised error would be logged by
         # the dask worker with its traceback)
-        return {"case_id": case.case_id, "status": WRITE_FAILED, "run_time": float("nan"),
-                "message": f"cannot write {path} ({free}): {type(err).__name__}: {err}"}
-    return {"case_id": case.case_id, "status": str(ds["status"].values[0]),
-            "message": str(ds["message"].values[0]), "run_time": time.perf_counter() - started}
+        return {"status": WRITE_FAILED, "message": f"cannot write a batch file in {batches_dir} ({free}): "
+                                                   f"{type(err).__name__}: {err}"}
+    entry["cases"] = [[c.case_id, a["status"], a["message"], float(a["run_time"])] for c, a in zip(cases, arrays)]
+    return entry
 
 
-def read_case(path: Path, case: Case):
-    """The case file's dataset, loaded and closed, or None if it is missing or not valid."""
+class DamagedFile(Exception):
+    """A result file whose bytes do not match its checksum (or that cannot be read)."""
+
+
+def read_batch(path: Path, sha256: str | None = None):
+    """A batch file's dataset, loaded and closed, after its bytes are checked against its
+    checksum (the ledger's, or the one in its name). Raises DamagedFile otherwise."""
+    import xarray as xr
     path = Path(path)
-    if not path.is_file():
-        return None
+    expected = sha256 or path.stem
+    try:
+        actual = file_sha256(path)
+    except OSError as err:
+        raise DamagedFile(f"{path.name}: {err.strerror or err}") from None
+    if not actual.startswith(expected) or not actual.startswith(path.stem):
+        raise DamagedFile(f"{path.name}: its bytes do not match its checksum")
     try:
         with xr.open_dataset(path, engine="netcdf4") as ds:
             ds = ds.load()
-    except Exception:
-        return None
-    expected = {name: ("case", "t", "x") for name in case.fields}
-    expected.update({name: ("case", "t") for name in SERIES_INFO})
-    expected.update({name: ("case", "surface", "tension_node") for name in TENSION_RECORD_INFO})
-    expected.update({name: ("case", "contact_change") for name in CONTACT_RECORD_INFO})
-    expected.update({name: ("case",) for name in (*DIAGNOSTIC_INFO, *RECORD_INFO, *TEXT_INFO)})
-    try:
-        if ds.attrs.get("schema_version") != SCHEMA_VERSION or ds.attrs.get("case_id") != case.case_id:
-            return None
-        if ds.sizes.get("case") != 1 or ds.sizes.get("t") != case.requested_times().size \
-                or (case.fields and ds.sizes.get("x") != case.x_points):
-            return None
-        for name, dims in expected.items():
-            if name not in ds or ds[name].dims != dims:
-                return None
-        if str(ds["status"].values[0]) not in ("ok", *FAILED):
-            return None
-    except Exception:
-        return None
+    except Exception as err:
+        raise DamagedFile(f"{path.name}: {type(err).__name__}: {err}") from None
+    if ds.attrs.get("title") != BATCH_TITLE or ds.attrs.get("schema_version") != SCHEMA_VERSION:
+        raise DamagedFile(f"{path.name}: not a batch file of schema {SCHEMA_VERSION}")
     return ds
+
+
+def ragged_offsets(counts: np.ndarray) -> np.ndarray:
+    """Start of each entry in its sample dimension, from the counts in storage order."""
+    flat = np.asarray(counts, dtype=np.int64).ravel()
+    return (np.cumsum(flat) - flat).reshape(np.shape(counts))
+
+
+def tension_records(ds, index=(), starts=None) -> dict:
+    """surface -> (n, 5) record rows of one case of a batch file or study.nc.
+
+    index: the case's position along the case dimensions (a batch's (i,), or study.nc's grid
+    index); starts: the offsets of every (case..., surface) entry (default: from the counts,
+    or study.nc's tension_record_start)."""
+    counts = np.asarray(ds["tension_record_count"].values)
+    if starts is None:
+        starts = np.asarray(ds["tension_record_start"].values) if "tension_record_start" in ds \
+            else ragged_offsets(counts)
+    out = {}
+    for i, surface in enumerate(SURFACES):
+        n, s = int(counts[tuple(index) + (i,)]), int(starts[tuple(index) + (i,)])
+        if n <= 0:
+            out[surface] = np.empty((0, 5))
+            continue
+        out[surface] = np.stack([np.asarray(ds[name][s:s + n].values) for name in TENSION_RECORD_INFO], axis=-1)
+    return out

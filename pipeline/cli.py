@@ -1,12 +1,12 @@
 """Command line: ``python -m pipeline run STUDY`` and ``python -m pipeline status STUDY``.
 
-The run reads as a straight line: study file -> cases -> workers -> case files -> study.nc ->
+The run reads as a straight line: study file -> cases -> workers (in batches) -> batch files + ledger -> study.nc ->
 diagnostics -> plots. Exit status:
   0   every case ok or ended by the model itself (``layer_bottomed_out``: the layer was
       squeezed flat before the end of the stage; its data up to then is valid);
   1   some cases failed numerically (nonfinite, step_limit, error);
   2   bad input (one line on stderr, nothing written), including an unreachable scheduler;
-  74  I/O error: results directory not writable, disk full (finished case files are kept);
+  74  I/O error: results directory not writable, disk full (finished cases are kept);
   75  the study is locked by another runner;
   130 interrupted (Ctrl-C): finished cases are kept, the same command resumes.
 """
@@ -51,39 +51,62 @@ def _parser():
     run.add_argument("--rerun-failed", action="store_true", help="recompute cases that failed before")
     run.add_argument("--yes", action="store_true", help=f"run studies of more than {LARGE_STUDY} cases")
     run.add_argument("--no-plots", action="store_true", help="skip the figures")
+    run.add_argument("--batch-seconds", type=float, default=1.0,
+                     help="solver time per batch of cases, one file each (default 1 s)")
     status = sub.add_parser("status", help="what a study has done")
     status.add_argument("study")
     status.add_argument("--out")
+    status.add_argument("--all", action="store_true", help=f"list every case (default: the first {TABLE_ROWS})")
     return ap
 
 
-def case_states(study, out_dir: Path) -> dict:
-    """case_id -> 'ok' | failed status | 'pending' | 'corrupt' from the files on disk."""
-    from .casefile import case_path, read_case
-    states = {}
-    for case in study.all_cases():
-        path = case_path(out_dir / "cases", case.case_id)
-        if not path.exists():
-            states[case.case_id] = "pending"
-            continue
-        ds = read_case(path, case)
-        states[case.case_id] = "corrupt" if ds is None else str(ds["status"].values[0])
-    return states
+def ledger_states(study, out_dir: Path, ledger=None) -> dict:
+    """case_id -> 'ok' | failed status | 'pending', from the study's ledger alone (no result
+    file is opened)."""
+    from .ledger import Ledger
+    ledger = ledger if ledger is not None else Ledger.load(out_dir)
+    recorded = ledger.states()
+    return {cid: recorded.get(cid, "pending") for cid in study.run_ids}
 
 
-def print_table(study, states: dict, stream=sys.stdout) -> None:
+#: the case table lists at most this many rows unless --all
+TABLE_ROWS = 200
+
+
+def _row_keys(study) -> list:
     from solver import PARAMETER_INFO, SETTING_INFO
-    runs = study.all_cases()
-    keys = study.dims if study.grid else [k for k in [*PARAMETER_INFO, *SETTING_INFO]
-                                          if len({c.value(k) for c in runs}) > 1]
+    if study.grid:
+        return study.dims
+    return [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in study._listed}) > 1]
+
+
+def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
+    if flat is not None and study.grid:
+        import numpy as np
+        idx = np.unravel_index(flat, study.shape)
+        return [_fmt(study.grid[k][int(j)]) for k, j in zip(keys, idx)]
+    case = study.run(cid)
+    return [_fmt(case.value(k)) for k in keys]
+
+
+def print_table(study, states: dict, stream=sys.stdout, all_rows: bool = False) -> None:
+    """The case table (case_id, the keys that vary, state, role) and a one-line summary."""
+    keys = _row_keys(study)
     header = ["case_id", *keys, "state", "role"]
+    first = {}
+    for i, cid in enumerate(study.case_ids):
+        first.setdefault(cid, i)
+    ids = study.run_ids if all_rows else study.run_ids[:TABLE_ROWS]
     rows = []
-    for case in runs:
-        role = "reference" if study.is_reference(case) else "case"
-        rows.append([case.case_id, *(_fmt(case.value(k)) for k in keys), states[case.case_id], role])
+    for cid in ids:
+        flat = first.get(cid)
+        role = "reference" if flat is None else "case"
+        rows.append([cid, *_row_values(study, cid, flat, keys), states[cid], role])
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     for r in [header, *rows]:
         stream.write("  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip() + "\n")
+    if len(ids) < len(study.run_ids):
+        stream.write(f"... {len(study.run_ids) - len(ids)} more rows (--all lists them)\n")
     counts = {}
     for s in states.values():
         counts[s] = counts.get(s, 0) + 1
@@ -93,11 +116,10 @@ def print_table(study, states: dict, stream=sys.stdout) -> None:
 
 def _count(study) -> str:
     """'N cases' with the distinct runs and reference runs where they differ."""
-    runs = study.all_cases()
-    n_ref = sum(1 for r in runs if study.is_reference(r))
-    distinct = len(runs) - n_ref
-    text = f"{len(study.cases)} cases"
-    if distinct != len(study.cases):
+    n_ref = len(study.run_ids) - len(study.case_id_set)
+    distinct = len(study.case_id_set)
+    text = f"{study.n_cases} cases"
+    if distinct != study.n_cases:
         text += f" ({distinct} distinct runs)"
     if n_ref:
         text += f" and {n_ref} reference runs"
@@ -108,20 +130,23 @@ def _fmt(value) -> str:
     return value if isinstance(value, str) else f"{value:g}"
 
 
-def _label(study, case) -> str:
-    if study.is_reference(case):
+def _label(study, cid: str) -> str:
+    if cid not in study.case_id_set:
         return "reference run"
-    keys = study.dims if study.grid else [k for k in study.case_list[case.index[0]] if k not in ("reference", "group")]
-    return ", ".join(f"{k}={_fmt(case.value(k))}" for k in keys) or f"case {case.index[0]}"
+    flat = study.case_ids.index(cid)
+    keys = study.dims if study.grid else [k for k in study.case_list[flat] if k not in ("reference", "group")]
+    return ", ".join(f"{k}={v}" for k, v in zip(keys, _row_values(study, cid, flat, keys))) or f"case {flat}"
 
 
 def _prepare_dirs(out_dir: Path) -> Path:
-    cases_dir = out_dir / "cases"
-    cases_dir.mkdir(parents=True, exist_ok=True)
-    for stale in [*cases_dir.glob(".*.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
-                  *out_dir.glob(".study.nc.inputs.tmp-*")]:                        # killed writers
-        stale.unlink(missing_ok=True)
-    return cases_dir
+    from .ledger import BATCHES, LEDGER
+    batches = out_dir / BATCHES
+    batches.mkdir(parents=True, exist_ok=True)
+    for stale in [*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
+                  *out_dir.glob(".study.nc.inputs.tmp-*"), *out_dir.glob(f".{LEDGER}.tmp-*")]:
+        if stale.is_file() and not stale.is_symlink():     # killed writers
+            stale.unlink(missing_ok=True)
+    return batches
 
 
 def command_run(args) -> int:
@@ -129,16 +154,17 @@ def command_run(args) -> int:
     study = load_study(find_study(args.study))
     if args.workers < 1:
         raise StudyError(f"--workers must be >= 1, got {args.workers}")
-    if len(study.cases) > LARGE_STUDY and not args.yes:
-        raise StudyError(f"the study has {len(study.cases)} cases (more than {LARGE_STUDY}); "
+    if not 0.0 < args.batch_seconds <= 3600.0:
+        raise StudyError(f"--batch-seconds must be in (0, 3600], got {args.batch_seconds}")
+    if study.n_cases > LARGE_STUDY and not args.yes:
+        raise StudyError(f"the study has {study.n_cases} cases (more than {LARGE_STUDY}); "
                          f"add --yes to run it")
     out_dir = Path(args.out) if args.out else Path("results") / study.name
     if args.scheduler:                                 # unreachable: bad input, refused before writing
         from .engine import probe_scheduler
         probe_scheduler(args.scheduler)
     if args.dry_run:
-        states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.all_cases()}
-        print_table(study, states)
+        print_table(study, ledger_states(study, out_dir))
         return EXIT_OK
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -152,74 +178,138 @@ def command_run(args) -> int:
         lock.__exit__()
 
 
-def _run_locked(args, study, out_dir: Path) -> int:
-    from .casefile import FAILED, NUMERICAL_FAILURES, case_path, read_case
-    cases_dir = _prepare_dirs(out_dir)
-    everything = study.all_cases()
-    states = case_states(study, out_dir)
-    for case in everything:                            # set aside, never delete, a corrupt file
-        if states[case.case_id] == "corrupt":
-            path = case_path(cases_dir, case.case_id)
-            aside = path.with_name(f"{path.name}.corrupt-{time.strftime('%Y%m%dT%H%M%S')}")
-            path.rename(aside)
-            print(f"note: case file {path.name} is not valid; moved to {aside.name} and recomputed",
-                  file=sys.stderr)
-            states[case.case_id] = "pending"
-    todo = [c for c in everything
-            if states[c.case_id] == "pending" or (args.rerun_failed and states[c.case_id] in FAILED)]
-    past = sum(1 for c in study.cases if c.times_seconds()[-1] > c.t_end * (1 + 1e-12))
-    if past:
-        print(f"note: {past} of {len(study.cases)} cases have output times past their impact stage "
-              f"L^2/(6RV); those times are not integrated and stay NaN", file=sys.stderr)
-    from .engine import Progress, run_pending           # dask only when there is work
-    skipped = len(everything) - len(todo)
-    print(f"{study.name}: {_count(study)}, {len(todo)} to run, {skipped} already done "
-          f"-> {out_dir}", file=sys.stderr)
-    records = run_pending(todo, cases_dir, workers=args.workers, scheduler=args.scheduler,
-                          progress=Progress(len(everything), skipped))
-    for record in records:
-        states[record["case_id"]] = record["status"]
-    from .combine import inputs_fingerprint, is_up_to_date, write_study
-    fingerprint = inputs_fingerprint(study, out_dir)
-    path = out_dir / "study.nc"
-    fresh = bool(records) or not is_up_to_date(study, out_dir, fingerprint)
-    if fresh:
-        write_study(study, out_dir, fingerprint)
-        print(f"wrote {path}", file=sys.stderr)
-    else:                                              # a rerun with nothing new rewrites nothing
-        print(f"nothing new: {path} is up to date", file=sys.stderr)
-    from .plots import PLOT_FILES
-    figures = [out_dir / f for kind in study.plots for f in PLOT_FILES[kind]]
-    if not args.no_plots and (fresh or not all(f.exists() for f in figures)):
-        import xarray as xr
+def _todo(study, states: dict, rerun_failed: bool) -> tuple:
+    """The runs to compute as (items [case_id, position or -1], signatures)."""
+    from .casefile import FAILED
+    first = {}
+    for i, cid in enumerate(study.case_ids):
+        first.setdefault(cid, i)
+    items, signature = [], []
+    for cid in study.run_ids:
+        if states[cid] == "pending" or (rerun_failed and states[cid] in FAILED):
+            position = first.get(cid, -1)
+            items.append([cid, position])
+            signature.append(0 if position >= 0 else 1)
+    return items, signature
 
-        from .plots import make_plots
-        with xr.open_dataset(path) as ds:
-            written, notes = make_plots(ds.load(), study.dims, study.plots, out_dir)
-        for p in written:
-            print(f"wrote {p}", file=sys.stderr)
-        for note in notes:
-            print(f"note: {note}", file=sys.stderr)
-    not_ok = [c for c in everything if states[c.case_id] != "ok"]
-    if not_ok:
-        print(f"{len(not_ok)} of {len(everything)} cases did not end ok:", file=sys.stderr)
-        for case in not_ok[:30]:
-            ds = read_case(case_path(cases_dir, case.case_id), case)
-            msg = str(ds["message"].values[0]) if ds is not None else "no valid case file"
-            print(f"  {case.case_id} ({_label(study, case)}): {states[case.case_id]}: {msg}", file=sys.stderr)
-        if len(not_ok) > 30:
-            print(f"  ... and {len(not_ok) - 30} more (python -m pipeline status {study.name})", file=sys.stderr)
-    if any(states[c.case_id] in NUMERICAL_FAILURES or states[c.case_id] == "pending" for c in everything):
+
+def _run_locked(args, study, out_dir: Path) -> int:
+    from .casefile import NUMERICAL_FAILURES
+    from .ledger import reconcile
+    batches = _prepare_dirs(out_dir)
+    notes = []
+    ledger = reconcile(out_dir, notes)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+    states = ledger_states(study, out_dir, ledger)
+    items, signature = _todo(study, states, args.rerun_failed)
+    from .study import cases_past_their_stage
+    past = cases_past_their_stage(study)
+    if past:
+        print(f"note: {past} of {study.n_cases} cases have output times past their impact stage "
+              f"L^2/(6RV); those times are not integrated and stay NaN", file=sys.stderr)
+    skipped = len(study.run_ids) - len(items)
+    print(f"{study.name}: {_count(study)}, {len(items)} to run, {skipped} already done "
+          f"-> {out_dir}", file=sys.stderr)
+    from .session import Session
+    with Session(args.workers, args.scheduler) as session:
+        for attempt in range(3):
+            if items:
+                def on_batch(entry):
+                    ledger.append(entry)
+                    for cid, status, _, _ in entry["cases"]:
+                        states[cid] = status
+                lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids), skipped,
+                                   args.batch_seconds)
+                for record in lost:
+                    print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
+                          file=sys.stderr)
+            fresh = _combine(args, study, out_dir, ledger, states, session, computed=bool(items))
+            if fresh is not None:                      # done: no damaged batch file
+                break
+            states = ledger_states(study, out_dir, ledger)
+            items, signature = _todo(study, states, False)
+            skipped = len(study.run_ids) - len(items)
+        else:
+            raise _IOProblem("batch files keep failing their checksums; is the disk healthy?")
+    _plots(args, study, out_dir, fresh)
+    _summary(study, ledger, states)
+    if any(states[cid] in NUMERICAL_FAILURES or states[cid] == "pending" for cid in study.run_ids):
         return EXIT_FAILED
     return EXIT_OK
+
+
+def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed: bool):
+    """Write study.nc if its inputs changed; True if written, False if up to date, None if a
+    damaged batch file was found (set aside and dropped from the ledger)."""
+    from .ledger import inputs_fingerprint, is_up_to_date, set_aside
+    index = ledger.index()
+    fingerprint = inputs_fingerprint(study, index)
+    path = out_dir / "study.nc"
+    if not computed and is_up_to_date(out_dir, fingerprint):
+        print(f"nothing new: {path} is up to date", file=sys.stderr)
+        return False
+    n_files = len({index[cid][0]["file"] for cid in study.case_id_set if cid in index})
+    from .combine import write_study
+    mapper = session.mapper() if session.is_open or n_files > 50 else None
+    started = time.monotonic()
+    written, damaged = write_study(study, out_dir, index, states, mapper, fingerprint)
+    if damaged:
+        for name in damaged:
+            victim = out_dir / "batches" / name
+            if victim.exists():
+                aside = set_aside(victim)
+                print(f"note: batch file {name} failed its checksum; moved to {aside.name}; its cases are "
+                      f"computed again", file=sys.stderr)
+            ledger.drop(name)
+        ledger.rewrite()
+        return None
+    print(f"wrote {written} ({time.monotonic() - started:.1f} s)", file=sys.stderr)
+    return True
+
+
+def _plots(args, study, out_dir: Path, fresh: bool) -> None:
+    from .study import PLOT_FILES
+    figures = [out_dir / f for kind in study.plots for f in PLOT_FILES[kind]]
+    if args.no_plots or not (fresh or not all(f.exists() for f in figures)):
+        return
+    import xarray as xr
+
+    from .casefile import file_sha256
+    from .ledger import sidecar
+    from .plots import make_plots
+    path = out_dir / "study.nc"
+    record = sidecar(out_dir)
+    if not record or record.get("sha256") != file_sha256(path):
+        print(f"note: {path} does not match its checksum; run again to rebuild it", file=sys.stderr)
+        return
+    with xr.open_dataset(path) as ds:
+        written, notes = make_plots(ds, study.dims, study.plots, out_dir)
+    for p in written:
+        print(f"wrote {p}", file=sys.stderr)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+
+
+def _summary(study, ledger, states: dict) -> None:
+    index = ledger.index()
+    not_ok = [cid for cid in study.run_ids if states[cid] != "ok"]
+    if not not_ok:
+        return
+    print(f"{len(not_ok)} of {len(study.run_ids)} cases did not end ok:", file=sys.stderr)
+    for cid in not_ok[:30]:
+        entry = index.get(cid)
+        msg = entry[0]["cases"][entry[1]][2] if entry else "no result yet"
+        print(f"  {cid} ({_label(study, cid)}): {states[cid]}: {msg}", file=sys.stderr)
+    if len(not_ok) > 30:
+        print(f"  ... and {len(not_ok) - 30} more (python -m pipeline status {study.name})", file=sys.stderr)
 
 
 def command_status(args) -> int:
     from .study import find_study, load_study
     study = load_study(find_study(args.study))
     out_dir = Path(args.out) if args.out else Path("results") / study.name
-    states = case_states(study, out_dir) if out_dir.exists() else {c.case_id: "pending" for c in study.all_cases()}
-    print_table(study, states)
+    print_table(study, ledger_states(study, out_dir), all_rows=args.all)
     return EXIT_OK
 
 
@@ -243,13 +333,13 @@ def main(argv=None) -> int:
     except OSError as err:
         from .casefile import CaseWriteError
         if isinstance(err, CaseWriteError):
-            print(f"error: {err}; finished case files are kept", file=sys.stderr)
+            print(f"error: {err}; finished cases are kept", file=sys.stderr)
         elif err.errno == errno.ENOSPC or "HDF error" in str(err):
             print(f"error: writing results failed (disk full? {shutil.disk_usage('.').free // 2**20} MiB free): "
-                  f"{err}; finished case files are kept", file=sys.stderr)
+                  f"{err}; finished cases are kept", file=sys.stderr)
         else:
-            print(f"error: {err.strerror or err} ({getattr(err, 'filename', '') or ''}); finished case "
-                  f"files are kept", file=sys.stderr)
+            print(f"error: {err.strerror or err} ({getattr(err, 'filename', '') or ''}); finished cases "
+                  f"are kept", file=sys.stderr)
         return EXIT_IO
     except BrokenPipeError:                          # output piped into head, say
         sys.stdout = open(os.devnull, "w")

@@ -1,24 +1,37 @@
-"""Case files -> study.nc: one dimension per grid key (or ``case``), then ``t`` and ``x``.
+"""Batch files -> study.nc, in a stream: one dimension per grid key (or ``case``), then ``t``,
+``x``, ``surface``, ``eps_Y`` and the ragged record dimensions.
 
-Run by the driver alone, after the workers. Missing and failed cases appear as NaN with their
-``status`` and ``message``. The file is written atomically, so an interrupted combine never
-leaves a half-written study.nc; rerunning rebuilds it from the case files.
+Each batch file is read where the cases ran (on the workers when a cluster is up, else in
+the runner): its bytes are checked against the ledger's SHA-256 before it is opened, and the
+task returns only what study.nc stores for its cases (crack onset along the study's eps_Y is
+computed there from the tension records). The runner writes each batch's slice into a
+study.nc opened with netCDF4, as hyperslabs of the grid (a batch is a contiguous run of grid
+positions, so a few slabs per variable), then moves the finished file into place
+atomically. Memory is O(one batch) plus O(cases) for the ids; nothing of the study is held
+whole.
+
+Ragged records follow the CF contiguous ragged array layout: ``tension_record_count``
+(grid..., surface) nodes along ``tension_node``, ``contact_change_entries`` (grid...) along
+``contact_change``, plus the start of each in ``*_start`` for direct access. Missing cases
+appear as NaN with status ``missing``.
 """
 from __future__ import annotations
 
 import json
+import math
+import os
 from pathlib import Path
 
 import numpy as np
-import xarray as xr
 
-from solver import PARAMETER_INFO, SETTING_INFO
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
 
 from . import provenance
-from .casefile import case_path, read_case, tension_records, write_atomic
-from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
+from .casefile import (CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
+                       TEXT_INFO, DamagedFile, read_batch, tension_records)
+from .fracture import CRACK_INFO, onset_from_records
+from .ledger import BATCHES, write_sidecar
 from .study import SCHEMA_VERSION, Study
-
 
 ERROR_INFO = {
     "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
@@ -29,184 +42,411 @@ ERROR_INFO = {
     "error_contact_intervals": ("largest difference of contact_intervals from the reference run "
                                 "over the snapshots", "1"),
 }
+#: at most this many reduced batches wait in the runner at once (memory O(batch))
+IN_FLIGHT_PER_WORKER = 2
 
 
 def _parameter_coord(key, values):
     if key == "integrator":
-        return (key, np.asarray(values, dtype=object), {"long_name": SETTING_INFO[key][0]})
+        return np.asarray(values, dtype=object), {"long_name": SETTING_INFO[key][0]}
     long_name, units = PARAMETER_INFO[key] if key in PARAMETER_INFO else SETTING_INFO[key]
+    if key == "error_estimate":
+        return np.asarray(values, dtype=np.int8), {"long_name": long_name, "units": "1"}
     dtype = np.int64 if key in ("Nmod", "subintervals", "max_steps") else np.float64
-    return (key, np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units})
+    return np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units}
 
 
-def errors_against(ds, ref, eps_Y) -> dict:
-    """Errors of one case file's data against its reference run (both loaded datasets)."""
+def errors_against(case: dict, ref: dict, eps_Y) -> dict:
+    """Errors of one case against its reference run; each a dict with strain (t, x),
+    max_strain, contact_intervals (t) and records (surface -> rows)."""
     out = {name: np.nan for name in ERROR_INFO}
-    if ds is None or ref is None:
-        return out
-    a, b = ds["strain"].values[0], ref["strain"].values[0]
+    a, b = case["strain"], ref["strain"]
     both = np.all(np.isfinite(a), axis=-1) & np.all(np.isfinite(b), axis=-1)
     if both.any() and np.linalg.norm(b[both]) > 0:
         out["error_strain"] = float(np.linalg.norm(a[both] - b[both]) / np.linalg.norm(b[both]))
-    m, mr = float(ds["max_strain"].values[0]), float(ref["max_strain"].values[0])
+    m, mr = float(case["max_strain"]), float(ref["max_strain"])
     out["error_max_strain"] = abs(m - mr) / abs(mr) if mr else np.nan
-    tc = onset_from_records(tension_records(ds), eps_Y)["crack_onset_time"]
-    tr = onset_from_records(tension_records(ref), eps_Y)["crack_onset_time"]
+    tc = onset_from_records(case["records"], eps_Y)["crack_onset_time"]
+    tr = onset_from_records(ref["records"], eps_Y)["crack_onset_time"]
     both = np.isfinite(tc) & np.isfinite(tr)
     if both.any():
         out["error_crack_onset_time"] = float(np.max(np.abs(tc[both] / tr[both] - 1)))
-    c, cr = ds["contact_intervals"].values[0], ref["contact_intervals"].values[0]
+    c, cr = case["contact_intervals"], ref["contact_intervals"]
     ok = np.isfinite(c) & np.isfinite(cr)
     out["error_contact_intervals"] = float(np.max(np.abs(c[ok] - cr[ok]))) if ok.any() else np.nan
     return out
 
 
-def combine(study: Study, out_dir: Path) -> xr.Dataset:
-    """Assemble the study dataset from its case files (validated on read)."""
-    cases_dir = Path(out_dir) / "cases"
-    dims, shape = study.dims, study.shape
-    per_case = [read_case(case_path(cases_dir, c.case_id), c) for c in study.cases]
-    template = next((ds for ds in per_case if ds is not None), None)
-    if template is None:
-        raise RuntimeError("no case file of the study could be read")
-    first = study.cases[0]
-    L_values = {c.parameters.L for c in study.cases}
-    data = {}
-    # record dimensions differ in length from case to case: the study's is the longest
-    sizes = {d: max(ds.sizes[d] for ds in per_case if ds is not None) for d in template.dims}
-    for name, var in template.data_vars.items():
-        if name in PARAMETER_INFO:
-            continue
-        tail = var.dims[1:]
-        full_shape = shape + tuple(sizes[d] for d in tail)
-        if var.dtype.kind in "OUS":
-            arr = np.full(full_shape, "missing", dtype=object)
-        else:
-            arr = np.full(full_shape, np.nan)
-        for case, ds in zip(study.cases, per_case):
-            if ds is None:
-                if name == "message":
-                    arr[case.index] = "no valid case file"
-                continue
-            values = ds[name].values[0]
-            arr[case.index + tuple(slice(0, n) for n in values.shape)] = values
-        data[name] = (tuple(dims) + tail, arr, dict(var.attrs))
-    # crack onset along the study's eps_Y, from each case's tension records
-    eps_Y = study.output["eps_Y"]
-    onset = {name: np.full(shape + (len(eps_Y),), np.nan) for name in CRACK_INFO}
-    for case, ds in zip(study.cases, per_case):
-        if ds is not None:
-            for name, values in onset_from_records(tension_records(ds), eps_Y).items():
-                onset[name][case.index] = values
+def _for_errors(ds, position) -> dict:
+    return {"strain": ds["strain"].values[position], "max_strain": ds["max_strain"].values[position],
+            "contact_intervals": ds["contact_intervals"].values[position],
+            "records": tension_records(ds, (position,))}
+
+
+def per_case_variables(study: Study) -> list:
+    """(name, tail dims, kind, attrs) of every study.nc variable stored per case."""
+    out = []
+    for name in study.output["fields"]:
+        long_name, units = FIELD_INFO[name]
+        out.append((name, ("t", "x"), "f", {"long_name": long_name, "units": units}))
+    for name, (long_name, units) in SERIES_INFO.items():
+        out.append((name, ("t",), "f", {"long_name": long_name, "units": units}))
+    for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
+        out.append((name, (), "f", {"long_name": long_name, "units": units}))
+    for name, (long_name, units) in RECORD_INFO.items():
+        out.append((name, (), "f", {"long_name": long_name, "units": units}))
+    for name, long_name in TEXT_INFO.items():
+        out.append((name, (), "s", {"long_name": long_name}))
     for name, (long_name, units) in CRACK_INFO.items():
-        data[name] = (tuple(dims) + ("eps_Y",), onset[name], {"long_name": long_name, "units": units})
-    data["case_id"] = (tuple(dims), np.array([c.case_id for c in study.cases], dtype=object).reshape(shape),
-                       {"long_name": "id of the case file in cases/"})
+        out.append((name, ("eps_Y",), "f", {"long_name": long_name, "units": units}))
     if study.references:
-        errors = {name: np.full(shape, np.nan) for name in ERROR_INFO}
-        ref_ids = np.full(shape, "", dtype=object)
-        ref_data = {ref.case_id: read_case(case_path(cases_dir, ref.case_id), ref)
-                    for ref in study.references.values()}
-        for i, (case, ds_case) in enumerate(zip(study.cases, per_case)):
-            ref = study.references.get(i)
-            if ref is None:
-                continue
-            ref_ids[case.index] = ref.case_id
-            for name, value in errors_against(ds_case, ref_data[ref.case_id], study.output["eps_Y"]).items():
-                errors[name][case.index] = value
         for name, (long_name, units) in ERROR_INFO.items():
-            data[name] = (tuple(dims), errors[name], {"long_name": long_name, "units": units})
-        data["reference_case_id"] = (tuple(dims), ref_ids, {"long_name": "case file of the reference run"})
-    coords = {"t": template["t"].copy(), "surface": template["surface"].copy(), "eps_Y": eps_Y_coord(eps_Y)}
-    if "x" in template.dims:
-        if len(L_values) == 1:
-            coords["x"] = template["x"].copy()
-        else:
-            coords["x"] = ("x", template["x"].values / first.parameters.L,
-                           {"long_name": "position as a fraction of the case's L (L varies)", "units": "1"})
-    if study.grid:
-        for key, values in study.grid.items():
-            coords[key] = _parameter_coord(key, values)
-    else:
-        coords["case"] = ("case", np.arange(len(study.cases)), {"long_name": "case number in [[cases]]"})
-        varying = [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in study.cases}) > 1]
-        for key in varying:
-            coords[key] = ("case",) + _parameter_coord(key, [c.value(key) for c in study.cases])[1:]
-        groups = [c.get("group", "") for c in study.case_list]
-        if any(groups):
-            coords["group"] = ("case", np.array(groups, dtype=object), {"long_name": "label of the case in the study file"})
-    # parameters constant over the study: 0-d variables with units
-    varying_keys = set(study.grid) if study.grid else set(varying)
-    for key in PARAMETER_INFO:
-        if key not in varying_keys:
-            long_name, units = PARAMETER_INFO[key]
-            data[key] = ((), getattr(first.parameters, key), {"long_name": long_name, "units": units})
-    ds = xr.Dataset(data, coords=coords)
-    statuses = [str(s) for s in np.ravel(ds["status"].values)]
-    if study.references:
-        ds.attrs["reference"] = json.dumps(study.reference)
-    ds.attrs.update({
-        "title": f"floe-impact study {study.name}",
-        "description": study.description,
-        "study_name": study.name,
-        "study_file": study.text,
-        "schema_version": SCHEMA_VERSION,
-        "solver_settings": json.dumps(first.settings.as_dict()),
-        "base_parameters": json.dumps(study.base),
-        "cases": len(study.cases),
-        "cases_ok": statuses.count("ok"),
-        "cases_failed": len(statuses) - statuses.count("ok") - statuses.count("missing"),
-        "cases_missing": statuses.count("missing"),
-        **provenance.attributes(),
-    })
-    return ds
+            out.append((name, (), "f", {"long_name": long_name, "units": units}))
+        out.append(("reference_case_id", (), "s", {"long_name": "id of the reference run"}))
+    if study.output["records"]:
+        out.append(("tension_record_count", ("surface",), "i",
+                    {"long_name": "nodes of the case's tension record on the surface", "units": "1",
+                     "sample_dimension": "tension_node"}))
+        out.append(("tension_record_start", ("surface",), "i",
+                    {"long_name": "index along tension_node of the first of those nodes", "units": "1"}))
+        out.append(("contact_change_entries", (), "i",
+                    {"long_name": "entries of the case's contact record", "units": "1",
+                     "sample_dimension": "contact_change"}))
+        out.append(("contact_change_start", (), "i",
+                    {"long_name": "index along contact_change of the first of those entries", "units": "1"}))
+    return out
 
 
-def inputs_fingerprint(study: Study, out_dir: Path) -> str:
-    """A hash of what study.nc is made from: the study file, the schema, the code (version,
-    commit, dirty) and each run's case file (size and mtime; missing files count too)."""
-    import hashlib
-    cases_dir = Path(out_dir) / "cases"
-    files = []
-    for case in study.all_cases():
-        try:
-            st = case_path(cases_dir, case.case_id).stat()
-            files.append([case.case_id, st.st_size, st.st_mtime_ns])
-        except FileNotFoundError:
-            files.append([case.case_id, None, None])
-    commit, dirty = provenance.git_state()
-    blob = json.dumps({"study": study.text, "schema": SCHEMA_VERSION, "files": files,
-                       "code": [provenance.package_version(), commit, dirty]}, sort_keys=True)
-    return hashlib.sha256(blob.encode()).hexdigest()
-
-
-def _sidecar(out_dir: Path) -> Path:
-    return Path(out_dir) / ".study.nc.inputs"
-
-
-def is_up_to_date(study: Study, out_dir: Path, fingerprint: str) -> bool:
-    """True if study.nc was built from exactly these inputs and has not been touched since:
-    the sidecar written with it records the fingerprint and study.nc's size and mtime (no
-    netCDF file is opened)."""
-    path = Path(out_dir) / "study.nc"
+def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, records: bool,
+                 refs: dict) -> dict:
+    """Read one batch file (checked against its checksum) and return what study.nc stores for
+    the cases ``rows`` ([position in the batch, reference key or None]); ``refs``: reference
+    key -> [path, sha256, position]. A damaged file returns {"damaged": [file names], ...}."""
     try:
-        record = json.loads(_sidecar(out_dir).read_text())
-        st = path.stat()
-    except (OSError, ValueError):
-        return False
-    return record == {"fingerprint": fingerprint, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
+        ds = read_batch(Path(path), sha256)
+    except DamagedFile as err:
+        return {"damaged": [Path(path).name], "message": str(err)}
+    positions = np.array([r[0] for r in rows], dtype=np.int64)
+    out = {}
+    for name in names:
+        if name in ds:
+            out[name] = ds[name].values[positions]
+    crack = {name: [] for name in CRACK_INFO}
+    for p in positions:
+        for name, values in onset_from_records(tension_records(ds, (int(p),)), eps_Y).items():
+            crack[name].append(values)
+    for name in CRACK_INFO:
+        out[name] = np.array(crack[name]).reshape(len(rows), len(eps_Y))
+    if records:
+        counts = ds["tension_record_count"].values
+        starts = np.cumsum(counts.ravel()) - counts.ravel()
+        starts = starts.reshape(counts.shape)
+        pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(SURFACES))]
+        out["tension_record_count"] = counts[positions]
+        for name in TENSION_RECORD_INFO:
+            col = ds[name].values
+            out[name] = np.concatenate([col[a:a + n] for a, n in pieces] or [np.empty(0)])
+        entries = ds["contact_change_entries"].values
+        cstart = np.cumsum(entries) - entries
+        out["contact_change_entries"] = entries[positions]
+        for name in CONTACT_RECORD_INFO:
+            col = ds[name].values
+            out[name] = np.concatenate([col[cstart[p]:cstart[p] + entries[p]] for p in positions] or [np.empty(0)])
+    if any(r[1] is not None for r in rows):
+        cache, damaged = {}, []
+        errors = {name: np.full(len(rows), np.nan) for name in ERROR_INFO}
+        for k, (p, key) in enumerate(rows):
+            if key is None:
+                continue
+            ref_path, ref_sha, ref_pos = refs[key]
+            if ref_path not in cache:
+                try:
+                    cache[ref_path] = read_batch(Path(ref_path), ref_sha)
+                except DamagedFile:
+                    cache[ref_path] = None
+                    damaged.append(Path(ref_path).name)
+            if cache[ref_path] is None:
+                continue
+            for name, value in errors_against(_for_errors(ds, int(p)), _for_errors(cache[ref_path], ref_pos),
+                                              eps_Y).items():
+                errors[name][k] = value
+        if damaged:
+            return {"damaged": damaged, "message": "a reference run's batch file is damaged"}
+        out.update(errors)
+        out["reference_case_id"] = np.array([key or "" for _, key in rows], dtype=object)
+    return out
 
 
-def write_study(study: Study, out_dir: Path, fingerprint: str | None = None) -> Path:
-    """Combine and write study.nc atomically; with a fingerprint, also its sidecar."""
-    ds = combine(study, out_dir)
-    path = Path(out_dir) / "study.nc"
-    write_atomic(ds, path)
+def _boxes(a: int, b: int, shape: tuple):
+    """Split the flat C-order range [a, b) of an array of ``shape`` into hyperslabs: yields
+    (flat start, tuple of slices) in order."""
+    if a >= b:
+        return
+    if len(shape) == 1:
+        yield a, (slice(a, b),)
+        return
+    inner = math.prod(shape[1:])
+    i0, r0 = divmod(a, inner)
+    i1, r1 = divmod(b, inner)
+    if i0 == i1:
+        for f, sl in _boxes(r0, r1, shape[1:]):
+            yield i0 * inner + f, (slice(i0, i0 + 1),) + sl
+        return
+    if r0:
+        for f, sl in _boxes(r0, inner, shape[1:]):
+            yield i0 * inner + f, (slice(i0, i0 + 1),) + sl
+        i0 += 1
+    if i1 > i0:
+        yield i0 * inner, (slice(i0, i1),) + tuple(slice(None) for _ in shape[1:])
+    if r1:
+        for f, sl in _boxes(0, r1, shape[1:]):
+            yield i1 * inner + f, (slice(i1, i1 + 1),) + sl
+
+
+def _runs(flat: np.ndarray):
+    """(start index into flat, stop) of each run of consecutive values in sorted ``flat``."""
+    breaks = np.flatnonzero(np.diff(flat) != 1) + 1
+    edges = np.r_[0, breaks, flat.size]
+    return list(zip(edges[:-1], edges[1:]))
+
+
+class StudyWriter:
+    """study.nc opened with netCDF4; filled slice by slice; finished atomically."""
+
+    def __init__(self, study: Study, path: Path, t_coord, x_fraction):
+        import netCDF4
+        self.study, self.path = study, Path(path)
+        self.tmp = self.path.with_name(f".{self.path.name}.tmp-{os.getpid()}-{os.urandom(4).hex()}")
+        self.shape, self.dims = study.shape, tuple(study.dims)
+        self.variables = per_case_variables(study)
+        nc = self.nc = netCDF4.Dataset(self.tmp, "w", format="NETCDF4")
+        for d, n in zip(self.dims, self.shape):
+            nc.createDimension(d, n)
+        nc.createDimension("t", len(t_coord))
+        if study.output["fields"]:
+            nc.createDimension("x", len(x_fraction))
+        nc.createDimension("surface", len(SURFACES))
+        nc.createDimension("eps_Y", len(study.output["eps_Y"]))
+        if study.output["records"]:
+            nc.createDimension("tension_node", None)
+            nc.createDimension("contact_change", None)
+        self._coords(t_coord, x_fraction)
+        varying = [] if study.grid else self._varying
+        for name, tail, kind, attrs in self.variables:
+            dims = self.dims + tail
+            if kind == "f":
+                var = nc.createVariable(name, "f8", dims, fill_value=np.nan)
+            elif kind == "i":
+                var = nc.createVariable(name, "i8", dims, fill_value=False)
+            else:
+                var = nc.createVariable(name, str, dims)
+            var.setncatts(attrs if not varying else {**attrs, "coordinates": " ".join(varying)})
+        if study.output["records"]:
+            for name, (long_name, units) in {**TENSION_RECORD_INFO, **CONTACT_RECORD_INFO}.items():
+                dim = "tension_node" if name in TENSION_RECORD_INFO else "contact_change"
+                nc.createVariable(name, "f8", (dim,), fill_value=np.nan).setncatts(
+                    {"long_name": long_name, "units": units})
+        self.n_nodes = self.n_changes = 0
+        self.seen = np.zeros(study.n_cases, dtype=bool)
+
+    @property
+    def _varying(self) -> list:
+        cases = [self.study.case(i) for i in range(self.study.n_cases)]
+        return [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in cases}) > 1]
+
+    def _coords(self, t_coord, x_fraction):
+        nc, study = self.nc, self.study
+        first = study.case(0)
+        t = nc.createVariable("t", "f8", ("t",))
+        t[:] = t_coord
+        t.setncatts({"long_name": "time in units of the case's t_sc" if study.output["times"]["unit"] == "t_sc"
+                     else "time as a fraction of the case's impact stage L^2/(6RV)", "units": "1"})
+        if study.output["fields"]:
+            x = nc.createVariable("x", "f8", ("x",))
+            L_values = {v for v in study.grid.get("L", [])} or {c.parameters.L for c in
+                                                                (study._listed or [first])}
+            if len(L_values) == 1:
+                x[:] = np.asarray(x_fraction) * first.parameters.L
+                x.setncatts({"long_name": "position along the plate", "units": "m"})
+            else:
+                x[:] = x_fraction
+                x.setncatts({"long_name": "position as a fraction of the case's L (L varies)", "units": "1"})
+        surface = nc.createVariable("surface", str, ("surface",))
+        surface[:] = np.array(SURFACES, dtype=object)
+        surface.long_name = "ice surface: upper (tension = +strain), lower (tension = -strain)"
+        from solver import EPS_Y_INFO
+        eps = nc.createVariable("eps_Y", "f8", ("eps_Y",))
+        eps[:] = study.output["eps_Y"]
+        eps.setncatts({"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
+        if study.grid:
+            for key, values in study.grid.items():
+                data, attrs = _parameter_coord(key, values)
+                var = nc.createVariable(key, str if data.dtype == object else data.dtype, (key,))
+                var[:] = data
+                var.setncatts(attrs)
+            constant = [k for k in PARAMETER_INFO if k not in study.grid]
+        else:
+            var = nc.createVariable("case", "i8", ("case",))
+            var[:] = np.arange(study.n_cases)
+            var.long_name = "case number in [[cases]]"
+            varying = self._varying
+            for key in varying:
+                data, attrs = _parameter_coord(key, [c.value(key) for c in study._listed])
+                v = nc.createVariable(key, str if data.dtype == object else data.dtype, ("case",))
+                v[:] = data
+                v.setncatts(attrs)
+            groups = [c.get("group", "") for c in study.case_list]
+            if any(groups):
+                v = nc.createVariable("group", str, ("case",))
+                v[:] = np.array(groups, dtype=object)
+                v.long_name = "label of the case in the study file"
+            constant = [k for k in PARAMETER_INFO if k not in varying]
+        for key in constant:                        # constant over the study: 0-d, with units
+            long_name, units = PARAMETER_INFO[key]
+            var = nc.createVariable(key, "i8" if key == "Nmod" else "f8", ())
+            var.assignValue(getattr(first.parameters, key))
+            var.setncatts({"long_name": long_name, "units": units})
+        ids = nc.createVariable("case_id", str, self.dims)
+        ids[...] = np.array(study.case_ids, dtype=object).reshape(self.shape)
+        ids.long_name = "id of the case (its row in ledger.jsonl names its batch file)"
+        if not study.grid and self._varying:
+            ids.coordinates = " ".join(self._varying)
+
+    def _put(self, name, flat, values):
+        """values[k] belongs at flat grid index flat[k] (flat sorted)."""
+        var = self.nc[name]
+        for a, b in _runs(flat):
+            for start, slices in _boxes(int(flat[a]), int(flat[b - 1]) + 1, self.shape):
+                n = math.prod(len(range(*s.indices(dim))) for s, dim in zip(slices, self.shape))
+                k = a + (start - int(flat[a]))
+                block = values[k:k + n]
+                box = tuple(len(range(*s.indices(dim))) for s, dim in zip(slices, self.shape))
+                var[slices] = np.asarray(block).reshape(box + np.shape(block)[1:])
+
+    def write(self, flat: np.ndarray, data: dict) -> None:
+        """Store the reduced data of cases at the sorted flat grid indices ``flat``."""
+        for name, tail, kind, _ in self.variables:
+            if name in ("tension_record_start", "contact_change_start"):
+                continue
+            if name in data:
+                values = data[name]
+                if kind == "s":
+                    values = np.asarray(values, dtype=object)
+                self._put(name, flat, values)
+        if self.study.output["records"]:
+            counts = np.asarray(data["tension_record_count"], dtype=np.int64)
+            total = int(counts.sum())
+            starts = (self.n_nodes + np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
+            self._put("tension_record_start", flat, starts)
+            for name in TENSION_RECORD_INFO:
+                if total:
+                    self.nc[name][self.n_nodes:self.n_nodes + total] = data[name]
+            self.n_nodes += total
+            entries = np.asarray(data["contact_change_entries"], dtype=np.int64)
+            total = int(entries.sum())
+            self._put("contact_change_start", flat, self.n_changes + np.cumsum(entries) - entries)
+            for name in CONTACT_RECORD_INFO:
+                if total:
+                    self.nc[name][self.n_changes:self.n_changes + total] = data[name]
+            self.n_changes += total
+        self.seen[flat] = True
+
+    def finish(self, attrs: dict) -> Path:
+        missing = np.flatnonzero(~self.seen)
+        if missing.size:
+            k = missing.size
+            filler = {"status": np.full(k, "missing", dtype=object),
+                      "message": np.full(k, "no valid result", dtype=object)}
+            for name, tail, kind, _ in self.variables:
+                if kind == "i":
+                    filler[name] = np.zeros((k,) + (len(SURFACES),) * len(tail), dtype=np.int64)
+                elif kind == "s" and name not in filler:
+                    filler[name] = np.full(k, "", dtype=object)
+            for name, values in filler.items():
+                self._put(name, missing, values)
+        self.nc.setncatts(attrs)
+        self.nc.close()
+        fd = os.open(self.tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(self.tmp, self.path)
+        return self.path
+
+    def abandon(self) -> None:
+        try:
+            self.nc.close()
+        except Exception:
+            pass
+        self.tmp.unlink(missing_ok=True)
+
+
+def plan(study: Study, index: dict, out_dir: Path) -> dict:
+    """file -> [sha256, flat indices, rows, refs] for the combine's tasks (from the ledger)."""
+    batches = Path(out_dir) / BATCHES
+    groups = {}
+    ref_of = study.references
+    for flat, cid in enumerate(study.case_ids):
+        if cid not in index:
+            continue
+        entry, position = index[cid]
+        group = groups.setdefault(entry["file"], [entry["sha256"], [], [], {}])
+        key = None
+        ref = ref_of.get(flat)
+        if ref is not None and ref.case_id in index:
+            ref_entry, ref_pos = index[ref.case_id]
+            key = ref.case_id
+            group[3][key] = [str(batches / ref_entry["file"]), ref_entry["sha256"], ref_pos]
+        group[1].append(flat)
+        group[2].append([position, key])
+    return groups
+
+
+def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=None,
+                fingerprint: str | None = None) -> tuple:
+    """Combine the batch files into study.nc; returns (path, damaged batch file names).
+
+    ``mapper(function, list of argument tuples)`` yields results in any order as
+    (key, result) pairs, at most a few at a time (the workers'); default: in this process.
+    Nothing is written if a batch file turns out to be damaged (the runner recomputes it)."""
+    out_dir = Path(out_dir)
+    groups = plan(study, index, out_dir)
+    names = [v[0] for v in per_case_variables(study)]
+    first = study.case(0)
+    writer = StudyWriter(study, out_dir / "study.nc", first.requested_times(), np.linspace(-1, 1, first.x_points))
+    tasks = [(file, (str(out_dir / BATCHES / file), sha, rows, study.output["eps_Y"], names,
+                     study.output["records"], refs)) for file, (sha, flat, rows, refs) in groups.items()]
+    mapper = mapper or _serial
+    damaged = set()
+    try:
+        for file, result in mapper(reduce_batch, tasks):
+            if "damaged" in result:
+                damaged.update(result["damaged"])
+                continue
+            writer.write(np.asarray(groups[file][1], dtype=np.int64), result)   # sorted by plan()
+        if damaged:
+            writer.abandon()
+            return None, sorted(damaged)
+        statuses = [states.get(cid, "missing") for cid in study.case_ids]
+        attrs = {"title": f"floe-impact study {study.name}", "description": study.description,
+                 "study_name": study.name, "study_file": study.text, "schema_version": SCHEMA_VERSION,
+                 "solver_settings": json.dumps(first.settings.as_dict()),
+                 "base_parameters": json.dumps(study.base), "cases": study.n_cases,
+                 "cases_ok": statuses.count("ok"), "cases_missing": statuses.count("missing"),
+                 "cases_failed": len(statuses) - statuses.count("ok") - statuses.count("missing"),
+                 **provenance.attributes()}
+        if study.references:
+            attrs["reference"] = json.dumps(study.reference)
+        path = writer.finish(attrs)
+    except BaseException:
+        writer.abandon()
+        raise
     if fingerprint is not None:
-        import os
-        st = path.stat()
-        side = _sidecar(out_dir)
-        tmp = side.with_name(f"{side.name}.tmp-{os.getpid()}")
-        tmp.write_text(json.dumps({"fingerprint": fingerprint, "size": st.st_size, "mtime_ns": st.st_mtime_ns}))
-        os.replace(tmp, side)
-    return path
+        write_sidecar(out_dir, fingerprint)
+    return path, []
+
+
+def _serial(function, tasks):
+    for key, args in tasks:
+        yield key, function(*args)

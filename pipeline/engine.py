@@ -4,7 +4,7 @@ Default: a LocalCluster of ``workers`` processes x 1 thread, numba/BLAS threads 
 before each worker starts. With ``scheduler`` (or DASK_SCHEDULER_ADDRESS) the same cases run
 on an existing cluster; its workers must see the results directory (a shared filesystem).
 The numba kernels are compiled once (into numba's on-disk cache) before fanning out and
-loaded on every worker before the first case, tasks return small records (the case file on
+loaded on every worker before the first case, tasks return small records (the batch file on
 disk is the result), and at most ``2 x workers`` tasks are in flight.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ from distributed import Client, LocalCluster, as_completed
 
 from solver import compile_kernels
 
-from .casefile import ENDED_EARLY, WRITE_FAILED, CaseWriteError, run_case
+from .casefile import ENDED_EARLY, WRITE_FAILED, CaseWriteError, run_batch
 
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                      "NUMBA_NUM_THREADS": "1"}
@@ -91,11 +91,15 @@ class Progress:
         self.last = 0.0
 
     def update(self, record: dict) -> None:
-        self.done += 1
-        if record["status"] in ENDED_EARLY:
-            self.early += 1
-        elif record["status"] != "ok":
-            self.failed += 1
+        self.update_many([record])
+
+    def update_many(self, records: list) -> None:
+        for record in records:
+            self.done += 1
+            if record["status"] in ENDED_EARLY:
+                self.early += 1
+            elif record["status"] != "ok":
+                self.failed += 1
         todo = self.total - self.skipped
         elapsed = time.monotonic() - self.start
         eta = elapsed / self.done * (todo - self.done)
@@ -134,43 +138,108 @@ def warm_workers(client, one_at_a_time: bool = False) -> None:
         client.run(compile_kernels)
 
 
-def run_pending(cases: list, cases_dir, workers: int = 2, scheduler: str | None = None,
-                progress: Progress | None = None) -> list:
-    """Run the cases; returns their records (case_id, status, message, run_time)."""
-    if not cases:
-        return []
+#: a batch is sized to about this much solver work [s]: long enough that writing its file and
+#: the scheduler's round trip are a small part of it, short enough that a killed runner or
+#: worker loses little
+BATCH_SECONDS = 1.0
+#: and holds at most this many cases
+MAX_BATCH = 2000
+
+
+class Batcher:
+    """Cuts the pending cases into batches of about BATCH_SECONDS of work, from the measured
+    solver time per case (the first batches hold one case each, to measure it). Near the
+    end, batches shrink so that every worker has work until the last case. Cases with
+    different output requests (a study's cases and its reference runs) never share a batch."""
+
+    def __init__(self, items: list, signature: list, n_workers: int, seconds: float = BATCH_SECONDS):
+        self.items, self.signature, self.n_workers, self.seconds = items, signature, n_workers, seconds
+        self.next = 0
+        self.cases_done = 0
+        self.seconds_done = 0.0
+
+    def __bool__(self):
+        return self.next < len(self.items)
+
+    def record(self, run_times) -> None:
+        finite = [t for t in run_times if t == t]
+        self.cases_done += len(finite)
+        self.seconds_done += sum(finite)
+
+    def size(self) -> int:
+        if self.cases_done < self.n_workers:
+            return 1
+        per_case = max(self.seconds_done / self.cases_done, 1e-5)
+        remaining = len(self.items) - self.next
+        size = int(self.seconds / per_case)
+        size = min(size, MAX_BATCH, -(-remaining // (2 * self.n_workers)))
+        return max(1, size)
+
+    def take(self) -> list:
+        start = self.next
+        stop = min(start + self.size(), len(self.items))
+        sig = self.signature[start]
+        end = start + 1
+        while end < stop and self.signature[end] == sig:
+            end += 1
+        self.next = end
+        return self.items[start:end]
+
+
+def start_kernels() -> None:
     started = time.monotonic()
     print("loading the solver's kernels (the first run after an install or an update compiles "
           "them: about 40 s on this 2-core machine) ...", file=sys.stderr, flush=True)
     compile_kernels()                                  # fill numba's cache once, here
     print(f"kernels ready in {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
-    records = []
-    with cluster_client(workers, scheduler) as client:
-        warm_workers(client, one_at_a_time=bool(scheduler))
-        n_workers = max(1, len(client.scheduler_info()["workers"]))
-        limit = 2 * n_workers
-        queue = list(cases)
-        futures = as_completed()
 
-        def submit_next():
-            case = queue.pop(0)
-            futures.add(client.submit(run_case, case.to_dict(), str(cases_dir), pure=False,
-                                      key=f"case-{case.case_id}"))
 
-        for _ in range(min(limit, len(queue))):
+def run_pending(client, study, items: list, signature: list, batches_dir, on_batch,
+                progress: Progress | None = None, batch_seconds: float = BATCH_SECONDS) -> list:
+    """Run the cases ``items`` ([case_id, position]) in batches on the client's workers.
+
+    ``on_batch(entry)`` is called in the runner for every batch file written (the runner
+    records it in the ledger). Returns the records of cases whose task failed without a file
+    (infrastructure failures: they stay pending)."""
+    if not items:
+        return []
+    n_workers = max(1, len(client.scheduler_info()["workers"]))
+    batcher = Batcher(items, signature, n_workers, batch_seconds)
+    limit = 2 * n_workers
+    futures = as_completed()
+    in_flight = {}
+    lost = []
+    text = study.text
+
+    def submit_next():
+        batch = batcher.take()
+        future = client.submit(run_batch, text, study.name, batch, str(batches_dir), pure=False,
+                               key=f"batch-{batch[0][0]}-{len(batch)}-{time.monotonic_ns()}")
+        in_flight[future.key] = batch
+        futures.add(future)
+
+    for _ in range(limit):
+        if batcher:
             submit_next()
-        for future in futures:
-            try:
-                record = future.result()
-            except Exception as err:                   # infrastructure: the case file is absent
-                record = {"case_id": future.key.removeprefix("case-"), "status": "error",
-                          "message": f"task failed: {type(err).__name__}: {err}", "run_time": float("nan")}
-            if record["status"] == WRITE_FAILED:       # the disk, not the case: stop the study
-                queue.clear()
-                raise CaseWriteError(record["message"])
-            records.append(record)
-            if progress:
-                progress.update(record)
-            if queue:
-                submit_next()
-    return records
+    for future in futures:
+        batch = in_flight.pop(future.key)
+        try:
+            entry = future.result()
+        except Exception as err:                       # infrastructure: no file was written
+            message = f"task failed: {type(err).__name__}: {err}"
+            records = [{"case_id": cid, "status": "error", "message": message, "run_time": float("nan")}
+                       for cid, _ in batch]
+            lost.extend(records)
+            batcher.record([])
+        else:
+            if entry.get("status") == WRITE_FAILED:    # the disk, not the case: stop the study
+                raise CaseWriteError(entry["message"])
+            on_batch(entry)
+            records = [{"case_id": c, "status": s, "message": m, "run_time": r} for c, s, m, r in entry["cases"]]
+            batcher.record([r["run_time"] for r in records])
+        if progress:
+            progress.update_many(records)
+        if batcher:
+            submit_next()
+    return lost
+

@@ -1,6 +1,6 @@
 """Crack onset against the yield strain, from stored records: no solver run.
 
-Every case file and ``study.nc`` holds each case's running-maximum tension record on both
+Every batch file and ``study.nc`` (unless written with ``[output] records = false``) holds each case's running-maximum tension record on both
 surfaces (``tension_record_*``, docs/model.md "Crack onset"). :func:`crack_onset` turns it
 into the first time and place at which the tension reaches each yield strain::
 
@@ -10,7 +10,7 @@ into the first time and place at which the tension reaches each yield strain::
     onset["crack_onset_time"].sel(V=5.0, hi=0.5)          # [s] along eps_Y
 
 The combine uses the same function for the study's ``[output] eps_Y``, so a new list of
-yield strains never needs new runs; studies that differ only in eps_Y share their case files.
+yield strains never needs new runs; studies that differ only in eps_Y share their results.
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ import xarray as xr
 
 from solver import EPS_Y_INFO, crack_onset as _from_record, default_eps_Y
 
-from .casefile import SURFACES, TENSION_RECORD_INFO, tension_records
+from .casefile import SURFACES, TENSION_RECORD_INFO, ragged_offsets, tension_records
 
 #: variable -> (long_name, units), each along eps_Y
 CRACK_INFO = {
@@ -54,7 +54,7 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
 
     Parameters
     ----------
-    source : a case file ``cases/<id>.nc`` or a ``study.nc`` (path, or an open dataset).
+    source : a batch file ``batches/<sha256>.nc`` or a ``study.nc`` (path, or an open dataset).
     eps_Y : yield strains [1] (default: 10 a decade from 1e-5 to 1e-1 and the paper's 8e-5).
 
     Returns
@@ -69,17 +69,18 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
         with xr.open_dataset(source) as ds:
             return crack_onset(ds.load(), eps)
     ds = source
-    missing = [name for name in TENSION_RECORD_INFO if name not in ds]
+    missing = [name for name in ("tension_record_count", *TENSION_RECORD_INFO) if name not in ds]
     if missing:
-        raise ValueError(f"no tension record in this dataset ({missing[0]} is missing): it was "
-                         f"written before schema 5; rerun the study")
-    var = ds["tension_record_time"]
-    lead = var.dims[:-2]                                  # the case dimensions
+        raise ValueError(f"no tension record in this dataset ({missing[0]} is missing): a study.nc "
+                         f"written with [output] records = false keeps them in its batch files only")
+    counts = ds["tension_record_count"]
+    lead = counts.dims[:-1]                               # the case dimensions
     shape = tuple(ds.sizes[d] for d in lead)
+    starts = np.asarray(ds["tension_record_start"].values) if "tension_record_start" in ds \
+        else ragged_offsets(counts.values)
     arrays = {name: np.full(shape + (eps.size,), np.nan) for name in CRACK_INFO}
-    case_file = lead == ("case",) and ds.attrs.get("title") == "floe-impact case"
     for index in np.ndindex(*shape):
-        records = tension_records(ds, () if case_file else index)
+        records = tension_records(ds, index, starts)
         for name, values in onset_from_records(records, eps).items():
             arrays[name][index] = values
     coords = {d: ds[d] for d in lead if d in ds.coords}

@@ -172,10 +172,6 @@ def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4
     return path
 
 
-#: the files each plot kind writes
-PLOT_FILES = {"diagnostics": ("diagnostics.png",), "crack_onset": ("crack_onset.png",),
-              "paper_fig2": ("paper_fig2.png",), "work_precision": ("work_precision.png", "work_precision.md"),
-              "extremes": ("extremes.md",)}
 
 
 def make_plots(ds: xr.Dataset, dims: list, kinds: list, out_dir: Path) -> list:

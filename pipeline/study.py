@@ -39,19 +39,27 @@ from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parame
 
 from .errors import StudyError
 
-#: bump when the layout of a case file changes: old case files are then recomputed
-SCHEMA_VERSION = 6
+#: bump when the layout of a batch file changes: cases stored under an older one are recomputed
+SCHEMA_VERSION = 7
 
 SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
 #: keys a [reference] may override: the same physical case, computed more accurately
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
-OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y"}
+OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
+#: [output] end: "stage" integrates every case over its impact stage (diagnostics cover the
+#: stage); "last_output" stops at the last output time (diagnostics cover 0..that time)
+ENDS = ("stage", "last_output")
 PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes")
+#: the files each plot kind writes
+PLOT_FILES = {"diagnostics": ("diagnostics.png",), "crack_onset": ("crack_onset.png",),
+              "paper_fig2": ("paper_fig2.png",), "work_precision": ("work_precision.png", "work_precision.md"),
+              "extremes": ("extremes.md",)}
 #: the one-line answer to eps_Y given as a parameter (it was one before schema 5)
 EPS_Y_AS_PARAMETER = ("eps_Y is not a solver input: crack onset is computed after the run for any "
                       "yield strain; give the values as [output] eps_Y = [...] or {min, max, count}")
 DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
-                  "fields": ["deflection", "strain", "layer_pressure"], "x_points": 241}
+                  "fields": ["deflection", "strain", "layer_pressure"], "x_points": 241,
+                  "end": "stage", "records": True}
 
 
 @dataclass(frozen=True)
@@ -65,10 +73,15 @@ class Case:
     times_spec: dict                # the [output] times table
     fields: tuple
     x_points: int
+    end: str = "stage"              # [output] end
 
     @property
     def t_end(self) -> float:
-        return self.parameters.stage_duration
+        """End of the run [s]: the impact stage, or the last output time inside it."""
+        stage = self.parameters.stage_duration
+        if self.end == "last_output":
+            return min(stage, float(self.times_seconds()[-1]))
+        return stage
 
     def value(self, key):
         """A parameter or a solver setting of the case, by its study-file key."""
@@ -83,23 +96,30 @@ class Case:
     def times_seconds(self) -> np.ndarray:
         """Requested times in seconds for this case (some may lie past its stage)."""
         t = coordinate_times(self.times_spec)
-        scale = self.parameters.time_scale if self.times_spec["unit"] == "t_sc" else self.t_end
+        p = self.parameters
+        scale = p.time_scale if self.times_spec["unit"] == "t_sc" else p.stage_duration
         return t * scale
 
     def to_dict(self) -> dict:
         """Plain data for a worker (no numpy, no classes)."""
         return {"case_id": self.case_id, "index": list(self.index),
                 "parameters": self.parameters.as_dict(), "settings": self.settings.as_dict(),
-                "times_spec": self.times_spec, "fields": list(self.fields), "x_points": self.x_points}
+                "times_spec": self.times_spec, "fields": list(self.fields), "x_points": self.x_points,
+                "end": self.end}
 
     @staticmethod
     def from_dict(d: dict) -> "Case":
         return Case(d["case_id"], tuple(d["index"]), Parameters(**d["parameters"]),
-                    Settings(**d["settings"]), d["times_spec"], tuple(d["fields"]), d["x_points"])
+                    Settings(**d["settings"]), d["times_spec"], tuple(d["fields"]), d["x_points"],
+                    d.get("end", "stage"))
 
 
 @dataclass
 class Study:
+    """A validated study. A [grid] is not expanded up front: its size is known at once
+    (``n_cases``), its case ids come from one fast pass (``case_ids``), and a Case is built
+    only when asked for (``case(i)``); 10^5 cases cost well under a second."""
+
     name: str
     path: Path
     text: str
@@ -111,25 +131,12 @@ class Study:
     solver: dict
     plots: list
     reference: dict = field(default_factory=dict)
-    cases: list = field(default_factory=list)
     references: dict = field(default_factory=dict)     # position in cases -> its reference Case
+    _listed: list = field(default_factory=list, repr=False)   # [[cases]] (or referenced) Cases
 
-    @cached_property
-    def case_ids(self) -> frozenset:
-        return frozenset(c.case_id for c in self.cases)
-
-    def is_reference(self, case: Case) -> bool:
-        """True for a reference run that is not itself one of the study's cases."""
-        return case.case_id not in self.case_ids
-
-    def all_cases(self) -> list:
-        """Every distinct run: the study's cases, then the reference runs not among them."""
-        runs = {}
-        for case in self.cases:
-            runs.setdefault(case.case_id, case)
-        for ref in self.references.values():
-            runs.setdefault(ref.case_id, ref)
-        return list(runs.values())
+    @property
+    def n_cases(self) -> int:
+        return math.prod(self.shape)
 
     @property
     def dims(self) -> list:
@@ -138,6 +145,68 @@ class Study:
     @property
     def shape(self) -> tuple:
         return tuple(len(v) for v in self.grid.values()) if self.grid else (len(self.case_list),)
+
+    def case(self, i: int) -> Case:
+        """The i-th case in grid (C) order, built and validated on demand."""
+        if self._listed:
+            return self._listed[i]
+        idx = tuple(int(j) for j in np.unravel_index(i, self.shape))
+        values = {**self.base, **self.solver,
+                  **{k: v[j] for (k, v), j in zip(self.grid.items(), idx)}}
+        return _make_case(idx, values, self.output, _grid_label(self.grid, idx))
+
+    @cached_property
+    def cases(self) -> list:
+        """Every case as a Case (builds them all: use case_ids and case(i) for large grids)."""
+        return [self.case(i) for i in range(self.n_cases)]
+
+    @cached_property
+    def case_ids(self) -> list:
+        """The case ids in grid order (one fast pass for a grid; equal to case(i).case_id)."""
+        if self._listed:
+            return [c.case_id for c in self._listed]
+        return _grid_case_ids(self)
+
+    @cached_property
+    def case_id_set(self) -> frozenset:
+        return frozenset(self.case_ids)
+
+    def is_reference(self, case: Case) -> bool:
+        """True for a reference run that is not itself one of the study's cases."""
+        return case.case_id not in self.case_id_set
+
+    @cached_property
+    def run_ids(self) -> list:
+        """Every distinct run's id: the study's cases, then the reference runs not among them."""
+        seen = dict.fromkeys(self.case_ids)
+        for ref in self.references.values():
+            seen.setdefault(ref.case_id, None)
+        return list(seen)
+
+    @cached_property
+    def _extra_runs(self) -> dict:
+        return {ref.case_id: ref for ref in self.references.values() if ref.case_id not in self.case_id_set}
+
+    @cached_property
+    def _first_position(self) -> dict:
+        first = {}
+        for i, cid in enumerate(self.case_ids):
+            first.setdefault(cid, i)
+        return first
+
+    def run(self, case_id: str) -> Case:
+        """The run with this id (a case or a reference run)."""
+        if case_id in self._extra_runs:
+            return self._extra_runs[case_id]
+        return self.case(self._first_position[case_id])
+
+    def all_cases(self) -> list:
+        """Every distinct run as a Case (small studies; large ones go through run_ids)."""
+        return [self.run(cid) for cid in self.run_ids]
+
+
+def _grid_label(grid: dict, idx: tuple) -> str:
+    return ", ".join(f"{k}={v[j]}" for (k, v), j in zip(grid.items(), idx)) or "base"
 
 
 def coordinate_times(spec: dict) -> np.ndarray:
@@ -237,6 +306,10 @@ def _check_output(out) -> dict:
         raise StudyError(f"[output] x_points must be between 2 and 100001, got {xp!r}")
     result["x_points"] = int(xp)
     result["eps_Y"] = _check_eps_Y(out.get("eps_Y"))
+    if result["end"] not in ENDS:
+        raise StudyError(f"[output] end must be one of {', '.join(repr(e) for e in ENDS)}, got {result['end']!r}")
+    if not isinstance(result["records"], bool):
+        raise StudyError(f"[output] records must be true or false, got {result['records']!r}")
     return result
 
 
@@ -298,9 +371,17 @@ def load_study(path: Path) -> Study:
     """Read and validate a study file; expand its cases."""
     path = Path(path)
     try:
-        text = path.read_text()
+        text = path.read_bytes().decode("utf-8")
     except OSError as err:
         raise StudyError(f"cannot read {path}: {err.strerror}") from None
+    except UnicodeDecodeError as err:
+        raise StudyError(f"{path}: not UTF-8 text (byte {err.start}); a study file is TOML") from None
+    return load_study_text(text, path.stem, path)
+
+
+def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
+    """Validate a study from its text (what a worker receives); expand its cases."""
+    path = Path(path) if path is not None else Path(f"{name}.toml")
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
@@ -364,10 +445,10 @@ def load_study(path: Path) -> Study:
     plots = plots_table.get("kinds", ["diagnostics", "crack_onset"])
     if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
         raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
-    study = Study(name=path.stem, path=path, text=text, description=description, base=base,
+    study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference)
-    study.cases, study.references = expand(study)
+    expand(study)
     return study
 
 
@@ -380,15 +461,24 @@ RELEVANT_SETTINGS = {
 }
 
 
+def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
+    """The canonical JSON a case id hashes (sorted keys, no spaces)."""
+    payload = {"schema": SCHEMA_VERSION, "parameters": parameters, "settings": settings,
+               "output": {"times": output["times"], "fields": sorted(output["fields"]),
+                          "x_points": output["x_points"], "end": output["end"]}}
+    return json.dumps(payload, sort_keys=True, separators=(",", ":"))
+
+
+def _used_settings(settings: Settings) -> dict:
+    return {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
+
+
 def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
     """Stable id: hash of the normalised parameters, the settings the integrator reads, the
-    output request and the schema version (two runs with the same id give the same file)."""
-    used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
-    payload = {"schema": SCHEMA_VERSION, "parameters": parameters.as_dict(),
-               "settings": used, "times": output["times"],
-               "fields": sorted(output["fields"]), "x_points": output["x_points"]}
-    blob = json.dumps(payload, sort_keys=True, separators=(",", ":"))
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+    output request (not eps_Y, not records) and the schema version (two runs with the same id
+    give the same data)."""
+    text = _payload_text(parameters.as_dict(), _used_settings(settings), output)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
 def _make_case(index, values: dict, output: dict, label: str) -> Case:
@@ -401,47 +491,127 @@ def _make_case(index, values: dict, output: dict, label: str) -> Case:
     except ParameterError as err:
         raise StudyError(f"case {label}: {err}") from None
     return Case(case_id(p, s, output), tuple(index), p, s, output["times"], tuple(output["fields"]),
-                output["x_points"])
+                output["x_points"], output["end"])
 
 
-def expand(study: Study):
-    """The cases of a study in grid (C) order, each validated, and their references."""
+def _grid_case_ids(study: Study) -> list:
+    """case_id of every grid case in one pass: the canonical JSON is put together from
+    per-value fragments (each value validated and normalised once), then hashed."""
+    keys = list(study.grid)
+    pkeys = [k for k in keys if k in PARAMETER_INFO]
+    skeys = [k for k in keys if k not in PARAMETER_INFO]
+    base_p = {k: v for k, v in study.base.items()}
+    normal = Parameters(**base_p).as_dict()
+    # parameter fragments: '"name":value' in sorted order; grid keys vary
+    frag = {k: [json.dumps(Parameters(**{**base_p, k: v}).as_dict()[k]) for v in study.grid[k]] for k in pkeys}
+    names = sorted(normal)
+    consts = {n: json.dumps(normal[n]) for n in names if n not in frag}
+    output_text = _payload_text({}, {}, study.output)
+    head, tail = output_text.split('"parameters":{}', 1)
+    settings_split = tail.split('"settings":{}', 1)
+    settings_cache = {}
+    positions = {k: keys.index(k) for k in keys}
+    ids = []
+    sha = hashlib.sha256
+    for idx in itertools.product(*(range(len(v)) for v in study.grid.values())):
+        skey = tuple(idx[positions[k]] for k in skeys)
+        stext = settings_cache.get(skey)
+        if stext is None:
+            s = Settings(**{**study.solver, **{k: study.grid[k][j] for k, j in zip(skeys, skey)}})
+            stext = settings_cache[skey] = json.dumps(_used_settings(s), sort_keys=True, separators=(",", ":"))
+        ptext = ",".join(f'"{n}":' + (consts[n] if n in consts else frag[n][idx[positions[n]]]) for n in names)
+        text = head + '"parameters":{' + ptext + "}" + settings_split[0] + '"settings":' + stext + settings_split[1]
+        ids.append(sha(text.encode()).hexdigest()[:16])
+    return ids
+
+
+def _check_grid_values(study: Study) -> None:
+    """Each grid value, validated once against the base and solver tables (every check on a
+    parameter or setting involves that key alone, so this covers every case)."""
+    params = {k: v for k, v in {**study.base, **study.solver}.items() if k in PARAMETER_INFO}
+    settings = {k: v for k, v in {**study.base, **study.solver}.items() if k in SETTING_INFO}
+    for key, values in study.grid.items():
+        for v in values:
+            try:
+                if key in PARAMETER_INFO:
+                    Parameters(**{**params, key: v})
+                else:
+                    Settings(**{**settings, key: v})
+            except ParameterError as err:
+                raise StudyError(f"[grid] {key} = {v!r}: {err}") from None
+
+
+def _stage_in_t_sc(study: Study) -> np.ndarray:
+    """stage / t_sc of every case, as an array that broadcasts to the grid's shape."""
+    from solver.parameters import TIME_SCALE_KEYS, time_scale_of
+    if study._listed:
+        return np.array([c.parameters.stage_duration / c.parameters.time_scale for c in study._listed])
+    default = Parameters(**{k: v for k, v in study.base.items()}).as_dict()
+    keys = list(study.grid)
+    arrays = {}
+    for name in (*TIME_SCALE_KEYS, "R", "V"):
+        if name in study.grid:
+            shape = [1] * len(keys)
+            shape[keys.index(name)] = -1
+            arrays[name] = np.asarray(study.grid[name], dtype=float).reshape(shape)
+        else:
+            arrays[name] = default[name]
+    stage = arrays["L"] ** 2 / (6.0 * arrays["R"] * arrays["V"])
+    return stage / time_scale_of(**{k: arrays[k] for k in TIME_SCALE_KEYS})
+
+
+def _longest_stage_in_t_sc(study: Study) -> float:
+    return float(np.max(_stage_in_t_sc(study)))
+
+
+def cases_past_their_stage(study: Study) -> int:
+    """How many cases have output times past their impact stage (those are not integrated)."""
+    if study.output["times"]["unit"] != "t_sc":
+        return 0
+    last = float(coordinate_times(study.output["times"])[-1])
+    ratio = np.broadcast_to(_stage_in_t_sc(study), study.shape)
+    return int(np.sum(last > ratio * (1 + 1e-12)))
+
+
+def expand(study: Study) -> None:
+    """Validate the cases of a study (each grid value once, each [[cases]] entry) and build
+    the reference runs; a grid's cases are built on demand (Study.case)."""
     if study.grid:
-        keys = list(study.grid)
-        combos = [(idx, dict(zip(keys, vals))) for idx, vals in zip(
-            itertools.product(*(range(len(v)) for v in study.grid.values())),
-            itertools.product(*study.grid.values()))]
+        _check_grid_values(study)
     else:
-        combos = [((i,), c) for i, c in enumerate(study.case_list)]
-    if not combos:
+        listed = []
+        for i, overrides in enumerate(study.case_list):
+            overrides = {k: v for k, v in overrides.items() if k not in ("reference", "group")}
+            label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "base"
+            listed.append(_make_case((i,), {**study.base, **study.solver, **overrides}, study.output, label))
+        study._listed = listed
+    if study.n_cases == 0:
         raise StudyError("the study has no cases")
-    cases, references = [], {}
     ref_output = {**study.output, "fields": sorted(set(study.output["fields"]) | {"strain"})}
-    for idx, overrides in combos:
-        overrides = dict(overrides)
-        own_reference = overrides.pop("reference", {})
-        overrides.pop("group", None)
-        values = {**study.base, **study.solver, **overrides}
-        label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "base"
-        case = _make_case(idx, values, study.output, label)
-        cases.append(case)
-        ref_overrides = {**study.reference, **own_reference}
-        if ref_overrides:
-            references[len(cases) - 1] = _make_case((), {**values, **ref_overrides}, ref_output,
-                                                    f"reference of {label}")
-    if study.reference or references:
+    if study.reference or any("reference" in c for c in study.case_list):
         if "strain" not in study.output["fields"]:
             raise StudyError("a study with a [reference] must store the strain field (errors are "
                              "measured on it): add \"strain\" to [output] fields")
+        for i in range(study.n_cases):
+            own = study.case_list[i].get("reference", {}) if study.case_list else {}
+            ref_overrides = {**study.reference, **own}
+            if not ref_overrides:
+                continue
+            case = study.case(i)
+            values = {**{k: case.value(k) for k in PARAMETER_INFO}, **case.settings.as_dict(), **ref_overrides}
+            study.references[i] = _make_case((), values, ref_output, f"reference of case {i}")
     # outputs past every case's stage are outside the model: refuse a study that asks only those
     if study.output["times"]["unit"] == "t_sc":
         first = coordinate_times(study.output["times"])
-        stages = [c.t_end / c.parameters.time_scale for c in cases]
-        if first.size > 1 and np.all(first[1:] > max(stages) * (1 + 1e-12)):
+        longest = _longest_stage_in_t_sc(study)
+        if first.size > 1 and np.all(first[1:] > longest * (1 + 1e-12)):
             raise StudyError(f"[output] times: every output time after 0 lies past every case's impact "
-                             f"stage (the longest is {max(stages):.4g} t_sc)")
-    # the same run may serve in several sweeps when its references differ (one file, several rows)
-    keyed = [(c.case_id, references[i].case_id if i in references else None) for i, c in enumerate(cases)]
-    if len(set(keyed)) != len(cases):
-        raise StudyError("two cases of the study are identical")
-    return cases, references
+                             f"stage (the longest is {longest:.4g} t_sc)")
+    # the same run may serve in several sweeps when its references differ (one file, several
+    # rows); a grid's cases differ by construction (its values are distinct), so a large grid
+    # is counted, not expanded, here
+    if study._listed or study.references:
+        keyed = [(cid, study.references[i].case_id if i in study.references else None)
+                 for i, cid in enumerate(study.case_ids)]
+        if len(set(keyed)) != len(keyed):
+            raise StudyError("two cases of the study are identical")

@@ -73,6 +73,19 @@ def _check_positive(name: str, value, integer: bool = False) -> None:
         raise ParameterError(f"{name} must be finite and > 0, got {value!r}")
 
 
+#: the parameters t_sc depends on
+TIME_SCALE_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g")
+
+
+def time_scale_of(hi, L, E, nu, rho_i, rho_w, g):
+    """t_sc = 1/omega_1 [s] for scalars or broadcastable arrays: omega_1^2 = (D lambda_1^4 +
+    rho_w g) / (rho_i hi + rho_w / lambda_1), D = E hi^3 / (12 (1 - nu^2)), lambda_1 = pi / L."""
+    lam = np.pi / np.asarray(L, dtype=float)
+    rigidity = np.asarray(E) * np.asarray(hi) ** 3 / (12.0 * (1.0 - np.asarray(nu) ** 2))
+    omega2 = (rigidity * lam**4 + np.asarray(rho_w) * g) / (np.asarray(rho_i) * hi + np.asarray(rho_w) / lam)
+    return 1.0 / np.sqrt(omega2)
+
+
 @dataclass(frozen=True)
 class Parameters:
     """One impact case, SI units; defaults are the paper's reference case.
@@ -143,7 +156,7 @@ class Parameters:
     @property
     def time_scale(self) -> float:
         """t_sc = 1 / omega_1 [s]."""
-        return 1.0 / self.frequencies[0]
+        return float(time_scale_of(**{k: getattr(self, k) for k in TIME_SCALE_KEYS}))
 
     @property
     def deflection_scale(self) -> float:

@@ -12,9 +12,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.casefile import read_case
-from pipeline.study import load_study
-from test_pipeline import ROOT, pipeline
+from pipeline.casefile import DamagedFile, read_batch
+from test_pipeline import ROOT, batch_files, pipeline
 
 STUDY = """
 description = "fault tests"
@@ -51,14 +50,21 @@ def _start(study_file, out, workers=2):
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
 
 
-def _case_files(out):
-    return sorted((Path(out) / "cases").glob("*.nc"))
+def _finished(out) -> dict:
+    """batch file -> case ids, for every complete batch file (its bytes match its name)."""
+    done = {}
+    for path in batch_files(out):
+        try:
+            done[path] = [str(c) for c in read_batch(path)["case"].values]
+        except DamagedFile:
+            pass
+    return done
 
 
 def _wait_for_cases(out, proc, n=1, timeout=120):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        if len(_case_files(out)) >= n:
+        if len(batch_files(out)) >= n:
             return
         assert proc.poll() is None, proc.communicate()
         time.sleep(0.05)
@@ -87,8 +93,8 @@ def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path
     os.kill(workers[0], signal.SIGKILL)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
-    assert len(_case_files(out)) == 8
-    assert not list((out / "cases").glob("*.corrupt-*")) and not list((out / "cases").glob(".*tmp*"))
+    assert sum(len(ids) for ids in _finished(out).values()) == 8
+    assert not list((out / "batches").glob("*.damaged-*")) and not list((out / "batches").glob(".*tmp*"))
     _assert_same_results(out, undisturbed)
 
 
@@ -97,17 +103,16 @@ def _kill_runner_then_resume(study_file, undisturbed, out, delay):
     time.sleep(delay)
     os.killpg(proc.pid, signal.SIGKILL)                 # the runner and its workers, at once
     proc.wait()
-    study = load_study(study_file)
-    done = {}
-    for case in study.cases:                            # what a resume may trust
-        path = out / "cases" / f"{case.case_id}.nc"
-        if read_case(path, case) is not None:
-            done[path] = path.stat().st_mtime_ns
+    finished = _finished(out)                           # what a resume may trust: complete files,
+    stamps = {path: path.stat().st_mtime_ns for path in finished}   # in the ledger or not
+    n_done = len({cid for ids in finished.values() for cid in ids})
     code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
-    assert f"{8 - len(done)} to run, {len(done)} already done" in err
-    for path, stamp in done.items():
-        assert path.stat().st_mtime_ns == stamp, f"{path.name}: a finished case was recomputed"
+    assert f"{8 - n_done} to run, {n_done} already done" in err   # 0 lost, 0 computed twice
+    for path, stamp in stamps.items():
+        assert path.stat().st_mtime_ns == stamp, f"{path.name}: a finished batch was rewritten"
+    after = _finished(out)
+    assert sum(len(ids) for ids in after.values()) == 8, "a case was computed twice"
     _assert_same_results(out, undisturbed)
 
 
@@ -132,8 +137,7 @@ def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undistur
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "run the same command again to resume" in stderr and "Traceback" not in stderr
-    finished = len(_case_files(out))
-    assert finished >= 1
+    assert len(batch_files(out)) >= 1
     code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     assert "already done" in err

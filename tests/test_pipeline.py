@@ -18,7 +18,12 @@ REFERENCE = ROOT / "tests" / "data" / "regression_small.nc"
 #: nodes follow the step sequence (what they give, crack_onset_*, is compared)
 NOT_COMPARED = {"run_time", "error_estimate_run_time", "steps", "rejected_steps", "smallest_step", "case_id",
                 "tension_record_time", "tension_record_value", "tension_record_rate", "tension_record_x",
-                "tension_record_join"}
+                "tension_record_join", "tension_record_count", "tension_record_start"}
+
+
+def batch_files(out):
+    """The batch files of a results directory (named by their checksums)."""
+    return sorted((Path(out) / "batches").glob("*.nc"))
 
 
 def assert_matches(actual, desired, name):
@@ -86,8 +91,11 @@ def test_combined_file_is_labelled_and_carries_provenance(regression_run):
             assert ds[name].dims == ("V", "hi"), name
         for name in ("crack_onset_time", "crack_onset_x", "crack_onset_time_lower", "crack_onset_x_lower"):
             assert ds[name].dims == ("V", "hi", "eps_Y"), name
-        assert ds["tension_record_time"].dims == ("V", "hi", "surface", "tension_node")
-        assert ds["contact_change_time"].dims == ("V", "hi", "contact_change")
+        assert ds["tension_record_time"].dims == ("tension_node",)        # ragged (CF contiguous)
+        assert ds["tension_record_count"].dims == ("V", "hi", "surface")
+        assert ds["contact_change_time"].dims == ("contact_change",)
+        assert int(ds["tension_record_count"].sum()) == ds.sizes["tension_node"]
+        assert int(ds["contact_change_entries"].sum()) == ds.sizes["contact_change"]
         assert np.all(ds["max_strain"] >= ds["strain"].max(("t", "x")) * (1 - 1e-9))
         # the paper's eps_Y is on the default axis; crack onset grows with eps_Y
         onset = ds["crack_onset_time"].sel(eps_Y=8e-5)
@@ -117,11 +125,16 @@ def test_a_study_that_differs_only_in_eps_Y_computes_nothing(regression_run, tmp
         np.testing.assert_array_equal(ds["crack_onset_time"].sel(eps_Y=8e-5), first["crack_onset_time"].sel(eps_Y=8e-5))
         again = crack_onset(out / "study.nc", [2e-4, 5e-5])
         np.testing.assert_array_equal(again["crack_onset_time"].sel(eps_Y=2e-4), ds["crack_onset_time"].sel(eps_Y=2e-4))
-        # and from one case file, the same numbers
+        # and from the batch file that holds the case, the same numbers
         case_id = str(ds["case_id"].sel(V=5.0, hi=0.5).item())
-        one = crack_onset(out / "cases" / f"{case_id}.nc", [5e-5, 8e-5, 2e-4])
-        np.testing.assert_array_equal(one["crack_onset_time_lower"].values[0],
-                                      ds["crack_onset_time_lower"].sel(V=5.0, hi=0.5).values)
+        for path in batch_files(out):
+            one = crack_onset(path, [5e-5, 8e-5, 2e-4])
+            if case_id in one["case"].values:
+                np.testing.assert_array_equal(one["crack_onset_time_lower"].sel(case=case_id).values,
+                                              ds["crack_onset_time_lower"].sel(V=5.0, hi=0.5).values)
+                break
+        else:
+            raise AssertionError("no batch file holds the case")
     assert (regression_run / "crack_onset.png").stat().st_size > 10_000
 
 
@@ -155,7 +168,7 @@ def test_second_run_computes_nothing(regression_run):
 def test_resume_computes_exactly_the_missing_cases(regression_run, tmp_path):
     out = tmp_path / "resume"
     shutil.copytree(regression_run, out)
-    cases = sorted((out / "cases").glob("*.nc"))
+    cases = batch_files(out)                     # one case per batch in a 4-case study
     removed, kept = cases[:2], cases[2:]
     stamps = {p: p.stat().st_mtime_ns for p in kept}
     for p in removed:
@@ -163,7 +176,7 @@ def test_resume_computes_exactly_the_missing_cases(regression_run, tmp_path):
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     assert "4 cases, 2 to run, 2 already done" in err
-    assert all(p.exists() for p in removed)
+    assert len(batch_files(out)) == 4 and "is missing" in err
     assert all(p.stat().st_mtime_ns == stamps[p] for p in kept), "finished cases were rewritten"
 
 
@@ -171,7 +184,7 @@ def test_resume_computes_exactly_the_missing_cases(regression_run, tmp_path):
 def test_corrupt_case_file_is_set_aside_and_recomputed(regression_run, tmp_path, damage):
     out = tmp_path / damage
     shutil.copytree(regression_run, out)
-    cases = sorted((out / "cases").glob("*.nc"))
+    cases = batch_files(out)
     victim, others = cases[0], cases[1:]
     stamps = {p: p.stat().st_mtime_ns for p in others}
     data = victim.read_bytes()
@@ -186,7 +199,7 @@ def test_corrupt_case_file_is_set_aside_and_recomputed(regression_run, tmp_path,
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     assert "4 cases, 1 to run, 3 already done" in err
-    aside = list((out / "cases").glob(victim.name + ".corrupt-*"))
+    aside = list((out / "batches").glob(victim.name + ".damaged-*"))
     assert len(aside) == 1, "the damaged file is kept aside, never deleted"
     assert all(p.stat().st_mtime_ns == stamps[p] for p in others)
     with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(regression_run / "study.nc") as ref:
@@ -196,7 +209,7 @@ def test_corrupt_case_file_is_set_aside_and_recomputed(regression_run, tmp_path,
 def test_stale_temporary_files_are_swept(regression_run, tmp_path):
     out = tmp_path / "stale"
     shutil.copytree(regression_run, out)
-    stale = out / "cases" / ".0123456789abcdef.nc.tmp-999-1"
+    stale = out / "batches" / ".batch.nc.tmp-999-1"
     stale.write_bytes(b"half a file")
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
     assert code == 0, err

@@ -17,7 +17,7 @@ def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
     out = tmp_path / "study"
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
-    (out / "cases" / sorted(p.name for p in (out / "cases").glob("*.nc"))[0]).unlink()   # work left to do
+    sorted((out / "batches").glob("*.nc"))[0].unlink()   # work left to do
     holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
                                "from pipeline.lock import StudyLock\n"
                                "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
@@ -64,12 +64,12 @@ def _limit_file_size():
 
 
 def test_disk_full_while_writing_stops_the_study(tmp_path):
-    """Files may not grow past 20 kB (a case file is ~50 kB): the write fails inside netCDF as
-    on a full disk. Exit 74 with what happened; finished case files are intact."""
+    """Files may not grow past 20 kB (a batch file is ~100 kB): the write fails inside netCDF as
+    on a full disk. Exit 74 with what happened; finished batch files are intact."""
     out = tmp_path / "study"
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
-    files = sorted((out / "cases").glob("*.nc"))
+    files = sorted((out / "batches").glob("*.nc"))
     files[-1].unlink()
     stamps = {p: p.stat().st_mtime_ns for p in files[:-1]}
     proc = subprocess.run([sys.executable, "-m", "pipeline", "run", "studies/regression_small.toml",
@@ -77,7 +77,7 @@ def test_disk_full_while_writing_stops_the_study(tmp_path):
                           text=True, timeout=300, preexec_fn=_limit_file_size)
     assert proc.returncode == 74, proc.stderr
     last = proc.stderr.strip().splitlines()[-1]
-    assert last.startswith("error: cannot write") and "MiB free" in last and "finished case files are kept" in last
+    assert last.startswith("error: cannot write") and "MiB free" in last and "finished cases are kept" in last
     assert "Traceback" not in proc.stderr
     assert all(p.stat().st_mtime_ns == stamps[p] for p in stamps)
-    assert not files[-1].exists() and not list((out / "cases").glob(".*tmp*"))
+    assert not files[-1].exists() and not list((out / "batches").glob(".*tmp*"))
