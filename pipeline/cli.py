@@ -40,6 +40,8 @@ class _Parser(argparse.ArgumentParser):
 
 def _parser():
     ap = _Parser(prog="python -m pipeline", description="Run floe-impact parameter studies.")
+    from . import __version__
+    ap.add_argument("--version", action="version", version=f"floe-impact {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
     run = sub.add_parser("run", help="run a study file")
     run.add_argument("study", help="studies/<name>.toml or a study name")

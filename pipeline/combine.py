@@ -28,7 +28,7 @@ from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
 
 from . import provenance
 from .casefile import (CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
-                       TEXT_INFO, DamagedFile, read_batch, tension_records)
+                       TEXT_INFO, DamagedFile, read_batch_arrays, tension_records)
 from .fracture import CRACK_INFO, onset_from_records
 from .ledger import BATCHES, write_sidecar
 from .study import SCHEMA_VERSION, Study
@@ -77,9 +77,9 @@ def errors_against(case: dict, ref: dict, eps_Y) -> dict:
     return out
 
 
-def _for_errors(ds, position) -> dict:
-    return {"strain": ds["strain"].values[position], "max_strain": ds["max_strain"].values[position],
-            "contact_intervals": ds["contact_intervals"].values[position],
+def _for_errors(ds: dict, position) -> dict:
+    return {"strain": ds["strain"][position], "max_strain": ds["max_strain"][position],
+            "contact_intervals": ds["contact_intervals"][position],
             "records": tension_records(ds, (position,))}
 
 
@@ -122,15 +122,17 @@ def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, r
     """Read one batch file (checked against its checksum) and return what study.nc stores for
     the cases ``rows`` ([position in the batch, reference key or None]); ``refs``: reference
     key -> [path, sha256, position]. A damaged file returns {"damaged": [file names], ...}."""
+    wanted = [*names, "tension_record_count", *TENSION_RECORD_INFO, "contact_change_entries",
+              *CONTACT_RECORD_INFO, "strain", "max_strain", "contact_intervals"]
     try:
-        ds = read_batch(Path(path), sha256)
+        ds = read_batch_arrays(Path(path), sha256, wanted)
     except DamagedFile as err:
         return {"damaged": [Path(path).name], "message": str(err)}
     positions = np.array([r[0] for r in rows], dtype=np.int64)
     out = {}
     for name in names:
-        if name in ds:
-            out[name] = ds[name].values[positions]
+        if name in ds and name not in ("tension_record_count", "contact_change_entries"):
+            out[name] = ds[name][positions]
     crack = {name: [] for name in CRACK_INFO}
     for p in positions:
         for name, values in onset_from_records(tension_records(ds, (int(p),)), eps_Y).items():
@@ -138,19 +140,19 @@ def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, r
     for name in CRACK_INFO:
         out[name] = np.array(crack[name]).reshape(len(rows), len(eps_Y))
     if records:
-        counts = ds["tension_record_count"].values
+        counts = ds["tension_record_count"]
         starts = np.cumsum(counts.ravel()) - counts.ravel()
         starts = starts.reshape(counts.shape)
         pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(SURFACES))]
         out["tension_record_count"] = counts[positions]
         for name in TENSION_RECORD_INFO:
-            col = ds[name].values
+            col = ds[name]
             out[name] = np.concatenate([col[a:a + n] for a, n in pieces] or [np.empty(0)])
-        entries = ds["contact_change_entries"].values
+        entries = ds["contact_change_entries"]
         cstart = np.cumsum(entries) - entries
         out["contact_change_entries"] = entries[positions]
         for name in CONTACT_RECORD_INFO:
-            col = ds[name].values
+            col = ds[name]
             out[name] = np.concatenate([col[cstart[p]:cstart[p] + entries[p]] for p in positions] or [np.empty(0)])
     if any(r[1] is not None for r in rows):
         cache, damaged = {}, []
@@ -161,7 +163,7 @@ def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, r
             ref_path, ref_sha, ref_pos = refs[key]
             if ref_path not in cache:
                 try:
-                    cache[ref_path] = read_batch(Path(ref_path), ref_sha)
+                    cache[ref_path] = read_batch_arrays(Path(ref_path), ref_sha, wanted)
                 except DamagedFile:
                     cache[ref_path] = None
                     damaged.append(Path(ref_path).name)

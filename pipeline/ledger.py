@@ -147,7 +147,7 @@ def _matches(path: Path, entry: dict) -> bool:
 def reconcile(out_dir: Path, notes: list) -> Ledger:
     """Make the ledger agree with the batch files (module docstring); returns it. Appends a
     one-line note per repair to ``notes``. Runs under the study lock."""
-    from .casefile import DamagedFile, file_sha256, read_batch
+    from .casefile import DamagedFile, file_sha256, read_batch_arrays
     ledger = Ledger.load(out_dir)
     batches = ledger.batches_dir
     changed = ledger.bad_lines > 0
@@ -180,7 +180,7 @@ def reconcile(out_dir: Path, notes: list) -> Ledger:
             if path.is_symlink() or not path.is_file():
                 continue
             try:
-                ds = read_batch(path)
+                ds = read_batch_arrays(path, None, ("case", "status", "message", "run_time"))
             except DamagedFile as err:
                 aside = set_aside(path)
                 notes.append(f"batch file {path.name} is not valid ({err}); moved to {aside.name}")
@@ -188,8 +188,7 @@ def reconcile(out_dir: Path, notes: list) -> Ledger:
             st = path.stat()
             entry = {"file": path.name, "sha256": file_sha256(path), "size": st.st_size, "mtime_ns": st.st_mtime_ns,
                      "cases": [[str(c), str(s), str(m), float(r)] for c, s, m, r in
-                               zip(ds["case"].values, ds["status"].values, ds["message"].values,
-                                   ds["run_time"].values)]}
+                               zip(ds["case"], ds["status"], ds["message"], ds["run_time"])]}
             ledger.entries.insert(0, entry)                    # the recorded entries win over it
             notes.append(f"batch file {path.name} was not in the ledger ({len(entry['cases'])} finished "
                          f"case(s)); added")

@@ -5,6 +5,7 @@ import itertools
 from pathlib import Path
 
 import matplotlib
+import matplotlib.colors
 import matplotlib.ticker
 
 matplotlib.use("Agg")
@@ -80,10 +81,86 @@ def _paper_eps_Y(ds: xr.Dataset) -> float:
     return float(eps[np.argmin(np.abs(np.log(eps / PAPER_EPS_Y)))])
 
 
+#: more lines than this in a panel and the diagnostics become heat maps
+MAX_LINES = 8
+#: the diagnostics drawn as heat maps (a large study): name, title, log colour scale
+MAP_DIAGNOSTICS = [
+    ("max_strain", "max tensile strain, upper", True),
+    ("max_strain_lower", "max tensile strain, lower", True),
+    ("crack_onset_time", "crack onset, upper [ms]", False),
+    ("max_contact_intervals", "max contact intervals", False),
+    ("max_compression", "max layer compression δ", False),
+    ("run_time", "solver wall time [s]", True),
+]
+
+
+def _middle(ds, key):
+    return ds[key].values[(ds.sizes[key] - 1) // 2]
+
+
+def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
+    """A large grid: each diagnostic as a heat map over the two keys with the most values
+    (small multiples: one column per value of the next key, at most 4 spread over its range);
+    the other keys at their middle value, as the title says. Cases that did not end ok are
+    marked ×."""
+    ranked = sorted(dims, key=lambda d: -ds.sizes[d])          # stable: ties keep the file order
+    first, second = ranked[0], ranked[1]
+    third = ranked[2] if len(ranked) > 2 else None
+    rest = {k: _middle(ds, k) for k in ranked[3:]}
+    eps_y = _paper_eps_Y(ds)
+    columns = [None] if third is None else list(dict.fromkeys(
+        ds[third].values[np.unique(np.linspace(0, ds.sizes[third] - 1, min(4, ds.sizes[third])).round().astype(int))]))
+    fig, axes = plt.subplots(len(MAP_DIAGNOSTICS), len(columns), squeeze=False, sharex=True, sharey=True,
+                             figsize=(3.6 * len(columns) + 1.5, 2.4 * len(MAP_DIAGNOSTICS) + 1.2),
+                             constrained_layout=True)
+    for r, (row, (name, title, log)) in enumerate(zip(axes, MAP_DIAGNOSTICS)):
+        var = ds[name].sel(eps_Y=eps_y) * 1e3 if name == "crack_onset_time" else ds[name]
+        panels = [var.sel({**rest, **({third: c} if third else {})}).transpose(second, first).values.astype(float)
+                  for c in columns]
+        finite = np.concatenate([p[np.isfinite(p)].ravel() for p in panels])
+        positive = finite[finite > 0]
+        if log and positive.size:
+            norm = matplotlib.colors.LogNorm(positive.min(), positive.max())
+        elif finite.size:
+            norm = matplotlib.colors.Normalize(finite.min(), finite.max())
+        else:
+            norm = None
+        for ax, column, values in zip(row, columns, panels):
+            where = {**rest, **({third: column} if third else {})}
+            mesh = ax.pcolormesh(np.arange(ds.sizes[first]), np.arange(ds.sizes[second]),
+                                 np.where(np.isfinite(values), values, np.nan), norm=norm, cmap="viridis",
+                                 shading="nearest")
+            bad = ds["status"].sel(where).transpose(second, first).values != "ok"
+            yy, xx = np.nonzero(bad)
+            ax.plot(xx, yy, "x", color="w", ms=3, mew=0.6)
+            if r == 0:
+                ax.set_title(_label(third, column) if third else "", fontsize=10)
+        fig.colorbar(mesh, ax=row[-1], label=title if name != "crack_onset_time" else f"{title}, εY = {eps_y:g}")
+    for ax in axes[-1]:
+        ticks = np.unique(np.linspace(0, ds.sizes[first] - 1, 4).round().astype(int))
+        ax.set_xticks(ticks, [f"{v:g}" for v in ds[first].values[ticks]])
+        ax.set_xlabel(f"{first} [{(PARAMETER_INFO.get(first) or SETTING_INFO.get(first))[1]}]")
+    for ax in axes[:, 0]:
+        ticks = np.unique(np.linspace(0, ds.sizes[second] - 1, 5).round().astype(int))
+        ax.set_yticks(ticks, [f"{v:g}" for v in ds[second].values[ticks]])
+        ax.set_ylabel(f"{second} [{(PARAMETER_INFO.get(second) or SETTING_INFO.get(second))[1]}]")
+    title = ds.attrs.get("description") or ds.attrs.get("study_name", "")
+    title += f"\n{int(np.prod([ds.sizes[d] for d in dims]))} cases; × : the case did not end ok (see status)"
+    if rest:
+        title += "; at " + ", ".join(_label(k, v) for k, v in rest.items())
+    fig.suptitle(title, fontsize=11)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
+
+
 def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
-    """Each diagnostic against the first grid key, one line per value of the other keys.
+    """Each diagnostic against the first grid key, one line per value of the other keys (a
+    grid with more than MAX_LINES combinations of the other keys: heat maps instead).
     Crack onsets are at the paper's yield strain (or the study's eps_Y nearest to it)."""
     first, others = dims[0], dims[1:]
+    if len(others) and int(np.prod([ds.sizes[d] for d in others])) > MAX_LINES:
+        return diagnostics_maps(ds, dims, path)
     eps_y = _paper_eps_Y(ds)
     ds = ds.assign({name: ds[name].sel(eps_Y=eps_y) * 1e3
                     for name in ("crack_onset_time", "crack_onset_time_lower")})

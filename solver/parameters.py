@@ -17,6 +17,7 @@ Derived quantities (docs/model.md, "Equations" and "Scales")::
 from __future__ import annotations
 
 import math
+from functools import cached_property
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -153,7 +154,7 @@ class Parameters:
         lam = self.wavenumbers
         return np.sqrt((self.rigidity * lam**4 + self.rho_w * self.g) / self.added_masses)
 
-    @property
+    @cached_property
     def time_scale(self) -> float:
         """t_sc = 1 / omega_1 [s]."""
         return float(time_scale_of(**{k: getattr(self, k) for k in TIME_SCALE_KEYS}))
