@@ -292,9 +292,10 @@ def _worker_study(text: str, name: str):
     return load_study_text(text, name)
 
 
-def run_batch(study_text: str, study_name: str, items: list, batches_dir: str) -> dict:
+def run_batch(study_text: str, study_name: str, items: list, batches_dir: str, reduce=None) -> dict:
     """Worker entry point: run the cases ``items`` ([case_id, position or -1]) of a study,
-    write their batch file, return its ledger entry (no arrays).
+    write their batch file, return its ledger entry; with ``reduce`` (combine.stream_spec),
+    also what study.nc stores for them, under "reduced".
 
     A numerical failure is a status, and so is an exception in the solver ('error'); every
     case is written. A failure to write the file returns status WRITE_FAILED, on which the
@@ -313,8 +314,9 @@ def run_batch(study_text: str, study_name: str, items: list, batches_dir: str) -
             values = case_arrays(case, None, status="error", message=f"{type(err).__name__}: {err}")
         cases.append(case)
         arrays.append(values)
+    spec = batch_dataset(cases, arrays)
     try:
-        entry = write_batch(batch_dataset(cases, arrays), Path(batches_dir))
+        entry = write_batch(spec, Path(batches_dir))
     except Exception as err:                       # netCDF reports a full disk as "HDF error"
         import shutil
         try:
@@ -326,6 +328,10 @@ def run_batch(study_text: str, study_name: str, items: list, batches_dir: str) -
         return {"status": WRITE_FAILED, "message": f"cannot write a batch file in {batches_dir} ({free}): "
                                                    f"{type(err).__name__}: {err}"}
     entry["cases"] = [[c.case_id, a["status"], a["message"], float(a["run_time"])] for c, a in zip(cases, arrays)]
+    if reduce is not None:                         # study.nc's slice, from memory (no re-read)
+        from .combine import reduce_arrays
+        data = {name: np.asarray(arr) for name, (_, arr, _) in spec["data"].items()}
+        entry["reduced"] = reduce_arrays(data, np.arange(len(cases)), *reduce)
     return entry
 
 

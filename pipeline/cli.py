@@ -214,19 +214,35 @@ def _run_locked(args, study, out_dir: Path) -> int:
     print(f"{study.name}: {_count(study)}, {len(items)} to run, {skipped} already done "
           f"-> {out_dir}", file=sys.stderr)
     from .session import Session
+    from .combine import open_writer, stream_spec
     with Session(args.workers, args.scheduler) as session:
         for attempt in range(3):
-            if items:
-                def on_batch(entry):
-                    ledger.append(entry)
-                    for cid, status, _, _ in entry["cases"]:
-                        states[cid] = status
-                lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids), skipped,
-                                   args.batch_seconds)
-                for record in lost:
-                    print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
-                          file=sys.stderr)
-            fresh = _combine(args, study, out_dir, ledger, states, session, computed=bool(items))
+            writer = None
+            try:
+                if items:
+                    # each batch's slice of study.nc comes back with its ledger entry and goes
+                    # into study.nc at once; the combine then reads only older batch files
+                    spec = stream_spec(study)
+
+                    def on_batch(entry, batch):
+                        nonlocal writer
+                        reduced = entry.pop("reduced", None)
+                        ledger.append(entry)
+                        for cid, status, _, _ in entry["cases"]:
+                            states[cid] = status
+                        if reduced is not None:
+                            writer = writer or open_writer(study, out_dir)
+                            writer.write([position for _, position in batch], reduced)
+                    lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids), skipped,
+                                       args.batch_seconds, spec)
+                    for record in lost:
+                        print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
+                              file=sys.stderr)
+                fresh = _combine(args, study, out_dir, ledger, states, session, bool(items), writer)
+            except BaseException:
+                if writer is not None:
+                    writer.abandon()
+                raise
             if fresh is not None:                      # done: no damaged batch file
                 break
             states = ledger_states(study, out_dir, ledger)
@@ -241,7 +257,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
     return EXIT_OK
 
 
-def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed: bool):
+def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
     """Write study.nc if its inputs changed; True if written, False if up to date, None if a
     damaged batch file was found (set aside and dropped from the ledger)."""
     from .ledger import inputs_fingerprint, is_up_to_date, set_aside
@@ -251,11 +267,13 @@ def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed
     if not computed and is_up_to_date(out_dir, fingerprint):
         print(f"nothing new: {path} is up to date", file=sys.stderr)
         return False
-    n_files = len({index[cid][0]["file"] for cid in study.case_id_set if cid in index})
+    streamed = writer.seen if writer is not None else None
+    n_files = len({index[cid][0]["file"] for i, cid in enumerate(study.case_ids)
+                   if cid in index and (streamed is None or not streamed[i])})
     from .combine import write_study
     mapper = session.mapper() if session.is_open or n_files > 50 else None
     started = time.monotonic()
-    written, damaged = write_study(study, out_dir, index, states, mapper, fingerprint)
+    written, damaged = write_study(study, out_dir, index, states, mapper, fingerprint, writer)
     if damaged:
         for name in damaged:
             victim = out_dir / "batches" / name

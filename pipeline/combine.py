@@ -42,8 +42,8 @@ ERROR_INFO = {
     "error_contact_intervals": ("largest difference of contact_intervals from the reference run "
                                 "over the snapshots", "1"),
 }
-#: at most this many reduced batches wait in the runner at once (memory O(batch))
-IN_FLIGHT_PER_WORKER = 2
+#: the runner writes study.nc's per-case variables in slabs of about this many bytes
+FLUSH_BYTES = 16 * 2**20
 
 
 def _parameter_coord(key, values):
@@ -117,6 +117,37 @@ def per_case_variables(study: Study) -> list:
     return out
 
 
+def reduce_arrays(ds: dict, positions: np.ndarray, eps_Y: list, names: list, records: bool) -> dict:
+    """What study.nc stores for the cases at ``positions`` of a batch (its variables as
+    arrays, from the file or still in the worker's memory): the per-case variables, crack
+    onset along eps_Y from the tension records, and (records) the ragged records."""
+    out = {}
+    for name in names:
+        if name in ds and name not in ("tension_record_count", "contact_change_entries"):
+            out[name] = ds[name][positions]
+    crack = {name: [] for name in CRACK_INFO}
+    for p in positions:
+        for name, values in onset_from_records(tension_records(ds, (int(p),)), eps_Y).items():
+            crack[name].append(values)
+    for name in CRACK_INFO:
+        out[name] = np.array(crack[name]).reshape(len(positions), len(eps_Y))
+    if records:
+        counts = ds["tension_record_count"]
+        starts = (np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
+        pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(SURFACES))]
+        out["tension_record_count"] = counts[positions]
+        for name in TENSION_RECORD_INFO:
+            col = ds[name]
+            out[name] = np.concatenate([col[a:a + n] for a, n in pieces] or [np.empty(0)])
+        entries = ds["contact_change_entries"]
+        cstart = np.cumsum(entries) - entries
+        out["contact_change_entries"] = entries[positions]
+        for name in CONTACT_RECORD_INFO:
+            col = ds[name]
+            out[name] = np.concatenate([col[cstart[p]:cstart[p] + entries[p]] for p in positions] or [np.empty(0)])
+    return out
+
+
 def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, records: bool,
                  refs: dict) -> dict:
     """Read one batch file (checked against its checksum) and return what study.nc stores for
@@ -129,31 +160,7 @@ def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, r
     except DamagedFile as err:
         return {"damaged": [Path(path).name], "message": str(err)}
     positions = np.array([r[0] for r in rows], dtype=np.int64)
-    out = {}
-    for name in names:
-        if name in ds and name not in ("tension_record_count", "contact_change_entries"):
-            out[name] = ds[name][positions]
-    crack = {name: [] for name in CRACK_INFO}
-    for p in positions:
-        for name, values in onset_from_records(tension_records(ds, (int(p),)), eps_Y).items():
-            crack[name].append(values)
-    for name in CRACK_INFO:
-        out[name] = np.array(crack[name]).reshape(len(rows), len(eps_Y))
-    if records:
-        counts = ds["tension_record_count"]
-        starts = np.cumsum(counts.ravel()) - counts.ravel()
-        starts = starts.reshape(counts.shape)
-        pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(SURFACES))]
-        out["tension_record_count"] = counts[positions]
-        for name in TENSION_RECORD_INFO:
-            col = ds[name]
-            out[name] = np.concatenate([col[a:a + n] for a, n in pieces] or [np.empty(0)])
-        entries = ds["contact_change_entries"]
-        cstart = np.cumsum(entries) - entries
-        out["contact_change_entries"] = entries[positions]
-        for name in CONTACT_RECORD_INFO:
-            col = ds[name]
-            out[name] = np.concatenate([col[cstart[p]:cstart[p] + entries[p]] for p in positions] or [np.empty(0)])
+    out = reduce_arrays(ds, positions, eps_Y, names, records)
     if any(r[1] is not None for r in rows):
         cache, damaged = {}, []
         errors = {name: np.full(len(rows), np.nan) for name in ERROR_INFO}
@@ -250,6 +257,7 @@ class StudyWriter:
                     {"long_name": long_name, "units": units})
         self.n_nodes = self.n_changes = 0
         self.seen = np.zeros(study.n_cases, dtype=bool)
+        self.buffer, self.buffered = [], 0
 
     @property
     def _varying(self) -> list:
@@ -326,34 +334,51 @@ class StudyWriter:
                 var[slices] = np.asarray(block).reshape(box + np.shape(block)[1:])
 
     def write(self, flat: np.ndarray, data: dict) -> None:
-        """Store the reduced data of cases at the sorted flat grid indices ``flat``."""
-        for name, tail, kind, _ in self.variables:
-            if name in ("tension_record_start", "contact_change_start"):
-                continue
-            if name in data:
-                values = data[name]
-                if kind == "s":
-                    values = np.asarray(values, dtype=object)
-                self._put(name, flat, values)
-        if self.study.output["records"]:
-            counts = np.asarray(data["tension_record_count"], dtype=np.int64)
-            total = int(counts.sum())
-            starts = (self.n_nodes + np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
-            self._put("tension_record_start", flat, starts)
-            for name in TENSION_RECORD_INFO:
-                if total:
-                    self.nc[name][self.n_nodes:self.n_nodes + total] = data[name]
-            self.n_nodes += total
-            entries = np.asarray(data["contact_change_entries"], dtype=np.int64)
-            total = int(entries.sum())
-            self._put("contact_change_start", flat, self.n_changes + np.cumsum(entries) - entries)
-            for name in CONTACT_RECORD_INFO:
-                if total:
-                    self.nc[name][self.n_changes:self.n_changes + total] = data[name]
-            self.n_changes += total
+        """Store the reduced data of cases at the sorted flat grid indices ``flat``. Batches
+        wait in a buffer of at most FLUSH_BYTES and are written in grid order as few large
+        hyperslabs (consecutive batches are contiguous); the ragged records are appended in
+        the same order."""
+        self.buffer.append((np.asarray(flat, dtype=np.int64), data))
+        self.buffered += sum(np.asarray(v).nbytes for v in data.values())
         self.seen[flat] = True
+        if self.buffered >= FLUSH_BYTES:
+            self.flush()
+
+    def _append_records(self, data: dict) -> None:
+        counts = np.asarray(data["tension_record_count"], dtype=np.int64)
+        total = int(counts.sum())
+        data["tension_record_start"] = (self.n_nodes + np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
+        for name in TENSION_RECORD_INFO:
+            if total:
+                self.nc[name][self.n_nodes:self.n_nodes + total] = data[name]
+        self.n_nodes += total
+        entries = np.asarray(data["contact_change_entries"], dtype=np.int64)
+        total = int(entries.sum())
+        data["contact_change_start"] = self.n_changes + np.cumsum(entries) - entries
+        for name in CONTACT_RECORD_INFO:
+            if total:
+                self.nc[name][self.n_changes:self.n_changes + total] = data[name]
+        self.n_changes += total
+
+    def flush(self) -> None:
+        if not self.buffer:
+            return
+        self.buffer.sort(key=lambda item: int(item[0][0]) if item[0].size else -1)
+        if self.study.output["records"]:
+            for _, data in self.buffer:
+                self._append_records(data)
+        flat = np.concatenate([f for f, _ in self.buffer])
+        order = np.argsort(flat, kind="stable")
+        for name, tail, kind, _ in self.variables:
+            parts = [d[name] for _, d in self.buffer if name in d]
+            if len(parts) != len(self.buffer):
+                continue
+            values = np.concatenate([np.asarray(p, dtype=object) if kind == "s" else np.asarray(p) for p in parts])
+            self._put(name, flat[order], values[order])
+        self.buffer, self.buffered = [], 0
 
     def finish(self, attrs: dict) -> Path:
+        self.flush()
         missing = np.flatnonzero(~self.seen)
         if missing.size:
             k = missing.size
@@ -405,18 +430,36 @@ def plan(study: Study, index: dict, out_dir: Path) -> dict:
     return groups
 
 
+def open_writer(study: Study, out_dir: Path) -> StudyWriter:
+    first = study.case(0)
+    return StudyWriter(study, Path(out_dir) / "study.nc", first.requested_times(), np.linspace(-1, 1, first.x_points))
+
+
+def stream_spec(study: Study):
+    """What a worker needs to reduce its batch right after running it (the combine then reads
+    no file for it), or None when the study measures errors against reference runs (those
+    come from other batches)."""
+    if study.references:
+        return None
+    return [study.output["eps_Y"], [v[0] for v in per_case_variables(study)], study.output["records"]]
+
+
 def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=None,
-                fingerprint: str | None = None) -> tuple:
+                fingerprint: str | None = None, writer: StudyWriter | None = None) -> tuple:
     """Combine the batch files into study.nc; returns (path, damaged batch file names).
 
-    ``mapper(function, list of argument tuples)`` yields results in any order as
-    (key, result) pairs, at most a few at a time (the workers'); default: in this process.
-    Nothing is written if a batch file turns out to be damaged (the runner recomputes it)."""
+    ``writer``: a StudyWriter that already holds the cases streamed from this run's batches;
+    only the others are read. ``mapper(function, list of (key, args))`` yields (key, result)
+    pairs in task order, a few at a time (the workers'); default: in this process. Nothing
+    is written if a batch file turns out to be damaged (the runner recomputes it)."""
     out_dir = Path(out_dir)
     groups = plan(study, index, out_dir)
     names = [v[0] for v in per_case_variables(study)]
     first = study.case(0)
-    writer = StudyWriter(study, out_dir / "study.nc", first.requested_times(), np.linspace(-1, 1, first.x_points))
+    writer = writer or open_writer(study, out_dir)
+    for file in list(groups):                              # streamed already: nothing to read
+        if writer.seen[np.asarray(groups[file][1], dtype=np.int64)].all():
+            del groups[file]
     tasks = [(file, (str(out_dir / BATCHES / file), sha, rows, study.output["eps_Y"], names,
                      study.output["records"], refs)) for file, (sha, flat, rows, refs) in groups.items()]
     mapper = mapper or _serial

@@ -195,11 +195,11 @@ def start_kernels() -> None:
 
 
 def run_pending(client, study, items: list, signature: list, batches_dir, on_batch,
-                progress: Progress | None = None, batch_seconds: float = BATCH_SECONDS) -> list:
+                progress: Progress | None = None, batch_seconds: float = BATCH_SECONDS, reduce=None) -> list:
     """Run the cases ``items`` ([case_id, position]) in batches on the client's workers.
 
-    ``on_batch(entry)`` is called in the runner for every batch file written (the runner
-    records it in the ledger). Returns the records of cases whose task failed without a file
+    ``on_batch(entry, batch)`` is called in the runner for every batch file written (the
+    runner records it in the ledger and streams its "reduced" data, if any, into study.nc). Returns the records of cases whose task failed without a file
     (infrastructure failures: they stay pending)."""
     if not items:
         return []
@@ -213,7 +213,7 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
 
     def submit_next():
         batch = batcher.take()
-        future = client.submit(run_batch, text, study.name, batch, str(batches_dir), pure=False,
+        future = client.submit(run_batch, text, study.name, batch, str(batches_dir), reduce, pure=False,
                                key=f"batch-{batch[0][0]}-{len(batch)}-{time.monotonic_ns()}")
         in_flight[future.key] = batch
         futures.add(future)
@@ -234,7 +234,7 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
         else:
             if entry.get("status") == WRITE_FAILED:    # the disk, not the case: stop the study
                 raise CaseWriteError(entry["message"])
-            on_batch(entry)
+            on_batch(entry, batch)
             records = [{"case_id": c, "status": s, "message": m, "run_time": r} for c, s, m, r in entry["cases"]]
             batcher.record([r["run_time"] for r in records])
         if progress:

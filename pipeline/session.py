@@ -43,11 +43,11 @@ class Session:
         return self.client
 
     def run(self, study, items, signature, batches_dir, on_batch, total: int, skipped: int,
-            batch_seconds: float) -> list:
+            batch_seconds: float, reduce=None) -> list:
         from .engine import Progress, run_pending
         client = self.open()
         return run_pending(client, study, items, signature, batches_dir, on_batch, Progress(total, skipped),
-                           batch_seconds)
+                           batch_seconds, reduce)
 
     def mapper(self):
         """map(function, [(key, args)]) on the workers, yielding (key, result) in the order of
