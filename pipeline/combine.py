@@ -289,9 +289,9 @@ class StudyWriter:
         eps[:] = study.output["eps_Y"]
         eps.setncatts({"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
         if study.grid:
-            for key, values in study.grid.items():
+            for (key, values), dim in zip(study.grid.items(), study.dims):
                 data, attrs = _parameter_coord(key, values)
-                var = nc.createVariable(key, str if data.dtype == object else data.dtype, (key,))
+                var = nc.createVariable(dim, str if data.dtype == object else data.dtype, (dim,))
                 var[:] = data
                 var.setncatts(attrs)
             constant = [k for k in PARAMETER_INFO if k not in study.grid]

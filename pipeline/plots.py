@@ -139,11 +139,11 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
     for ax in axes[-1]:
         ticks = np.unique(np.linspace(0, ds.sizes[first] - 1, 4).round().astype(int))
         ax.set_xticks(ticks, [f"{v:g}" for v in ds[first].values[ticks]])
-        ax.set_xlabel(f"{first} [{(PARAMETER_INFO.get(first) or SETTING_INFO.get(first))[1]}]")
+        ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]")
     for ax in axes[:, 0]:
         ticks = np.unique(np.linspace(0, ds.sizes[second] - 1, 5).round().astype(int))
         ax.set_yticks(ticks, [f"{v:g}" for v in ds[second].values[ticks]])
-        ax.set_ylabel(f"{second} [{(PARAMETER_INFO.get(second) or SETTING_INFO.get(second))[1]}]")
+        ax.set_ylabel(f"{second} [{ds[second].attrs.get('units', '1')}]")
     title = ds.attrs.get("description") or ds.attrs.get("study_name", "")
     title += f"\n{int(np.prod([ds.sizes[d] for d in dims]))} cases; × : the case did not end ok (see status)"
     if rest:
@@ -188,7 +188,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         span = float(np.max(xvals) - np.min(xvals)) or 1.0
         ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
-        ax.set_xlabel(_label(first, 0).split(" = ")[0] + f" [{PARAMETER_INFO[first][1]}]")
+        ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]")
         if name in ("max_strain", "max_strain_lower"):
             ax.axhline(eps_y, color="k", lw=0.8, ls="--")
             ax.set_yscale("log")

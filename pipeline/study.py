@@ -46,6 +46,8 @@ SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots",
 #: keys a [reference] may override: the same physical case, computed more accurately
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
 OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
+#: grid keys whose study.nc dimension has another name (the key is also a result's name)
+DIM_NAMES = {"error_estimate": "error_estimate_on"}
 #: [output] end: "stage" integrates every case over its impact stage (diagnostics cover the
 #: stage); "last_output" stops at the last output time (diagnostics cover 0..that time)
 ENDS = ("stage", "last_output")
@@ -140,7 +142,9 @@ class Study:
 
     @property
     def dims(self) -> list:
-        return list(self.grid) if self.grid else ["case"]
+        """study.nc's case dimensions: the grid keys (error_estimate, also the name of a result,
+        becomes error_estimate_on), or ["case"]."""
+        return [DIM_NAMES.get(k, k) for k in self.grid] if self.grid else ["case"]
 
     @property
     def shape(self) -> tuple:
@@ -153,7 +157,12 @@ class Study:
         idx = tuple(int(j) for j in np.unravel_index(i, self.shape))
         values = {**self.base, **self.solver,
                   **{k: v[j] for (k, v), j in zip(self.grid.items(), idx)}}
-        return _make_case(idx, values, self.output, _grid_label(self.grid, idx))
+        label = _grid_label(self.grid, idx)
+        try:
+            values = _resolve_sample(values)
+        except ParameterError as err:
+            raise StudyError(f"case {label}: {err}") from None
+        return _make_case(idx, values, self.output, label)
 
     @cached_property
     def cases(self) -> list:
@@ -347,10 +356,35 @@ def _check_solver(table) -> dict:
         if key not in SETTING_INFO:
             raise StudyError(f"[solver]: unknown setting {key!r}; known: {', '.join(SETTING_INFO)}")
     try:
-        Settings(**table)
+        Settings(**{k: (True if k == "error_estimate" and v == SAMPLE else v) for k, v in table.items()})
     except ParameterError as err:
-        raise StudyError(f"[solver]: {err}") from None
+        raise StudyError(f"[solver]: {err} (or \"{SAMPLE}\" for error_estimate)" if "error_estimate" in str(err)
+                         else f"[solver]: {err}") from None
     return dict(table)
+
+
+#: [solver] error_estimate = "sample": the companion run of the error estimate (0.79x the
+#: integration, measured on benchmarks/scale_1000.toml) on about one case in SAMPLE_EVERY,
+#: chosen by a hash of the case's parameters (spread over the grid, the same in every study)
+SAMPLE = "sample"
+SAMPLE_EVERY = 10
+
+
+def _parameter_text(parameters: dict) -> str:
+    """'"name":value,...' in sorted order: the parameters part of a case id's JSON."""
+    return ",".join(f'"{n}":' + json.dumps(parameters[n]) for n in sorted(parameters))
+
+
+def _sampled(parameter_text: str) -> bool:
+    return int(hashlib.sha256(parameter_text.encode()).hexdigest()[:8], 16) % SAMPLE_EVERY == 0
+
+
+def _resolve_sample(values: dict) -> dict:
+    """values with error_estimate = "sample" replaced by whether this case is in the sample."""
+    if values.get("error_estimate") != SAMPLE:
+        return values
+    params = Parameters(**{k: v for k, v in values.items() if k in PARAMETER_INFO}).as_dict()
+    return {**values, "error_estimate": _sampled(_parameter_text(params))}
 
 
 def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
@@ -411,6 +445,9 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
             if key == "integrator":
                 if not isinstance(v, str):
                     raise StudyError(f"[grid] integrator values must be names, got {v!r}")
+            elif key == "error_estimate":
+                if not isinstance(v, bool):
+                    raise StudyError(f"[grid] error_estimate values must be true or false, got {v!r}")
             else:
                 _number(f"[grid] {key} value", v, integer=(key in ("Nmod", "subintervals", "max_steps")))
         if len(set(values)) != len(values):
@@ -513,13 +550,17 @@ def _grid_case_ids(study: Study) -> list:
     positions = {k: keys.index(k) for k in keys}
     ids = []
     sha = hashlib.sha256
+    sample = study.solver.get("error_estimate") == SAMPLE
     for idx in itertools.product(*(range(len(v)) for v in study.grid.values())):
-        skey = tuple(idx[positions[k]] for k in skeys)
+        ptext = ",".join(f'"{n}":' + (consts[n] if n in consts else frag[n][idx[positions[n]]]) for n in names)
+        skey = tuple(idx[positions[k]] for k in skeys) + ((_sampled(ptext),) if sample else ())
         stext = settings_cache.get(skey)
         if stext is None:
-            s = Settings(**{**study.solver, **{k: study.grid[k][j] for k, j in zip(skeys, skey)}})
+            values = {**study.solver, **{k: study.grid[k][j] for k, j in zip(skeys, skey)}}
+            if sample:
+                values["error_estimate"] = skey[-1]
+            s = Settings(**values)
             stext = settings_cache[skey] = json.dumps(_used_settings(s), sort_keys=True, separators=(",", ":"))
-        ptext = ",".join(f'"{n}":' + (consts[n] if n in consts else frag[n][idx[positions[n]]]) for n in names)
         text = head + '"parameters":{' + ptext + "}" + settings_split[0] + '"settings":' + stext + settings_split[1]
         ids.append(sha(text.encode()).hexdigest()[:16])
     return ids
@@ -529,7 +570,8 @@ def _check_grid_values(study: Study) -> None:
     """Each grid value, validated once against the base and solver tables (every check on a
     parameter or setting involves that key alone, so this covers every case)."""
     params = {k: v for k, v in {**study.base, **study.solver}.items() if k in PARAMETER_INFO}
-    settings = {k: v for k, v in {**study.base, **study.solver}.items() if k in SETTING_INFO}
+    settings = {k: (True if k == "error_estimate" and v == SAMPLE else v)
+                for k, v in {**study.base, **study.solver}.items() if k in SETTING_INFO}
     for key, values in study.grid.items():
         for v in values:
             try:
@@ -583,7 +625,12 @@ def expand(study: Study) -> None:
         for i, overrides in enumerate(study.case_list):
             overrides = {k: v for k, v in overrides.items() if k not in ("reference", "group")}
             label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "base"
-            listed.append(_make_case((i,), {**study.base, **study.solver, **overrides}, study.output, label))
+            values = {**study.base, **study.solver, **overrides}
+            try:
+                values = _resolve_sample(values)
+            except ParameterError as err:
+                raise StudyError(f"case {label}: {err}") from None
+            listed.append(_make_case((i,), values, study.output, label))
         study._listed = listed
     if study.n_cases == 0:
         raise StudyError("the study has no cases")

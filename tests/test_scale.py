@@ -287,3 +287,46 @@ def _kill_and_resume(study_file, finished, out, delay):
 @pytest.mark.parametrize("trial", range(3))
 def test_killed_runner_on_a_batched_study_loses_nothing(study_file, finished, tmp_path, trial):
     _kill_and_resume(study_file, finished, tmp_path / f"kill{trial}", random.Random(trial).uniform(3.0, 8.0))
+
+
+def test_error_estimate_sample_runs_the_companion_on_about_one_case_in_ten(tmp_path):
+    """[solver] error_estimate = "sample": a hash of each case's parameters picks about 1 in
+    10 (spread over the grid, not a fixed grid row), and the fast ids agree with the cases."""
+    text = STUDY.replace("V = [3.0, 4.0, 5.0, 6.0]", "V = " + str([1.0 + 0.1 * i for i in range(50)])) \
+                .replace("[output]", "[solver]\nerror_estimate = \"sample\"\n[output]")
+    path = tmp_path / "sample.toml"
+    path.write_text(text)
+    study = load_study(path)
+    cases = [study.case(i) for i in range(study.n_cases)]
+    assert [c.case_id for c in cases] == study.case_ids
+    sampled = np.array([c.settings.error_estimate for c in cases]).reshape(study.shape)
+    assert 0.06 < sampled.mean() < 0.14, sampled.mean()
+    assert sampled.any(axis=0).all() and sampled.any(axis=(1, 2)).sum() > 10   # spread over keys
+
+
+def test_a_grid_over_solver_settings_runs_and_plots(tmp_path):
+    """[grid] error_estimate = [true, false] is a dimension (error_estimate_on: the name
+    error_estimate is the result's), and a setting as first key draws the diagnostics."""
+    text = """
+[base]
+Nmod = 6
+[grid]
+error_estimate = [true, false]
+tolerance = [1e-6, 1e-8]
+V = [3.0, 5.0]
+[output]
+times = { unit = "t_sc", step = 0.25, stop = 0.5 }
+end = "last_output"
+fields = ["strain"]
+x_points = 11
+"""
+    path = tmp_path / "settings.toml"
+    path.write_text(text)
+    out = tmp_path / "settings"
+    code, _, err = pipeline("run", path, "--out", out, "--workers", "1")
+    assert code == 0, err
+    assert (out / "diagnostics.png").stat().st_size > 10_000 and "Traceback" not in err
+    with xr.open_dataset(out / "study.nc") as ds:
+        assert ds["error_estimate"].dims == ("error_estimate_on", "tolerance", "V")
+        assert np.isfinite(ds["error_estimate"].sel(error_estimate_on=1)).all()
+        assert np.isnan(ds["error_estimate"].sel(error_estimate_on=0)).all()
