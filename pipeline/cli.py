@@ -30,6 +30,22 @@ class _IOProblem(Exception):
     """Reading or writing results failed (permissions, full disk): exit 74."""
 
 
+def _free_space(path: Path) -> str:
+    """The free space of the filesystem that holds path (or its nearest existing parent)."""
+    path = Path(path).absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        return f"{shutil.disk_usage(path).free // 2**20} MiB free on its filesystem"
+    except OSError:
+        return "free space unknown"
+
+
+def _write_failed(what: Path, err: BaseException) -> "_IOProblem":
+    detail = getattr(err, "strerror", None) or str(err) or type(err).__name__
+    return _IOProblem(f"cannot write {what} ({_free_space(Path(what).parent)}): {detail}; finished cases are kept")
+
+
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_IO, EXIT_LOCKED, EXIT_INTERRUPTED = 0, 1, 2, 74, 75, 130
 
 
@@ -53,6 +69,8 @@ def _parser():
     run.add_argument("--rerun-failed", action="store_true", help="recompute cases that failed before")
     run.add_argument("--yes", action="store_true", help=f"run studies of more than {LARGE_STUDY} cases")
     run.add_argument("--no-plots", action="store_true", help="skip the figures")
+    run.add_argument("--force", action="store_true",
+                     help="use --out even if it is a non-empty directory that holds no floe-impact results")
     run.add_argument("--batch-seconds", type=float, default=1.0,
                      help="solver time per batch of cases, one file each (default 1 s)")
     status = sub.add_parser("status", help="what a study has done")
@@ -168,6 +186,7 @@ def command_run(args) -> int:
     if args.dry_run:
         print_table(study, ledger_states(study, out_dir))
         return EXIT_OK
+    _refuse_foreign_directory(out_dir, args.force)
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         lock = StudyLock(out_dir)
@@ -178,6 +197,26 @@ def command_run(args) -> int:
         return _run_locked(args, study, out_dir)
     finally:
         lock.__exit__()
+
+
+#: what makes a directory a floe-impact results directory
+RESULTS_MARKERS = {"ledger.jsonl", "batches", ".lock"}
+
+
+def _refuse_foreign_directory(out_dir: Path, force: bool) -> None:
+    """--out must be new, empty, or a results directory: the runner writes study.nc, figures
+    and a lock there, and would overwrite files of the same names."""
+    if force or not out_dir.exists():
+        return
+    if not out_dir.is_dir():
+        raise _IOProblem(f"cannot use the results directory {out_dir}: it is not a directory")
+    try:
+        entries = {p.name for p in out_dir.iterdir()}
+    except OSError as err:
+        raise _IOProblem(f"cannot use the results directory {out_dir}: {err.strerror or err}") from None
+    if entries and not entries & RESULTS_MARKERS:
+        raise StudyError(f"--out {out_dir} is a non-empty directory that holds no floe-impact results "
+                         f"({len(entries)} entries); give a new or empty directory, or add --force")
 
 
 def _todo(study, states: dict, rerun_failed: bool) -> tuple:
@@ -278,7 +317,10 @@ def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed
     from .combine import write_study
     mapper = session.mapper() if session.is_open or n_files > 50 else None
     started = time.monotonic()
-    written, damaged = write_study(study, out_dir, index, states, mapper, fingerprint, writer)
+    try:
+        written, damaged = write_study(study, out_dir, index, states, mapper, fingerprint, writer)
+    except (OSError, RuntimeError) as err:          # netCDF reports a full disk as "HDF error"
+        raise _write_failed(path, err) from None
     if damaged:
         for name in damaged:
             victim = out_dir / "batches" / name
@@ -308,8 +350,11 @@ def _plots(args, study, out_dir: Path, fresh: bool) -> None:
     if not record or record.get("sha256") != file_sha256(path):
         print(f"note: {path} does not match its checksum; run again to rebuild it", file=sys.stderr)
         return
-    with xr.open_dataset(path) as ds:
-        written, notes = make_plots(ds, study.dims, study.plots, out_dir)
+    try:
+        with xr.open_dataset(path) as ds:
+            written, notes = make_plots(ds, study.dims, study.plots, out_dir)
+    except OSError as err:
+        raise _write_failed(Path(err.filename) if getattr(err, "filename", None) else out_dir / "figures", err) from None
     for p in written:
         print(f"wrote {p}", file=sys.stderr)
     for note in notes:
@@ -368,8 +413,9 @@ def main(argv=None) -> int:
         if isinstance(err, CaseWriteError):
             print(f"error: {err}; finished cases are kept", file=sys.stderr)
         elif err.errno == errno.ENOSPC or "HDF error" in str(err):
-            print(f"error: writing results failed (disk full? {shutil.disk_usage('.').free // 2**20} MiB free): "
-                  f"{err}; finished cases are kept", file=sys.stderr)
+            where = Path(getattr(err, "filename", None) or ".")
+            print(f"error: writing results failed ({_free_space(where)}): {err}; finished cases are kept",
+                  file=sys.stderr)
         else:
             print(f"error: {err.strerror or err} ({getattr(err, 'filename', '') or ''}); finished cases "
                   f"are kept", file=sys.stderr)

@@ -27,18 +27,33 @@ SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_N
 
 
 def probe_scheduler(address: str, timeout: float = 5.0) -> None:
-    """A plain TCP connection to the scheduler, so a wrong address fails in seconds."""
+    """A plain TCP connection to the scheduler, so a wrong address fails in seconds: the port
+    must accept, and the server must speak first, as a dask scheduler does (its handshake);
+    an HTTP server, say, waits for a request and is refused after ``timeout``."""
     import socket
     from urllib.parse import urlparse
 
     from .errors import StudyError
-    parsed = urlparse(address if "://" in address else f"tcp://{address}")
-    if parsed.scheme not in ("tcp", "tls") or not parsed.hostname or not parsed.port:
+    try:
+        parsed = urlparse(address if "://" in address else f"tcp://{address}")
+        host, port = parsed.hostname, parsed.port
+    except ValueError as err:
+        raise StudyError(f"scheduler address {address!r} is not of the form tcp://host:port ({err})") from None
+    if parsed.scheme not in ("tcp", "tls") or not host or not port:
         raise StudyError(f"scheduler address {address!r} is not of the form tcp://host:port")
     try:
-        socket.create_connection((parsed.hostname, parsed.port), timeout=timeout).close()
+        with socket.create_connection((host, port), timeout=timeout) as sock:
+            if parsed.scheme == "tls":                  # TLS: the client speaks first
+                return
+            sock.settimeout(timeout)
+            first = sock.recv(16)
+    except socket.timeout:
+        raise StudyError(f"{address!r} accepts connections but does not answer like a dask scheduler "
+                         f"within {timeout:g} s") from None
     except OSError as err:
         raise StudyError(f"cannot reach the dask scheduler at {address!r}: {err.strerror or err}") from None
+    if not first:
+        raise StudyError(f"{address!r} closed the connection: not a dask scheduler")
 
 
 @contextmanager
@@ -60,11 +75,15 @@ def cluster_client(workers: int, scheduler: str | None):
     environ.update(SINGLE_THREAD_ENV)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
                           "distributed.scheduler.allowed-failures": 3}):
-        # workers are spawned with SIGINT ignored (kept across exec): on Ctrl-C only the runner
-        # reacts, abandons the in-flight cases and shuts the cluster down
+        # workers are spawned with SIGINT ignored and blocked (both kept across exec): on Ctrl-C
+        # only the runner reacts, abandons the in-flight cases and shuts the cluster down. In
+        # the runner a Ctrl-C during the start stays pending (Linux keeps a blocked signal even
+        # while it is ignored) and is raised as soon as the cluster is up: it is never lost.
         previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        cluster = None
         try:
-            # CRITICAL: a case's failure reaches the runner as its record (run_case catches
+            # CRITICAL: a case's failure reaches the runner as its record (run_batch catches
             # everything); what dask logs at ERROR is its own shutdown races (a worker's heartbeat
             # to a scheduler already gone when a full disk stops the study), a traceback the
             # user cannot act on
@@ -72,6 +91,12 @@ def cluster_client(workers: int, scheduler: str | None):
                                    dashboard_address=None, silence_logs=logging.CRITICAL)
         finally:
             signal.signal(signal.SIGINT, previous)
+            try:
+                signal.pthread_sigmask(signal.SIG_SETMASK, mask)     # a pending Ctrl-C is raised here
+            except KeyboardInterrupt:
+                if cluster is not None:
+                    cluster.close()
+                raise
         client = Client(cluster)
         try:
             yield client

@@ -241,12 +241,15 @@ def sidecar(out_dir: Path) -> dict | None:
 
 def is_up_to_date(out_dir: Path, fingerprint: str) -> bool:
     """True if study.nc was built from exactly these inputs and has not been touched since:
-    the sidecar written with it records the fingerprint and study.nc's size and mtime (no
-    netCDF file is opened)."""
+    the sidecar written with it records the fingerprint and study.nc's size, mtime and
+    SHA-256 (no netCDF file is opened)."""
     record = sidecar(out_dir)
     try:
         st = (Path(out_dir) / "study.nc").stat()
     except OSError:
         return False
-    return bool(record) and record.get("fingerprint") == fingerprint and record.get("size") == st.st_size \
-        and record.get("mtime_ns") == st.st_mtime_ns
+    if not (record and record.get("fingerprint") == fingerprint and record.get("size") == st.st_size
+            and record.get("mtime_ns") == st.st_mtime_ns):
+        return False
+    from .casefile import file_sha256                 # a flipped bit with its time kept, too
+    return record.get("sha256") == file_sha256(Path(out_dir) / "study.nc")

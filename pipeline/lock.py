@@ -22,7 +22,8 @@ class StudyLock:
         self.fd = None
 
     def __enter__(self):
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        # O_NOFOLLOW: a planted symlink is refused (ELOOP), its target never truncated
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
@@ -46,9 +47,9 @@ class StudyLock:
 def refuse_if_locked(out_dir: Path) -> None:
     """Fail fast, before anything heavy is imported, if a runner holds an existing lock."""
     path = Path(out_dir) / ".lock"
-    if not path.exists():
+    if not path.exists() or path.is_symlink():
         return
-    fd = os.open(path, os.O_RDONLY)
+    fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
     try:
         fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
         fcntl.flock(fd, fcntl.LOCK_UN)

@@ -28,6 +28,37 @@ DIAGNOSTICS = [
 ]
 
 
+def _temporary(path: Path) -> Path:
+    import os
+    return path.with_name(f".{path.name}.tmp-{os.getpid()}-{os.urandom(4).hex()}")
+
+
+def _save(fig, path, dpi) -> None:
+    """savefig to a temporary file, then os.replace: a symlink at path is replaced, its target
+    never written; an interrupted write leaves the old figure."""
+    path = Path(path)
+    tmp = _temporary(path)
+    try:
+        fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip("."))
+        import os
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _save_text(path, text: str) -> None:
+    import os
+    path = Path(path)
+    tmp = _temporary(path)
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        with os.fdopen(fd, "w") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def _label(key, value):
     if isinstance(value, str):
         return f"{key} = {value}"
@@ -70,7 +101,7 @@ def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     if len(combos) > len(rows):
         title += f"\n(first {len(rows)} of {len(combos)} combinations of {', '.join(others)})"
     fig.suptitle(title, fontsize=11)
-    fig.savefig(path, dpi=120)
+    _save(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -149,7 +180,7 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
     if rest:
         title += "; at " + ", ".join(_label(k, v) for k, v in rest.items())
     fig.suptitle(title, fontsize=11)
-    fig.savefig(path, dpi=110)
+    _save(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -203,7 +234,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         title += ("\nopen markers: the case did not end ok (see status), e.g. the layer bottomed out: "
                   "values cover the run up to then")
     fig.suptitle(title, fontsize=11)
-    fig.savefig(path, dpi=120)
+    _save(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -244,7 +275,7 @@ def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4
         ax.grid(alpha=0.3)
     fig.suptitle("Impact of a parabolic body on floating ice: " + ", ".join(
         f"{k} = {param(k):g}" for k in ("K", "he", "R", "V", "hi", "Nmod")), fontsize=11)
-    fig.savefig(path, dpi=120)
+    _save(fig, path, dpi=120)
     plt.close(fig)
     return path
 
@@ -327,7 +358,7 @@ def work_precision_figure(ds: xr.Dataset, path: Path) -> Path:
         ax.grid(alpha=0.3, which="both")
     fig.suptitle("Error against run time: errors are relative to each case's reference run "
                  "(same physics, tighter numerics or more modes); times are single runs", fontsize=11)
-    fig.savefig(path, dpi=110)
+    _save(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -356,7 +387,7 @@ def work_precision_table(ds: xr.Dataset, path: Path) -> Path:
             else:
                 cells += ["none reached it", "-"]
             lines.append(f"| {label} | {target:.0e} | " + " | ".join(cells) + " |")
-    path.write_text("\n".join(lines) + "\n")
+    _save_text(path, "\n".join(lines) + "\n")
     return path
 
 
@@ -401,5 +432,5 @@ def extremes_table(ds: xr.Dataset, path: Path) -> Path:
         else:
             cells.append("-")
         lines.append("| " + " | ".join(cells) + " |")
-    path.write_text("\n".join(lines) + "\n")
+    _save_text(path, "\n".join(lines) + "\n")
     return path

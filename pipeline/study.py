@@ -302,6 +302,7 @@ def _check_output(out) -> dict:
         c = _number("[output] times.count", spec["count"], integer=True)
         if not 2 <= c <= 100_000:
             raise StudyError(f"[output] times.count must be between 2 and 100000, got {c!r}")
+        result["times"] = spec = {**spec, "count": int(c)}
     fields = result["fields"]
     if not isinstance(fields, list) or not all(isinstance(f, str) for f in fields):
         raise StudyError("[output] fields must be a list of names")

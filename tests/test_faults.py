@@ -142,3 +142,32 @@ def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undistur
     assert code == 0, err
     assert "already done" in err
     _assert_same_results(out, undisturbed)
+
+
+def _ctrl_c_at(study_file, undisturbed, out, delay):
+    """Ctrl-C (SIGINT to the process group) ``delay`` s after the start: from Python's imports
+    through the workers' start-up to the combine. Always exit 130, the one-line hint as the
+    last line, no traceback; then the same command finishes with the undisturbed results."""
+    proc = _start(study_file, out)
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    if proc.returncode == 0:                              # finished before the signal
+        return
+    assert proc.returncode == 130, (delay, stderr)
+    assert "Traceback" not in stderr and "Error" not in stderr, (delay, stderr)
+    assert stderr.strip().splitlines()[-1].startswith("interrupted:"), (delay, stderr)
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 0, err
+    _assert_same_results(out, undisturbed)
+
+
+@pytest.mark.parametrize("trial", range(5))
+def test_ctrl_c_at_random_moments_including_start_up(study_file, undisturbed, tmp_path, trial):
+    _ctrl_c_at(study_file, undisturbed, tmp_path / f"int{trial}", random.Random(7 + trial).uniform(0.05, 4.0))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", range(20))
+def test_ctrl_c_at_random_moments_many(study_file, undisturbed, tmp_path, trial):
+    _ctrl_c_at(study_file, undisturbed, tmp_path / f"int{trial}", random.Random(70 + trial).uniform(0.05, 6.0))

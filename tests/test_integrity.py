@@ -1,0 +1,201 @@
+"""Integrity under hostile files, signals and paths (issue 10): bit flips in every stored file,
+planted symlinks, --out on someone else's directory, a full disk at study.nc and at the
+figures, scheduler addresses that are not dask, inputs that used to crash."""
+import errno
+import os
+import random
+import shutil
+import socket
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from pipeline.ledger import LEDGER
+from test_pipeline import ROOT, batch_files, pipeline
+
+STUDY = """
+description = "integrity tests"
+[base]
+Nmod = 6
+[grid]
+V = [3.0, 5.0]
+hi = [0.3, 0.5]
+[output]
+times = { unit = "t_sc", step = 0.25, stop = 0.5 }
+fields = ["strain"]
+x_points = 11
+end = "last_output"
+"""
+
+
+@pytest.fixture(scope="module")
+def study_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("integrity") / "integrity.toml"
+    path.write_text(STUDY)
+    return path
+
+
+@pytest.fixture(scope="module")
+def finished(study_file, tmp_path_factory):
+    out = tmp_path_factory.mktemp("integrity") / "finished"
+    code, _, err = pipeline("run", study_file, "--out", out)
+    assert code == 0, err
+    return out
+
+
+def _same(out, reference):
+    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
+        assert (ds["status"].values == ref["status"].values).all()
+        for name in ("strain", "max_strain", "crack_onset_time", "tension_record_value"):
+            np.testing.assert_array_equal(ds[name].values, ref[name].values, err_msg=name)
+
+
+def _flip(path: Path, rng, keep_time: bool) -> None:
+    st = path.stat()
+    data = bytearray(path.read_bytes())
+    i = rng.randrange(len(data))
+    data[i] ^= 1 << rng.randrange(8)
+    path.write_bytes(bytes(data))
+    if keep_time:
+        os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
+
+
+@pytest.mark.parametrize("trial", range(6))
+def test_a_flipped_bit_anywhere_hangs_nothing_and_changes_no_result(study_file, finished, tmp_path, trial):
+    """One random bit flipped in a batch file, the ledger or study.nc, with or without its time
+    kept: status and run end within their time bound, and the study comes out the same."""
+    rng = random.Random(trial)
+    out = tmp_path / f"flip{trial}"
+    shutil.copytree(finished, out)
+    targets = [*batch_files(out), out / LEDGER, out / "study.nc"]
+    victim = targets[trial % len(targets)] if trial < len(targets) else rng.choice(targets)
+    _flip(victim, rng, keep_time=trial % 2 == 0)
+    for args in (("status", study_file, "--out", out), ("run", study_file, "--out", out, "--no-plots")):
+        proc = subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], cwd=ROOT,
+                              capture_output=True, text=True, timeout=120)
+        assert proc.returncode == 0, (victim.name, proc.stderr)
+        assert "Traceback" not in proc.stderr
+    _same(out, finished)
+
+
+def test_planted_symlinks_are_never_followed(study_file, finished, tmp_path):
+    out = tmp_path / "links"
+    shutil.copytree(finished, out)
+    victims = {name: tmp_path / f"precious_{name.strip('.')}" for name in
+               ("study.nc", "diagnostics.png", ".study.nc.tmp-1-1", "crack_onset.png")}
+    for name, target in victims.items():
+        target.write_text("precious")
+        (out / name).unlink(missing_ok=True)
+        (out / name).symlink_to(target)
+    os.utime(out / LEDGER)                       # inputs changed: study.nc and the figures are rebuilt
+    (out / ".study.nc.inputs").unlink()
+    code, _, err = pipeline("run", study_file, "--out", out)
+    assert code == 0, err
+    assert all(t.read_text() == "precious" for t in victims.values())
+    assert not (out / "study.nc").is_symlink() and not (out / "diagnostics.png").is_symlink()
+    # a .lock symlink is refused with one line; its target is not truncated
+    lock_target = tmp_path / "precious_lock"
+    lock_target.write_text("precious")
+    (out / ".lock").unlink()
+    (out / ".lock").symlink_to(lock_target)
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 74 and err.count("\n") == 1 and "symbolic link" in err, err
+    assert lock_target.read_text() == "precious"
+
+
+def test_out_on_a_foreign_directory_is_refused(study_file, tmp_path):
+    mine = tmp_path / "my_documents"
+    mine.mkdir()
+    (mine / "study.nc").write_text("my own file")
+    (mine / ".study.nc.tmp-1-1").write_text("mine too")
+    before = sorted(p.name for p in mine.iterdir())
+    code, _, err = pipeline("run", study_file, "--out", mine)
+    assert code == 2 and err.count("\n") == 1 and "--force" in err, err
+    assert sorted(p.name for p in mine.iterdir()) == before and (mine / "study.nc").read_text() == "my own file"
+    code, _, err = pipeline("run", study_file, "--out", "/")
+    assert code == 2 and "non-empty" in err and not Path("/study.nc").exists()
+
+
+def _limit(size):
+    def apply():
+        import resource
+        import signal
+        signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+        resource.setrlimit(resource.RLIMIT_FSIZE, (size, size))
+    return apply
+
+
+def test_disk_full_at_study_nc_is_exit_74_and_one_line(study_file, finished, tmp_path):
+    """Batch files (~25 kB) fit, study.nc does not: exit 74, one line naming study.nc and the
+    free space of the results directory's filesystem; the batch files are all kept."""
+    out = tmp_path / "full"
+    size = max(p.stat().st_size for p in batch_files(finished)) + 2000
+    assert (finished / "study.nc").stat().st_size > size
+    proc = subprocess.run([sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out), "--no-plots"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300, preexec_fn=_limit(size))
+    assert proc.returncode == 74, proc.stderr
+    assert "Traceback" not in proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"error: cannot write {out / 'study.nc'}") and "MiB free" in last, last
+    assert not list(out.glob(".study.nc.tmp-*"))
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 0 and "0 to run" in err
+
+
+def test_disk_full_at_the_figures_is_exit_74_and_one_line(study_file, finished, tmp_path, monkeypatch, capsys):
+    out = tmp_path / "full_figures"
+    shutil.copytree(finished, out)
+    (out / "diagnostics.png").unlink()
+    import matplotlib.figure
+
+    def full(self, fname, *a, **k):
+        raise OSError(errno.ENOSPC, "No space left on device", str(fname))
+    monkeypatch.setattr(matplotlib.figure.Figure, "savefig", full)
+    from pipeline.cli import main
+    code = main(["run", str(study_file), "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 74, err
+    last = err.strip().splitlines()[-1]
+    assert last.startswith("error: cannot write") and str(out) in last and "MiB free" in last, last
+    assert not list(out.glob(".*.png.tmp-*"))
+
+
+def test_scheduler_addresses_that_are_not_dask_fail_fast(study_file, tmp_path):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    http = subprocess.Popen([sys.executable, "-m", "http.server", str(port), "--bind", "127.0.0.1"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        for _ in range(50):
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1).close()
+                break
+            except OSError:
+                time.sleep(0.1)
+        started = time.monotonic()
+        code, _, err = pipeline("run", study_file, "--out", tmp_path / "o", "--scheduler", f"tcp://127.0.0.1:{port}")
+        assert code == 2 and err.count("\n") == 1 and "dask scheduler" in err, err
+        assert time.monotonic() - started < 30 and not (tmp_path / "o").exists()
+    finally:
+        http.kill()
+        http.wait()
+    code, _, err = pipeline("run", study_file, "--out", tmp_path / "o", "--scheduler", "tcp://127.0.0.1:99999")
+    assert code == 2 and err.count("\n") == 1 and "tcp://host:port" in err, err
+
+
+def test_inputs_that_used_to_crash(tmp_path):
+    study = tmp_path / "count.toml"
+    study.write_text(STUDY.replace('times = { unit = "t_sc", step = 0.25, stop = 0.5 }',
+                                   'times = { unit = "stage", count = 3.0 }').replace('end = "last_output"', ""))
+    code, _, err = pipeline("run", study, "--out", tmp_path / "count", "--dry-run")
+    assert code == 0, err
+    latin = tmp_path / "latin.toml"
+    latin.write_bytes(STUDY.replace("integrity tests", "d\xe9j\xe0 vu").encode("latin-1"))
+    code, _, err = pipeline("run", latin, "--out", tmp_path / "latin")
+    assert code == 2 and err.count("\n") == 1 and "UTF-8" in err and not (tmp_path / "latin").exists()
