@@ -21,8 +21,15 @@ setup: $(VENV)/.installed  ## create .venv and install the package with its test
 
 study: setup  ## run a study: make study STUDY=speed_sweep [ARGS="--workers 1"]
 	@$(PY) -m pipeline run studies/$(STUDY).toml $(ARGS); status=$$?; \
-	if [ $$status -eq 1 ]; then echo "make study: some cases failed numerically (listed above); all results are written to results/$(STUDY)/"; fi; \
-	exit $$status
+	case $$status in \
+	  0) ;; \
+	  1) echo "make study: runner exit 1: some cases failed numerically (listed above); all results are in results/$(STUDY)/";; \
+	  2) echo "make study: runner exit 2: bad input (above)";; \
+	  74) echo "make study: runner exit 74: I/O error (above); finished cases are kept";; \
+	  75) echo "make study: runner exit 75: another runner holds the study";; \
+	  130) echo "make study: runner exit 130: interrupted; finished cases are kept";; \
+	  *) echo "make study: runner exit $$status";; \
+	esac; exit $$status
 
 status: setup  ## what a study has done: make status STUDY=speed_sweep
 	$(PY) -m pipeline status $(STUDY)

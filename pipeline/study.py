@@ -42,7 +42,8 @@ from .errors import StudyError
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
 SCHEMA_VERSION = 7
 
-SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference"}
+SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference",
+            "accept_extreme_values"}
 #: keys a [reference] may override: the same physical case, computed more accurately
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
 OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
@@ -486,6 +487,11 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
     study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference)
+    extreme = data.get("accept_extreme_values", False)
+    if not isinstance(extreme, bool):
+        raise StudyError(f"{path}: accept_extreme_values must be true or false")
+    if not extreme:
+        _check_ranges(study)
     expand(study)
     return study
 
@@ -565,6 +571,33 @@ def _grid_case_ids(study: Study) -> list:
         text = head + '"parameters":{' + ptext + "}" + settings_split[0] + '"settings":' + stext + settings_split[1]
         ids.append(sha(text.encode()).hexdigest()[:16])
     return ids
+
+
+def _check_ranges(study: Study) -> None:
+    """Every parameter value within solver.parameters.PHYSICAL_RANGES (each grid value once;
+    hi <= L at the grid's extremes; each [[cases]] entry), before anything is computed from
+    them."""
+    from solver.parameters import outside_physical_range
+    defaults = Parameters().as_dict()
+    base = {**defaults, **study.base}
+    tables = [("[base]", study.base)]
+    for key, values in study.grid.items():
+        if key in PARAMETER_INFO:
+            tables += [(f"[grid] {key}", {key: v}) for v in values if isinstance(v, (int, float))]
+    if study.grid:
+        extremes = {k: (max(study.grid[k]) if k == "hi" else min(study.grid[k])) if k in study.grid else base[k]
+                    for k in ("hi", "L")}
+        tables.append(("[grid]", extremes))
+    for i, entry in enumerate(study.case_list):
+        tables.append((f"[[cases]] #{i + 1}", {**base, **{k: v for k, v in entry.items() if k in PARAMETER_INFO}}))
+    for where, table in tables:
+        # what is not a finite positive number is expand()'s to refuse, with its own message
+        valid = {k: v for k, v in table.items() if k in PARAMETER_INFO and isinstance(v, (int, float))
+                 and not isinstance(v, bool) and math.isfinite(v) and (v > 0 or k == "nu")}
+        reason = outside_physical_range(valid)
+        if reason:
+            raise StudyError(f"{where}: {reason}; add accept_extreme_values = true at the top of the study "
+                             f"file to run it anyway")
 
 
 def _check_grid_values(study: Study) -> None:

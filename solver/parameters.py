@@ -38,6 +38,30 @@ PARAMETER_INFO = {
     "g": ("gravitational acceleration", "m s-2"),
 }
 
+#: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
+#: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
+#: outside (one line naming the range) unless it says ``accept_extreme_values = true``; the
+#: solver itself takes any finite positive value. Besides: hi <= L (a plate, not a block).
+PHYSICAL_RANGES = {
+    "K": (1e3, 1e12), "he": (1e-5, 1.0), "R": (1e-2, 1e4), "V": (1e-3, 1e3), "hi": (1e-3, 100.0),
+    "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
+    "rho_w": (10.0, 1e5), "g": (1e-3, 1e3),
+}
+
+
+def outside_physical_range(values: dict) -> str | None:
+    """A one-line reason if a parameter lies outside PHYSICAL_RANGES (or hi > L), else None."""
+    for key, value in values.items():
+        lo, hi = PHYSICAL_RANGES.get(key, (None, None))
+        if lo is not None and not lo <= float(value) <= hi:
+            unit = PARAMETER_INFO[key][1]
+            return (f"{key} = {value!r} lies outside the range the model is meant for, {lo:g}..{hi:g} "
+                    f"{unit}".rstrip())
+    if "hi" in values and "L" in values and values["hi"] > values["L"]:
+        return f"hi = {values['hi']!r} m is thicker than the plate's half-length L = {values['L']!r} m"
+    return None
+
+
 #: key -> (long_name, units) for every solver setting.
 SETTING_INFO = {
     "integrator": ("time integrator (etd34: adaptive exponential; rk4: the paper's fixed-step RK4; "

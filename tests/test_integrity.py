@@ -199,3 +199,33 @@ def test_inputs_that_used_to_crash(tmp_path):
     latin.write_bytes(STUDY.replace("integrity tests", "d\xe9j\xe0 vu").encode("latin-1"))
     code, _, err = pipeline("run", latin, "--out", tmp_path / "latin")
     assert code == 2 and err.count("\n") == 1 and "UTF-8" in err and not (tmp_path / "latin").exists()
+
+
+@pytest.mark.parametrize("change, words", [
+    ("[base]\nL = 1e308", "L = 1e+308 lies outside"),
+    ("[base]\nhi = 1e308", "hi = 1e+308 lies outside"),
+    ("[base]\nK = 1e300", "K = 1e+300 lies outside"),
+    ("[base]\nhi = 1e-300", "hi = 1e-300 lies outside"),
+    ("[base]\nrho_w = 1e308", "rho_w = 1e+308 lies outside"),
+    ("[base]\nL = 2.0\nhi = 3.0", "thicker than the plate"),
+])
+def test_values_far_outside_the_physical_ranges_are_refused(tmp_path, change, words):
+    study = tmp_path / "extreme.toml"
+    text = STUDY.replace("[base]", change, 1)
+    if "hi =" in change:                               # hi leaves the grid for [base]
+        text = text.replace("hi = [0.3, 0.5]\n", "")
+    study.write_text(text)
+    started = time.monotonic()
+    code, _, err = pipeline("run", study, "--out", tmp_path / "x")
+    assert code == 2 and err.count("\n") == 1 and words in err and "accept_extreme_values" in err, err
+    assert time.monotonic() - started < 20 and not (tmp_path / "x").exists()
+
+
+def test_output_that_cannot_fit_is_refused_before_anything_is_written(tmp_path):
+    study = tmp_path / "huge_output.toml"
+    study.write_text(STUDY.replace('times = { unit = "t_sc", step = 0.25, stop = 0.5 }',
+                                   'times = { unit = "stage", count = 100000 }')
+                     .replace("x_points = 11", "x_points = 100001").replace('end = "last_output"', ""))
+    code, _, err = pipeline("run", study, "--out", tmp_path / "x")
+    assert code == 2 and err.count("\n") == 1 and "GiB of memory" in err, err
+    assert not (tmp_path / "x").exists()
