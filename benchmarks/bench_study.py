@@ -128,7 +128,7 @@ def main(argv=None):
         "",
         f"Parallel efficiency with 2 workers: {efficiency:.2f} (wall(1) / (2 wall(2))).",
         f"Runner overhead per case with 1 worker (wall - solver - cluster start, over {cases} cases; "
-        f"it includes writing the case file, imports and the combine): {overhead:.2f} s.",
+        f"it includes writing the batch files, imports and the combine): {overhead:.2f} s.",
         "",
         *scale,
     ]

@@ -234,26 +234,6 @@ def _temporary(path: Path) -> Path:
     return path.with_name(f".{path.name}.tmp-{os.getpid()}-{time.monotonic_ns()}")
 
 
-def write_atomic(ds, path: Path) -> None:
-    """Write ds to path so that path is either absent or complete (temp, fsync, replace, fsync dir)."""
-    import dask
-    path = Path(path)
-    tmp = _temporary(path)
-    try:
-        with dask.config.set(scheduler="synchronous"):     # numpy data: nothing to compute
-            ds.to_netcdf(tmp, engine="netcdf4")
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    _fsync_dir(path.parent)
-
-
 def file_sha256(path: Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:

@@ -207,6 +207,9 @@ RESULTS_MARKERS = {"ledger.jsonl", "batches", ".lock"}
 def _refuse_foreign_directory(out_dir: Path, force: bool) -> None:
     """--out must be new, empty, or a results directory: the runner writes study.nc, figures
     and a lock there, and would overwrite files of the same names."""
+    if out_dir.is_symlink() and not out_dir.exists():
+        raise _IOProblem(f"cannot use the results directory {out_dir}: it is a symbolic link to "
+                         f"{os.readlink(out_dir)}, which does not exist")
     if force or not out_dir.exists():
         return
     if not out_dir.is_dir():

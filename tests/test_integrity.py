@@ -11,12 +11,10 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import pytest
-import xarray as xr
 
 from pipeline.ledger import LEDGER
-from test_pipeline import ROOT, batch_files, pipeline
+from test_pipeline import ROOT, assert_same_study, batch_files, pipeline
 
 STUDY = """
 description = "integrity tests"
@@ -48,13 +46,6 @@ def finished(study_file, tmp_path_factory):
     return out
 
 
-def _same(out, reference):
-    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
-        assert (ds["status"].values == ref["status"].values).all()
-        for name in ("strain", "max_strain", "crack_onset_time", "tension_record_value"):
-            np.testing.assert_array_equal(ds[name].values, ref[name].values, err_msg=name)
-
-
 def _flip(path: Path, rng, keep_time: bool) -> None:
     st = path.stat()
     data = bytearray(path.read_bytes())
@@ -80,7 +71,7 @@ def test_a_flipped_bit_anywhere_hangs_nothing_and_changes_no_result(study_file, 
                               capture_output=True, text=True, timeout=120)
         assert proc.returncode == 0, (victim.name, proc.stderr)
         assert "Traceback" not in proc.stderr
-    _same(out, finished)
+    assert_same_study(out, finished)
 
 
 def test_planted_symlinks_are_never_followed(study_file, finished, tmp_path):

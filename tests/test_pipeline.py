@@ -26,6 +26,14 @@ def batch_files(out):
     return sorted((Path(out) / "batches").glob("*.nc"))
 
 
+def assert_same_study(out, reference):
+    """study.nc of two results directories holds the same statuses and numbers (exactly)."""
+    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
+        assert (ds["status"].values == ref["status"].values).all()
+        for name in ("strain", "max_strain", "crack_onset_time", "tension_record_value"):
+            np.testing.assert_array_equal(ds[name].values, ref[name].values, err_msg=name)
+
+
 def assert_matches(actual, desired, name):
     """Equal to 1e-6 of each value or of the variable's scale (its largest finite magnitude): two
     runs at tolerance 1e-11 whose step sequences differ by one accept/reject decision differ by

@@ -11,7 +11,6 @@ import subprocess
 import sys
 import time
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,7 +19,7 @@ import xarray as xr
 from pipeline.casefile import batch_dataset, case_arrays, read_batch, write_batch
 from pipeline.ledger import LEDGER, Ledger
 from pipeline.study import load_study
-from test_pipeline import ROOT, batch_files, pipeline
+from test_pipeline import ROOT, assert_same_study, batch_files, pipeline
 
 #: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.05
 STUDY = """
@@ -61,13 +60,6 @@ def finished(study_file, tmp_path_factory):
 
 def _cases_in_files(out) -> list:
     return [str(c) for p in batch_files(out) for c in read_batch(p)["case"].values]
-
-
-def _same_study(out, reference):
-    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
-        assert (ds["status"].values == ref["status"].values).all()
-        for name in ("strain", "max_strain", "crack_onset_time", "tension_record_value"):
-            np.testing.assert_array_equal(ds[name].values, ref[name].values, err_msg=name)
 
 
 def test_cases_share_batch_files_and_the_ledger_lists_them(finished):
@@ -137,7 +129,7 @@ def test_a_ledger_that_disagrees_with_the_files_is_repaired(study_file, finished
             assert path.stat().st_mtime_ns == stamp, f"{path.name} was rewritten"
     ledger = Ledger.load(out)
     assert ledger.bad_lines == 0 and len(ledger.index()) >= 24
-    _same_study(out, finished)
+    assert_same_study(out, finished)
     if damage == "damaged_same_size_and_time":
         assert "wrote" in err
     code, outp, _ = pipeline("status", study_file, "--out", out)
@@ -281,7 +273,7 @@ def _kill_and_resume(study_file, finished, out, delay):
     for path, (stamp, _) in complete.items():
         assert path.stat().st_mtime_ns == stamp
     assert len(_cases_in_files(out)) == 24, "a case was computed twice"
-    _same_study(out, finished)
+    assert_same_study(out, finished)
 
 
 @pytest.mark.parametrize("trial", range(3))
