@@ -106,7 +106,7 @@ def cluster_client(workers: int, scheduler: str | None):
 
 
 class Progress:
-    """One status line: done / failed / skipped counts and an ETA (a line per case off a tty)."""
+    """One status line: done / failed / skipped counts and an ETA (off a tty, a line every 2 s)."""
 
     def __init__(self, total: int, skipped: int, stream=sys.stderr):
         self.total, self.skipped, self.stream = total, skipped, stream
@@ -127,12 +127,15 @@ class Progress:
                 self.failed += 1
         todo = self.total - self.skipped
         elapsed = time.monotonic() - self.start
-        eta = elapsed / self.done * (todo - self.done)
+        # the first cases run one per batch (to measure them) and cost more than the rest:
+        # no ETA before 2% of the work or 5 cases
+        settled = self.done >= max(5, 0.02 * todo) or self.done == todo
+        eta = f"{elapsed / self.done * (todo - self.done):5.1f} s" if settled else "  -- "
         width = 30
         filled = int(width * (self.skipped + self.done) / max(self.total, 1))
         line = (f"[{'#' * filled}{'.' * (width - filled)}] {self.skipped + self.done}/{self.total} "
                 f"done ({self.early} ended early, {self.failed} failed, {self.skipped} skipped), "
-                f"elapsed {elapsed:5.1f} s, ETA {eta:5.1f} s")
+                f"elapsed {elapsed:5.1f} s, ETA {eta}")
         if self.tty:
             self.stream.write("\r" + line)
             if self.done == todo:
