@@ -257,6 +257,23 @@ def _refuse_what_cannot_fit(study, out_dir: Path) -> None:
                          f"{free / 2**30:.1f} GiB free under {base}; ask for fewer fields, times or x_points")
 
 
+def _identity(out_dir: Path) -> tuple:
+    st = os.stat(out_dir)
+    return st.st_dev, st.st_ino
+
+
+def _still_ours(out_dir: Path, identity: tuple) -> None:
+    """Stop if the results directory was removed (make clean) or replaced during the run: its
+    lock went with it, and another runner may now be using a new directory of that name."""
+    try:
+        same = _identity(out_dir) == identity
+    except FileNotFoundError:
+        same = False
+    if not same:
+        raise _IOProblem(f"the results directory {out_dir} was removed or replaced during the run; "
+                         f"stopping (run the same command again to start over)")
+
+
 def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     """The runs to compute as (items [case_id, position or -1], signatures)."""
     from .casefile import FAILED
@@ -296,6 +313,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
     from .session import Session
     from .combine import open_writer, stream_spec
     items_run = list(items)
+    identity = _identity(out_dir)
     with Session(args.workers, args.scheduler) as session:
         for attempt in range(3):
             writer = None
@@ -308,6 +326,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
                     def on_batch(entry, batch):
                         nonlocal writer
                         reduced = entry.pop("reduced", None)
+                        _still_ours(out_dir, identity)
                         ledger.append(entry)
                         for cid, status, _, _ in entry["cases"]:
                             states[cid] = status

@@ -60,6 +60,16 @@ def _flip(path: Path, rng, keep_time: bool) -> None:
 def test_a_flipped_bit_anywhere_hangs_nothing_and_changes_no_result(study_file, finished, tmp_path, trial):
     """One random bit flipped in a batch file, the ledger or study.nc, with or without its time
     kept: status and run end within their time bound, and the study comes out the same."""
+    _flip_and_check(study_file, finished, tmp_path, trial)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", range(6, 66))
+def test_sixty_more_random_bit_flips(study_file, finished, tmp_path, trial):
+    _flip_and_check(study_file, finished, tmp_path, trial)
+
+
+def _flip_and_check(study_file, finished, tmp_path, trial):
     rng = random.Random(trial)
     out = tmp_path / f"flip{trial}"
     shutil.copytree(finished, out)
@@ -220,3 +230,23 @@ def test_output_that_cannot_fit_is_refused_before_anything_is_written(tmp_path):
     code, _, err = pipeline("run", study, "--out", tmp_path / "x")
     assert code == 2 and err.count("\n") == 1 and "GiB of memory" in err, err
     assert not (tmp_path / "x").exists()
+
+
+def test_results_directory_removed_mid_run_stops_the_runner(tmp_path):
+    """make clean (rm -rf results) while a study runs: the runner stops with exit 74 and one
+    line, rather than append to a ledger a second runner may be using."""
+    study = tmp_path / "long.toml"
+    study.write_text(STUDY.replace("V = [3.0, 5.0]", "V = [2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5]")
+                     .replace("Nmod = 6", "Nmod = 30"))
+    out = tmp_path / "results" / "long"
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study), "--out", str(out), "--no-plots",
+                             "--batch-seconds", "0.01"], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
+    end = time.monotonic() + 120
+    while not list((out / "batches").glob("*.nc")) if (out / "batches").exists() else True:
+        assert time.monotonic() < end and proc.poll() is None, proc.communicate()
+        time.sleep(0.05)
+    shutil.rmtree(tmp_path / "results")
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 74, err
+    assert "Traceback" not in err and err.strip().splitlines()[-1].startswith("error: the results directory"), err
