@@ -230,7 +230,8 @@ def _fsync_dir(directory: Path) -> None:
         os.close(dfd)
 
 
-def _temporary(path: Path) -> Path:
+def temporary_path(path: Path) -> Path:
+    """A hidden temporary name beside path, unique to this process and moment."""
     return path.with_name(f".{path.name}.tmp-{os.getpid()}-{time.monotonic_ns()}")
 
 
@@ -246,7 +247,7 @@ def write_batch(ds: dict, batches_dir: Path) -> dict:
     """Write a batch (batch_dataset) atomically under the name of its checksum; returns its
     ledger fields."""
     batches_dir = Path(batches_dir)
-    tmp = _temporary(batches_dir / "batch.nc")
+    tmp = temporary_path(batches_dir / "batch.nc")
     try:
         write_netcdf(ds, tmp)
         fd = os.open(tmp, os.O_RDONLY)

@@ -93,13 +93,6 @@ def ledger_states(study, out_dir: Path, ledger=None) -> dict:
 TABLE_ROWS = 200
 
 
-def _row_keys(study) -> list:
-    from solver import PARAMETER_INFO, SETTING_INFO
-    if study.grid:
-        return list(study.grid)
-    return [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in study._listed}) > 1]
-
-
 def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
     if flat is not None and study.grid:
         import numpy as np
@@ -111,11 +104,9 @@ def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
 
 def print_table(study, states: dict, stream=sys.stdout, all_rows: bool = False) -> None:
     """The case table (case_id, the keys that vary, state, role) and a one-line summary."""
-    keys = _row_keys(study)
+    keys = study.varying_keys
     header = ["case_id", *keys, "state", "role"]
-    first = {}
-    for i, cid in enumerate(study.case_ids):
-        first.setdefault(cid, i)
+    first = study.first_position
     ids = study.run_ids if all_rows else study.run_ids[:TABLE_ROWS]
     rows = []
     for cid in ids:
@@ -153,7 +144,7 @@ def _fmt(value) -> str:
 def _label(study, cid: str) -> str:
     if cid not in study.case_id_set:
         return "reference run"
-    flat = study.case_ids.index(cid)
+    flat = study.first_position[cid]
     keys = list(study.grid) if study.grid else [k for k in study.case_list[flat] if k not in ("reference", "group")]
     return ", ".join(f"{k}={v}" for k, v in zip(keys, _row_values(study, cid, flat, keys))) or f"case {flat}"
 
@@ -277,9 +268,7 @@ def _still_ours(out_dir: Path, identity: tuple) -> None:
 def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     """The runs to compute as (items [case_id, position or -1], signatures)."""
     from .casefile import FAILED
-    first = {}
-    for i, cid in enumerate(study.case_ids):
-        first.setdefault(cid, i)
+    first = study.first_position
     items, signature = [], []
     for cid in study.run_ids:
         if states[cid] == "pending" or (rerun_failed and states[cid] in FAILED):

@@ -240,7 +240,7 @@ class StudyWriter:
             nc.createDimension("tension_node", None)
             nc.createDimension("contact_change", None)
         self._coords(t_coord, x_fraction)
-        varying = [] if study.grid else self._varying
+        varying = [] if study.grid else study.varying_keys
         for name, tail, kind, attrs in self.variables:
             dims = self.dims + tail
             if kind == "f":
@@ -258,11 +258,6 @@ class StudyWriter:
         self.n_nodes = self.n_changes = 0
         self.seen = np.zeros(study.n_cases, dtype=bool)
         self.buffer, self.buffered = [], 0
-
-    @property
-    def _varying(self) -> list:
-        cases = [self.study.case(i) for i in range(self.study.n_cases)]
-        return [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in cases}) > 1]
 
     def _coords(self, t_coord, x_fraction):
         nc, study = self.nc, self.study
@@ -299,7 +294,7 @@ class StudyWriter:
             var = nc.createVariable("case", "i8", ("case",))
             var[:] = np.arange(study.n_cases)
             var.long_name = "case number in [[cases]]"
-            varying = self._varying
+            varying = study.varying_keys
             for key in varying:
                 data, attrs = _parameter_coord(key, [c.value(key) for c in study._listed])
                 v = nc.createVariable(key, str if data.dtype == object else data.dtype, ("case",))
@@ -319,8 +314,8 @@ class StudyWriter:
         ids = nc.createVariable("case_id", str, self.dims)
         ids[...] = np.array(study.case_ids, dtype=object).reshape(self.shape)
         ids.long_name = "id of the case (its row in ledger.jsonl names its batch file)"
-        if not study.grid and self._varying:
-            ids.coordinates = " ".join(self._varying)
+        if not study.grid and study.varying_keys:
+            ids.coordinates = " ".join(study.varying_keys)
 
     def _put(self, name, flat, values):
         """values[k] belongs at flat grid index flat[k] (flat sorted)."""

@@ -237,11 +237,10 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
     futures = as_completed()
     in_flight = {}
     lost = []
-    text = study.text
 
     def submit_next():
         batch = batcher.take()
-        future = client.submit(run_batch, text, study.name, batch, str(batches_dir), reduce, pure=False,
+        future = client.submit(run_batch, study.text, study.name, batch, str(batches_dir), reduce, pure=False,
                                key=f"batch-{batch[0][0]}-{len(batch)}-{time.monotonic_ns()}")
         in_flight[future.key] = batch
         futures.add(future)

@@ -15,6 +15,8 @@ import xarray as xr  # noqa: E402
 
 from solver import PAPER_EPS_Y, PARAMETER_INFO, SETTING_INFO  # noqa: E402
 
+from .casefile import temporary_path  # noqa: E402
+
 DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper surface"),
     ("max_strain_lower", "max tensile strain, lower surface"),
@@ -28,16 +30,11 @@ DIAGNOSTICS = [
 ]
 
 
-def _temporary(path: Path) -> Path:
-    import os
-    return path.with_name(f".{path.name}.tmp-{os.getpid()}-{os.urandom(4).hex()}")
-
-
 def _save(fig, path, dpi) -> None:
     """savefig to a temporary file, then os.replace: a symlink at path is replaced, its target
     never written; an interrupted write leaves the old figure."""
     path = Path(path)
-    tmp = _temporary(path)
+    tmp = temporary_path(path)
     try:
         fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip("."))
         import os
@@ -49,7 +46,7 @@ def _save(fig, path, dpi) -> None:
 def _save_text(path, text: str) -> None:
     import os
     path = Path(path)
-    tmp = _temporary(path)
+    tmp = temporary_path(path)
     try:
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
         with os.fdopen(fd, "w") as f:

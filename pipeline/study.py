@@ -198,17 +198,27 @@ class Study:
         return {ref.case_id: ref for ref in self.references.values() if ref.case_id not in self.case_id_set}
 
     @cached_property
-    def _first_position(self) -> dict:
+    def first_position(self) -> dict:
+        """case id -> its first position in grid order (reference runs not among the cases:
+        absent)."""
         first = {}
         for i, cid in enumerate(self.case_ids):
             first.setdefault(cid, i)
         return first
 
+    @cached_property
+    def varying_keys(self) -> list:
+        """The keys whose values differ between cases: the grid's, or those a [[cases]] list
+        varies (parameters and solver settings)."""
+        if self.grid:
+            return list(self.grid)
+        return [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in self._listed}) > 1]
+
     def run(self, case_id: str) -> Case:
         """The run with this id (a case or a reference run)."""
         if case_id in self._extra_runs:
             return self._extra_runs[case_id]
-        return self.case(self._first_position[case_id])
+        return self.case(self.first_position[case_id])
 
     def all_cases(self) -> list:
         """Every distinct run as a Case (small studies; large ones go through run_ids)."""
