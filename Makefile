@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup study status test test-slow bench bench-scale regenerate-reference clean
+.PHONY: help setup study status test test-slow bench bench-scale bench-revisions regenerate-reference clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -43,6 +43,9 @@ test-slow: setup  ## only the long tests (marked slow)
 bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 	$(PY) benchmarks/bench_solver.py
 	$(PY) benchmarks/bench_study.py
+
+bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa .") -> results/bench/revisions.md
+	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .)
 
 bench-scale: setup  ## 100 000 small cases end to end, a killed runner, status (about 12 min) -> results/bench/scale.md
 	$(PY) benchmarks/bench_scale.py

@@ -150,10 +150,8 @@ class _Tables:
         xq = self.dx * np.arange(subintervals + 1)
         self.xq = xq
         self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, xq)))            # (N, J)
-        ends = np.ones(subintervals + 1)
-        ends[0] = ends[-1] = 0.5
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
-        self.wq = np.ascontiguousarray((ends * self.dx)[:, None] * self.cosq.T * sinc2[None, :])  # (J, N)
+        self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
         self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM]))
         self.lay = np.array([lam[0], self.dx, p.V, p.R, p.he, p.K])
 

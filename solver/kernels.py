@@ -130,6 +130,10 @@ GROWTH = 0.1
 #: the peak a 3e-4 wobble inside the step that the step ends alone cannot see (a step with
 #: omega_N h <= 0.4, such as rk4's, resolves every mode and is not sampled)
 TENSION_SAMPLES = 8
+#: Newton on a peak's position stops when its step is below this fraction of the bracket: the
+#: iteration converges quadratically (the error after a step d is ~ lambda_N d^2), so the
+#: position is then exact to ~1e-16 m for any bracket of a few subintervals
+NEWTON_STOP = 1e-7
 #: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
 #: it (the wobble inside a step is ~3e-4): it is not sampled
 RIPPLE = 1e-2
@@ -160,16 +164,19 @@ L_LAM1, L_DX, L_V, L_R, L_HE, L_K = 0, 1, 2, 3, 4, 5
 # ---------------------------------------------------------------------------------------
 # elementary functions
 # ---------------------------------------------------------------------------------------
-#: 1/k!, k = 0..22, for the phi series
-INV_FACT = np.array([1.0 / math.factorial(k) for k in range(23)])
+#: Taylor coefficients of phi_3(i y) in u = y^2: real part sum_k (-u)^k / (2k + 3)!, imaginary
+#: part y sum_k (-u)^k / (2k + 4)!, k = 0..8 (for |y| < 1 the first omitted terms are below 1e-17)
+PHI3_RE = np.array([1.0 / math.factorial(2 * k + 3) for k in range(9)])
+PHI3_IM = np.array([1.0 / math.factorial(2 * k + 4) for k in range(9)])
 
 
 @njit(cache=True, nogil=True)
 def phi_from(y, e):
     """phi_1, phi_2, phi_3 of zeta = i y, given e = e^{i y} (phi_k(z) = sum_m z^m / (m + k)!).
 
-    |y| >= 1: closed forms, with 1/(i y) = -i/y (no complex division). |y| < 1: the series to
-    m = 19 (1/22! < 1e-21), its real and imaginary parts summed in real arithmetic.
+    |y| >= 1: closed forms, with 1/(i y) = -i/y (no complex division). |y| < 1: phi_3 by its
+    Taylor series (Horner in y^2, real and imaginary parts apart), then phi_2 = i y phi_3 + 1/2
+    and phi_1 = i y phi_2 + 1 (exact identities; multiplying by a small i y loses nothing).
     """
     if abs(y) >= 1.0:
         inv = -1j / y
@@ -178,22 +185,19 @@ def phi_from(y, e):
         p2 = (e - 1.0 - 1j * y) * inv2
         p3 = (e - 1.0 - 1j * y + 0.5 * y * y) * inv2 * inv
         return p1, p2, p3
-    r1 = r2 = r3 = 0.0
-    i1 = i2 = i3 = 0.0
-    power = 1.0                        # y^m with the sign of i^m folded in below
-    for m in range(20):
-        if m % 2 == 0:
-            term = power if m % 4 == 0 else -power
-            r1 += term * INV_FACT[m + 1]
-            r2 += term * INV_FACT[m + 2]
-            r3 += term * INV_FACT[m + 3]
-        else:
-            term = power if m % 4 == 1 else -power
-            i1 += term * INV_FACT[m + 1]
-            i2 += term * INV_FACT[m + 2]
-            i3 += term * INV_FACT[m + 3]
-        power *= y
-    return complex(r1, i1), complex(r2, i2), complex(r3, i3)
+    mu = -y * y
+    re = PHI3_RE[8]
+    im = PHI3_IM[8]
+    for k in range(7, -1, -1):
+        re = re * mu + PHI3_RE[k]
+        im = im * mu + PHI3_IM[k]
+    im *= y
+    # i y (re + i im) = -y im + i y re
+    r2 = 0.5 - y * im
+    i2 = y * re
+    r1 = 1.0 - y * i2
+    i1 = y * r2
+    return complex(r1, i1), complex(r2, i2), complex(re, im)
 
 
 @njit(cache=True, nogil=True)
@@ -241,15 +245,126 @@ def _add_segment(P, lam1, alpha, beta, ga, gb, sign):
 
 
 @njit(cache=True, nogil=True)
+def modal_sum(a, cosq, out, jmax):
+    """out[j] = sum_n a_n cos(lambda_n x_j) for the nodes j < jmax (a deflection, in a's units).
+
+    Four modes per pass over ``out``: the table rows stream from cache once per four modes,
+    which is what bounds this loop (it reads N jmax doubles for 2 flops each).
+    """
+    N = a.shape[0]
+    for j in range(jmax):
+        out[j] = 0.0
+    n = 0
+    while n + 4 <= N:
+        a0 = a[n]
+        a1 = a[n + 1]
+        a2 = a[n + 2]
+        a3 = a[n + 3]
+        c0 = cosq[n]
+        c1 = cosq[n + 1]
+        c2 = cosq[n + 2]
+        c3 = cosq[n + 3]
+        for j in range(jmax):
+            out[j] += (a0 * c0[j] + a1 * c1[j]) + (a2 * c2[j] + a3 * c3[j])
+        n += 4
+    while n < N:
+        an = a[n]
+        c0 = cosq[n]
+        for j in range(jmax):
+            out[j] += an * c0[j]
+        n += 1
+
+
+@njit(cache=True, nogil=True)
+def modal_sum_strain(a, strain_coef, cosq, out, eps, jmax):
+    """modal_sum into out (j < jmax) and strain_nodes into eps (every node), one pass over the
+    table rows (the same arithmetic as each alone, so the same values)."""
+    N = a.shape[0]
+    J = eps.shape[0]
+    for j in range(jmax):
+        out[j] = 0.0
+    for j in range(J):
+        eps[j] = 0.0
+    n = 0
+    while n + 4 <= N:
+        a0 = a[n]
+        a1 = a[n + 1]
+        a2 = a[n + 2]
+        a3 = a[n + 3]
+        e0 = strain_coef[n] * a0
+        e1 = strain_coef[n + 1] * a1
+        e2 = strain_coef[n + 2] * a2
+        e3 = strain_coef[n + 3] * a3
+        c0 = cosq[n]
+        c1 = cosq[n + 1]
+        c2 = cosq[n + 2]
+        c3 = cosq[n + 3]
+        for j in range(jmax):
+            out[j] += (a0 * c0[j] + a1 * c1[j]) + (a2 * c2[j] + a3 * c3[j])
+            eps[j] += (e0 * c0[j] + e1 * c1[j]) + (e2 * c2[j] + e3 * c3[j])
+        for j in range(jmax, J):
+            eps[j] += (e0 * c0[j] + e1 * c1[j]) + (e2 * c2[j] + e3 * c3[j])
+        n += 4
+    while n < N:
+        an = a[n]
+        en = strain_coef[n] * an
+        c0 = cosq[n]
+        for j in range(jmax):
+            out[j] += an * c0[j]
+        for j in range(J):
+            eps[j] += en * c0[j]
+        n += 1
+
+
+@njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+def modal_projection(f, cosq, P, jmax):
+    """P[n] = sum_{j < jmax} f_j cos(lambda_n x_j): four rows per pass over f.
+
+    The sums may be reassociated (vectorised); nothing else is relaxed (no fast inf/NaN).
+    """
+    N = P.shape[0]
+    n = 0
+    while n + 4 <= N:
+        r0 = cosq[n]
+        r1 = cosq[n + 1]
+        r2 = cosq[n + 2]
+        r3 = cosq[n + 3]
+        s0 = s1 = s2 = s3 = 0.0
+        for j in range(jmax):
+            fj = f[j]
+            s0 += fj * r0[j]
+            s1 += fj * r1[j]
+            s2 += fj * r2[j]
+            s3 += fj * r3[j]
+        P[n] = s0
+        P[n + 1] = s1
+        P[n + 2] = s2
+        P[n + 3] = s3
+        n += 4
+    while n < N:
+        row = cosq[n]
+        s = 0.0
+        for j in range(jmax):
+            s += f[j] * row[j]
+        P[n] = s
+        n += 1
+
+
+@njit(cache=True, nogil=True)
 def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
     """Modal forcing P_n(t, a) and body force F(t) from the layer reaction.
+
+    P_n = (2 K / (L M_n)) int_0^L -f(delta) cos(lambda_n x) dx on the hat functions of the
+    nodes: int hat_j cos(lambda_n x) dx = w_j dx sinc^2(lambda_n dx / 2) cos(lambda_n x_j),
+    w_j = 1/2 at x = 0 and x = L, else 1; a subinterval where delta changes sign is integrated
+    exactly on its compressed part (below).
 
     Parameters
     ----------
     t : time [s].  a : modal amplitudes a_n [m].  lam1 : lambda_1 [m-1].
     coef : -2 K / (L M_n) divided by K, i.e. -2 / (L M_n) [m kg-1 ... per Pa].
-    cosq : cos(lambda_n x_j), shape (N, J).  wq : hat weights, shape (J, N) [m].
-    dx : subinterval width [m].  V, R, he, K : see Parameters.
+    cosq : cos(lambda_n x_j), shape (N, J).  wq : mode weights dx sinc^2(lambda_n dx / 2),
+    shape (N,) [m].  dx : subinterval width [m].  V, R, he, K : see Parameters.
     delta, fvals : work arrays (J,) receiving delta and f at the nodes j < jmax.
     P : output (N,), the forcing P_n [m s-2].
 
@@ -265,42 +380,78 @@ def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
         for n in range(N):
             P[n] = 0.0
         return 0, 0.0, 0
+    jmax = contact_bound(t, a, V, R, dx, J)
+    modal_sum(a, cosq, delta, jmax)
+    return layer_reaction(t, lam1, coef, cosq, wq, dx, V, R, he, K, jmax, delta, fvals, P)
+
+
+@njit(cache=True, nogil=True)
+def layer_forcing_strain(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P, strain_coef, eps):
+    """layer_forcing, and the strain at every node into eps (strain_nodes), from one pass over
+    the table where both are needed."""
+    N = a.shape[0]
+    J = delta.shape[0]
+    if K == 0.0:
+        strain_nodes(a, strain_coef, cosq, eps)
+        for n in range(N):
+            P[n] = 0.0
+        return 0, 0.0, 0
+    jmax = contact_bound(t, a, V, R, dx, J)
+    modal_sum_strain(a, strain_coef, cosq, delta, eps, jmax)
+    return layer_reaction(t, lam1, coef, cosq, wq, dx, V, R, he, K, jmax, delta, fvals, P)
+
+
+@njit(cache=True, nogil=True)
+def contact_bound(t, a, V, R, dx, J):
+    """Nodes j >= jmax cannot touch: there x_j^2 / 2R > V t + sum |a_n| >= V t + w(x)."""
     bound = 0.0
-    for n in range(N):
+    for n in range(a.shape[0]):
         bound += abs(a[n])
     s = V * t + bound
     if s <= 0.0:
-        jmax = 1
-    else:
-        jmax = min(J, int(math.sqrt(2.0 * R * s) / dx) + 2)
-    for j in range(jmax):
-        delta[j] = 0.0
-    for n in range(N):
-        an = a[n]
-        if an != 0.0:
-            for j in range(jmax):
-                delta[j] += an * cosq[n, j]
+        return 1
+    return min(J, int(math.sqrt(2.0 * R * s) / dx) + 2)
+
+
+@njit(cache=True, nogil=True)
+def layer_reaction(t, lam1, coef, cosq, wq, dx, V, R, he, K, jmax, delta, fvals, P):
+    """The rest of layer_forcing, given the deflection sum_n a_n cos(lambda_n x_j) in delta
+    (j < jmax): delta and f at the nodes, then P and F (see layer_forcing)."""
+    N = P.shape[0]
+    J = delta.shape[0]
     inv2R = 0.5 / R
-    for n in range(N):
-        P[n] = 0.0
+    Vt = V * t
     force = 0.0
+    jc = 0                           # nodes j >= jc are not compressed
     for j in range(jmax):
         x = j * dx
-        d = (delta[j] + V * t - x * x * inv2R) / he
+        d = (delta[j] + Vt - x * x * inv2R) / he
         delta[j] = d
+        f = 0.0
         if d > 0.0:
             if not d < 1.0:          # also catches NaN
                 return 1, 0.0, jmax
             f = d / (1.0 - d)
-            fvals[j] = f
+            jc = j + 1
+        fvals[j] = f
+        force += f
+    if jc > 0:
+        modal_projection(fvals, cosq, P, jc)
+        f0 = 0.5 * fvals[0]          # trapezoid ends: half weight at x = 0 and x = L
+        force -= f0
+        for n in range(N):
+            P[n] -= f0 * cosq[n, 0]
+        if jc == J:
+            f1 = 0.5 * fvals[J - 1]
+            force -= f1
             for n in range(N):
-                P[n] += f * wq[j, n]
-            if j == 0 or j == J - 1:
-                force += 0.5 * dx * f
-            else:
-                force += dx * f
-        else:
-            fvals[j] = 0.0
+                P[n] -= f1 * cosq[n, J - 1]
+        for n in range(N):
+            P[n] *= wq[n]
+    else:
+        for n in range(N):
+            P[n] = 0.0
+    force *= dx
     # subintervals where delta changes sign: f is continued by f(delta) = delta for delta <= 0
     # (C1 at 0, since f'(0) = 1), interpolated linearly, and only its positive part kept; the
     # split point xs then moves smoothly and P stays C1 when a node changes sign
@@ -371,27 +522,51 @@ def count_contacts(delta, jmax):
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def strain_nodes(a, strain_coef, cosq, eps):
-    """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node."""
+    """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node (eps: (J,) scratch)."""
+    N = a.shape[0]
     J = eps.shape[0]
     for j in range(J):
         eps[j] = 0.0
-    for n in range(a.shape[0]):
+    n = 0
+    while n + 4 <= N:
+        c0 = strain_coef[n] * a[n]
+        c1 = strain_coef[n + 1] * a[n + 1]
+        c2 = strain_coef[n + 2] * a[n + 2]
+        c3 = strain_coef[n + 3] * a[n + 3]
+        r0 = cosq[n]
+        r1 = cosq[n + 1]
+        r2 = cosq[n + 2]
+        r3 = cosq[n + 3]
+        for j in range(J):
+            eps[j] += (c0 * r0[j] + c1 * r1[j]) + (c2 * r2[j] + c3 * r3[j])
+        n += 4
+    while n < N:
         c = strain_coef[n] * a[n]
-        if c != 0.0:
-            for j in range(J):
-                eps[j] += c * cosq[n, j]
+        r0 = cosq[n]
+        for j in range(J):
+            eps[j] += c * r0[j]
+        n += 1
 
 
 @njit(cache=True, nogil=True)
 def mode_sum(w, c, lam1, x):
-    """sum_n w_n c_n cos(lambda_n x), lambda_n = n lam1 (the cosines by rotation)."""
+    """sum_n w_n c_n cos(lambda_n x), lambda_n = n lam1 (the cosines by rotation: odd and even
+    modes on two interleaved chains, which halves the latency of the recurrence)."""
     rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
-    cur = rot
-    total = 0.0
-    for n in range(c.shape[0]):
-        total += w[n] * c[n] * cur.real
-        cur *= rot
-    return total
+    rot2 = rot * rot
+    cur_a = rot
+    cur_b = rot2
+    ta = 0.0
+    tb = 0.0
+    N = c.shape[0]
+    for n in range(0, N - 1, 2):
+        ta += w[n] * c[n] * cur_a.real
+        tb += w[n + 1] * c[n + 1] * cur_b.real
+        cur_a *= rot2
+        cur_b *= rot2
+    if N % 2 == 1:
+        ta += w[N - 1] * c[N - 1] * cur_a.real
+    return ta + tb
 
 
 @njit(cache=True, nogil=True)
@@ -443,20 +618,34 @@ def refine(vals, sign, j, n, dx):
 @njit(cache=True, nogil=True)
 def mode_sums(w, c, lam1, x):
     """sum_n w_n c_n (cos, -lambda_n sin, -lambda_n^2 cos)(lambda_n x): a modal field and its
-    first two x-derivatives at one point."""
+    first two x-derivatives at one point (two interleaved rotation chains, as in mode_sum)."""
     rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
-    cur = rot
-    s0 = 0.0
-    s1 = 0.0
-    s2 = 0.0
-    for n in range(c.shape[0]):
+    rot2 = rot * rot
+    cur_a = rot
+    cur_b = rot2
+    a0 = a1 = a2 = 0.0
+    b0 = b1 = b2 = 0.0
+    N = c.shape[0]
+    for n in range(0, N - 1, 2):
         lam = lam1 * (n + 1)
         wc = w[n] * c[n]
-        s0 += wc * cur.real
-        s1 -= wc * lam * cur.imag
-        s2 -= wc * lam * lam * cur.real
-        cur *= rot
-    return s0, s1, s2
+        a0 += wc * cur_a.real
+        a1 -= wc * lam * cur_a.imag
+        a2 -= wc * lam * lam * cur_a.real
+        lam = lam1 * (n + 2)
+        wc = w[n + 1] * c[n + 1]
+        b0 += wc * cur_b.real
+        b1 -= wc * lam * cur_b.imag
+        b2 -= wc * lam * lam * cur_b.real
+        cur_a *= rot2
+        cur_b *= rot2
+    if N % 2 == 1:
+        lam = lam1 * N
+        wc = w[N - 1] * c[N - 1]
+        a0 += wc * cur_a.real
+        a1 -= wc * lam * cur_a.imag
+        a2 -= wc * lam * lam * cur_a.real
+    return a0 + b0, a1 + b1, a2 + b2
 
 
 @njit(cache=True, nogil=True)
@@ -480,7 +669,7 @@ def continuous_peak(vals, sign, j, n, dx, w, c, lam1, scale, q2, q0):
         if not d2 < 0.0:
             break
         xn = min(max(x - d1 / d2, xlo), xhi)
-        done = abs(xn - x) <= 1e-12 * dx
+        done = abs(xn - x) <= NEWTON_STOP * dx
         x = xn
         if done:
             break
@@ -530,11 +719,9 @@ def cubic(c0, c1, c2, c3, th):
 
 
 @njit(cache=True, nogil=True)
-def cubic_breaks(c1, c2, c3, out):
-    """0, the critical points in (0, 1) in increasing order, 1: the cubic is monotone
-    between consecutive breaks. Returns how many were written to out (2 to 4)."""
-    n = 1
-    out[0] = 0.0
+def cubic_breaks(c1, c2, c3):
+    """The critical points of the cubic in (0, 1), increasing: (count, r1, r2), count 0 to 2
+    (r1, r2 meaningful up to count). With 0 and 1 they split [0, 1] into monotone pieces."""
     A = 3.0 * c3
     B = 2.0 * c2
     r1 = -1.0
@@ -551,28 +738,43 @@ def cubic_breaks(c1, c2, c3, out):
                 r2 = c1 / q
     if r2 < r1:
         r1, r2 = r2, r1
+    n = 0
+    b1 = 1.0
+    b2 = 1.0
     if 0.0 < r1 < 1.0:
-        out[n] = r1
-        n += 1
+        b1 = r1
+        n = 1
     if 0.0 < r2 < 1.0 and r2 != r1:
-        out[n] = r2
+        if n == 0:
+            b1 = r2
+        else:
+            b2 = r2
         n += 1
-    out[n] = 1.0
-    return n + 1
+    return n, b1, b2
+
+
+@njit(cache=True, nogil=True)
+def _break(k, n, b1, b2):
+    """The k-th of the breaks 0, (b1, b2 up to n), 1."""
+    if k == 0:
+        return 0.0
+    if k == n + 1:
+        return 1.0
+    return b1 if k == 1 else b2
 
 
 @njit(cache=True, nogil=True)
 def cubic_max(c0, c1, c2, c3):
     """(max, argmax) of the cubic over [0, 1]."""
-    br = np.empty(4)
-    nb = cubic_breaks(c1, c2, c3, br)
+    nc, b1, b2 = cubic_breaks(c1, c2, c3)
     best = -np.inf
     tb = 0.0
-    for i in range(nb):
-        v = cubic(c0, c1, c2, c3, br[i])
+    for i in range(nc + 2):
+        th = _break(i, nc, b1, b2)
+        v = cubic(c0, c1, c2, c3, th)
         if v > best:
             best = v
-            tb = br[i]
+            tb = th
     return best, tb
 
 
@@ -596,22 +798,22 @@ def cubic_first_reach(c0, c1, c2, c3, level):
     """Smallest th in [0, 1] with p(th) >= level, or -1 if the cubic stays below level."""
     if c0 >= level:
         return 0.0
-    br = np.empty(4)
-    nb = cubic_breaks(c1, c2, c3, br)
-    for i in range(nb - 1):
-        if cubic(c0, c1, c2, c3, br[i + 1]) >= level:
-            return _bisect(c0, c1, c2, c3, level, br[i], br[i + 1])
+    nc, b1, b2 = cubic_breaks(c1, c2, c3)
+    for i in range(nc + 1):
+        hi = _break(i + 1, nc, b1, b2)
+        if cubic(c0, c1, c2, c3, hi) >= level:
+            return _bisect(c0, c1, c2, c3, level, _break(i, nc, b1, b2), hi)
     return -1.0
 
 
 @njit(cache=True, nogil=True)
 def cubic_sign_changes(c0, c1, c2, c3, out):
     """The th in (0, 1] where p changes between > 0 and <= 0, increasing; returns the count."""
-    br = np.empty(4)
-    nb = cubic_breaks(c1, c2, c3, br)
+    nc, b1, b2 = cubic_breaks(c1, c2, c3)
     n = 0
-    for i in range(nb - 1):
-        lo, hi = br[i], br[i + 1]
+    for i in range(nc + 1):
+        lo = _break(i, nc, b1, b2)
+        hi = _break(i + 1, nc, b1, b2)
         if (cubic(c0, c1, c2, c3, lo) > 0.0) != (cubic(c0, c1, c2, c3, hi) > 0.0):
             out[n] = _bisect(c0, c1, c2, c3, 0.0, lo, hi)
             n += 1
@@ -651,8 +853,18 @@ def _stage(t, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, P):
 
 
 @njit(cache=True, nogil=True)
+def _last_stage(t, zs, modes, a_work, lay, cosq, wq, delta, fvals, P, eps):
+    """_stage at the step's end, with the strain at every node into eps."""
+    omega = modes[M_OMEGA]
+    for n in range(zs.shape[0]):
+        a_work[n] = zs[n].imag / omega[n]
+    return layer_forcing_strain(t, a_work, lay[L_LAM1], modes[M_COEF], cosq, wq, lay[L_DX], lay[L_V],
+                                lay[L_R], lay[L_HE], lay[L_K], delta, fvals, P, modes[M_STRAIN], eps)
+
+
+@njit(cache=True, nogil=True)
 def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cosq, wq, cw, rw,
-              fvals, delta, z_out, N_out, err):
+              fvals, delta, z_out, N_out, err, eps_out):
     """One step from (t, z) to t_new = t + h with N1 = P(t, z), F1 = F(t), W(t) = work.
 
     C holds etd_coefficients(omega, h) (RK4 uses them for its error estimate); cw (2, N)
@@ -660,6 +872,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     nodes at t_new) and err (the local error estimate). Returns (status, F(t_new),
     jmax(t_new), W(t_new), event): status 1 if a stage reached delta >= 1 (outputs then
     meaningless); event if the number of contact intervals changed among the stages.
+    eps_out receives the strain at every node at t_new (strain_nodes) from the last stage's pass.
     """
     omega = modes[M_OMEGA]
     coef = modes[M_COEF]
@@ -692,7 +905,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
         if st == 0:
             for n in range(N):
                 z_out[n] = C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n]) + C[8, n] * N4[n]
-            st, F5, jm = _stage(t_new, z_out, omega, a_work, lay, coef, cosq, wq, delta, fvals, N_out)
+            st, F5, jm = _last_stage(t_new, z_out, modes, a_work, lay, cosq, wq, delta, fvals, N_out, eps_out)
         if st != 0:
             return 1, 0.0, jm, work, event
         event = event or count_contacts(delta, jm) != contacts
@@ -728,7 +941,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             for n in range(N):
                 k4 = 1j * omega[n] * zs[n] + N4[n]
                 z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
-            st, F5, jm = _stage(t_new, z_out, omega, a_work, lay, coef, cosq, wq, delta, fvals, N_out)
+            st, F5, jm = _last_stage(t_new, z_out, modes, a_work, lay, cosq, wq, delta, fvals, N_out, eps_out)
         if st != 0:
             return 1, 0.0, jm, work, event
         event = count_contacts(delta, jm) != contacts
@@ -747,23 +960,28 @@ def dense_states(z0, N1, Nm, N5, omega, h, A, AD):
 
     Exponential dense output: the modal oscillation exact, the forcing quadratic in time
     through P(t0) = N1, the mid stage Nm ~ P(t0 + h/2) and P(t0 + h) = N5:
-        P(t0 + s) = N1 + b1 s + b2 s^2,  z(s) = e^{i w s} z0 + s phi1 N1 + b1 s^2 phi2 + 2 b2 s^3 phi3
-    (phi_k of i w s). It resolves modes that oscillate within the step, which a polynomial
-    through the step ends cannot.
+        P(t0 + s) = N1 + b1 s + b2 s^2.
+    For such a forcing, z' = i w z + P has the exact sub-step of length d = h / K
+        z(s + d) = e^{i w d} z(s) + d phi1 P(s) + d^2 phi2 P'(s) + d^3 phi3 P''   (phi_k of i w d),
+    so one set of phi functions per mode serves every sample. It resolves modes that oscillate
+    within the step, which a polynomial through the step ends cannot.
     """
     K = A.shape[0] + 1
+    d = h / K
     for n in range(z0.shape[0]):
         w = omega[n]
         b1 = (4.0 * Nm[n] - 3.0 * N1[n] - N5[n]) / h
         b2 = 2.0 * (N1[n] - 2.0 * Nm[n] + N5[n]) / (h * h)
-        rot = complex(math.cos(w * h / K), math.sin(w * h / K))
-        e = 1.0 + 0j
+        y = w * d
+        e = complex(math.cos(y), math.sin(y))
+        p1, p2, p3 = phi_from(y, e)
+        c1 = d * p1
+        c2 = d * d * p2
+        c3 = 2.0 * b2 * d * d * d * p3
+        z = z0[n]
         for k in range(1, K):
-            sk = k * h / K
-            y = w * sk
-            e *= rot
-            p1, p2, p3 = phi_from(y, e)
-            z = e * z0[n] + sk * p1 * N1[n] + b1 * sk * sk * p2 + 2.0 * b2 * sk * sk * sk * p3
+            sk = (k - 1) * d
+            z = e * z + c1 * (N1[n] + sk * (b1 + b2 * sk)) + c2 * (b1 + 2.0 * b2 * sk) + c3
             A[k - 1, n] = z.imag / w
             AD[k - 1, n] = z.real
 
@@ -777,7 +995,7 @@ def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
         if not sign * s2 < 0.0:
             break
         xn = min(max(x - s1 / s2, xlo), xhi)
-        done = abs(xn - x) <= 1e-12 * (xhi - xlo)
+        done = abs(xn - x) <= NEWTON_STOP * (xhi - xlo)
         x = xn
         if done:
             break
@@ -818,6 +1036,17 @@ def peak_state(eps, sign, j, a, adot, strain_coef, lam1, dx, track):
     track[1] = sign * mode_sum(strain_coef, adot, lam1, x)
     track[2] = x
     track[3] = jp
+
+
+@njit(cache=True, nogil=True)
+def global_state(eps, sign, a, adot, strain_coef, lam1, dx, track):
+    """peak_state of the global peak (global_peak): its node is a local peak of the nodes
+    already, so the refined value and position are global_peak's own."""
+    v, x, j = global_peak(eps, sign, dx, strain_coef, a, lam1)
+    track[0] = v
+    track[1] = sign * mode_sum(strain_coef, adot, lam1, x)
+    track[2] = x
+    track[3] = j
 
 
 @njit(cache=True, nogil=True)
@@ -935,8 +1164,7 @@ def observe_tension(sign, t0, h, eps0, eps1, a0, a1, adot0, adot1, dz, A, AD, de
     p0[:] = state[:4]
     j0 = int(p0[3])
     p1 = scratch[0]
-    peak_state(eps1, sign, global_peak(eps1, sign, dx, strain_coef, a1, lam1)[2], a1, adot1, strain_coef,
-               lam1, dx, p1)
+    global_state(eps1, sign, a1, adot1, strain_coef, lam1, dx, p1)
     jb0 = climb(eps0, sign, int(p1[3]), J)
     best[0] = -np.inf
     piece = scratch[2]
@@ -1075,12 +1303,13 @@ def gap_peak(t, delta, jm, a, adot, ones, lay, out):
 
 @njit(cache=True, nogil=True)
 def substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals,
-            delta, z_out, N_out, err, a_out, adot_out):
+            delta, z_out, N_out, err, a_out, adot_out, eps):
     """A step of length s from (t, z) into the given buffers, its own coefficients in Cs;
-    a_out, adot_out receive a_n and a_n' at t + s. Returns take_step's tuple."""
+    a_out, adot_out receive a_n and a_n' at t + s, eps the strain at the nodes. Returns
+    take_step's tuple."""
     etd_coefficients(modes[M_OMEGA], s, Cs)
     res = take_step(method, t, t + s, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw,
-                    rw, fvals, delta, z_out, N_out, err)
+                    rw, fvals, delta, z_out, N_out, err, eps)
     omega = modes[M_OMEGA]
     for k in range(z.shape[0]):
         a_out[k] = z_out[k].imag / omega[k]
@@ -1122,7 +1351,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
     for k in range(1, SCAN + 1):
         sk = h * k / SCAN
         st, F, jm, w, ev = substep(method, t, sk, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
-                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out)
+                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps)
         f = np.inf if st != 0 else event_value(kind, t + sk, jm, delta, a_out, adot_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
@@ -1135,7 +1364,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
     side = 0
     for _ in range(100):
         st, F, jm, w, ev = substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
-                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out)
+                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps)
         f = np.inf if st != 0 else event_value(kind, t + s, jm, delta, a_out, adot_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
@@ -1157,7 +1386,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
         if not (lo < s < hi):
             s = 0.5 * (lo + hi)
     st, F, jm, w, ev = substep(method, t, lo, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq,
-                               cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out)
+                               cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps)
     event_value(kind, t + lo, jm, delta, a_out, adot_out, modes, lay, cosq, eps, ones, out)
     return lo, hi, F, jm, w, True
 
@@ -1176,7 +1405,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     method : ETD34 or RK4.
     modes : (4, N) rows omega_n [s-1], -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].
     lay : (6,) lambda_1 [m-1], dx [m], V [m s-1], R [m], he [m], K [Pa] (see L_* indices).
-    cosq (N, J), wq (J, N) : quadrature nodes, see :func:`layer_forcing`.
+    cosq (N, J), wq (N,) : quadrature nodes and mode weights, see :func:`layer_forcing`.
     t_start, t_end : start and end of the run [s] (the body is at y = x^2/2R + he - V t).
     t_out : sorted output times in [t_start, t_end] [s].
     tolerance : relative error per step in the energy norm (ETD34 adaptive).
@@ -1297,8 +1526,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     strain_nodes(a, strain_coef, cosq, eps)
     for s in range(2):
         sign = 1.0 - 2.0 * s
-        peak_state(eps, sign, global_peak(eps, sign, dx, strain_coef, a, lam1)[2], a, adot, strain_coef,
-                   lam1, dx, tension[s])
+        global_state(eps, sign, a, adot, strain_coef, lam1, dx, tension[s])
         run_max[s] = tension[s, 0]
         diag[D_MAX_UPPER + 3 * s] = tension[s, 0]
         diag[D_MAX_UPPER_X + 3 * s] = tension[s, 2]
@@ -1323,6 +1551,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     fixed_h = 0.0
     prev_ratio = 1.0
     bottomed = False
+    eps_ready = False
     while True:
         # ----- record outputs due at the current time
         while k < T and t_out[k] <= t:
@@ -1370,7 +1599,8 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         # ----- one step
         st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work, contacts,
                                               C, modes, lay, cosq, wq, cw, rw, fvals, delta_new,
-                                              znew, N5, err)
+                                              znew, N5, err, eps_new)
+        eps_ready = True                     # eps_new: the strain at the nodes at t_new
         rhs_count += 4
         finite = st == 0 and math.isfinite(w_new)
         if finite:
@@ -1468,6 +1698,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 eps_sub, ones, gap1)
             if found:
                 bottomed = True
+                eps_ready = False            # the state is the search's last sub-step
                 h_eff = s_lo
                 t_new = t + s_lo
                 F5, jm5, w_new = F_b, jm_b, w_b
@@ -1480,7 +1711,7 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 # buffers, so take the accepted step again (same size and coefficients, same result)
                 st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work,
                                                       contacts, C, modes, lay, cosq, wq, cw, rw, fvals,
-                                                      delta_new, znew, N5, err)
+                                                      delta_new, znew, N5, err, eps_new)
                 for n in range(N):
                     a_new[n] = znew[n].imag / omega[n]
                     adot_new[n] = znew[n].real
@@ -1495,7 +1726,8 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
             err_sum += math.sqrt(e_step)
             diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
-        strain_nodes(a_new, strain_coef, cosq, eps_new)
+        if not eps_ready:
+            strain_nodes(a_new, strain_coef, cosq, eps_new)
         tension0[:, :] = tension
         dense[0] = not h_eff > 0.0           # computed on demand by the tension observer
         dz = (z, N1, rw[2], N5, omega)

@@ -2,7 +2,7 @@
 
 Run only after a deliberate change of the numbers (make regenerate-reference), and say why in
 the commit. The regression test compares a fresh run with this file to 1e-6 of each value or
-of the variable's scale (tests/test_pipeline.py, assert_matches).
+5e-6 of the variable's scale (tests/test_pipeline.py, assert_matches).
 """
 import shutil
 import subprocess

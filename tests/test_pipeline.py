@@ -35,12 +35,15 @@ def assert_same_study(out, reference):
 
 
 def assert_matches(actual, desired, name):
-    """Equal to 1e-6 of each value or of the variable's scale (its largest finite magnitude): two
-    runs at tolerance 1e-11 whose step sequences differ by one accept/reject decision differ by
-    ~1e-6 of a field's scale where the field passes through zero."""
+    """Equal to 1e-6 of each value or to 5e-6 of the variable's scale (its largest finite
+    magnitude). Two runs whose step sequences differ by round-off differ by that much: measured
+    on the regression case V = 3, hi = 0.3 (near bottoming at the stage end), strain at 40
+    tolerances from 0.8e-11 to 1.25e-11 against a 1e-14 run, the largest error over (t, x) is
+    1.6e-7 of the scale in the median and 2.5e-6 at most (the same with the solver before and
+    after the 2026-11 speed-ups)."""
     finite = np.abs(desired[np.isfinite(desired)])
     scale = float(finite.max()) if finite.size and finite.max() > 0 else 1.0
-    np.testing.assert_allclose(actual, desired, rtol=1e-6, atol=1e-6 * scale, err_msg=name)
+    np.testing.assert_allclose(actual, desired, rtol=1e-6, atol=5e-6 * scale, err_msg=name)
 
 
 def pipeline(*args, cwd=ROOT):
