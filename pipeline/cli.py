@@ -316,7 +316,10 @@ def _run_locked(args, study, out_dir: Path) -> int:
                         nonlocal writer
                         reduced = entry.pop("reduced", None)
                         _still_ours(out_dir, identity)
-                        ledger.append(entry)
+                        try:
+                            ledger.append(entry)
+                        except OSError as err:
+                            raise _write_failed(ledger.path, err) from None
                         for cid, status, _, _ in entry["cases"]:
                             states[cid] = status
                         if reduced is not None:
@@ -375,7 +378,10 @@ def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed
                 print(f"note: batch file {name} failed its checksum; moved to {aside.name}; its cases are "
                       f"computed again", file=sys.stderr)
             ledger.drop(name)
-        ledger.rewrite()
+        try:
+            ledger.rewrite()
+        except OSError as err:
+            raise _write_failed(ledger.path, err) from None
         return None
     print(f"wrote {written} ({time.monotonic() - started:.1f} s)", file=sys.stderr)
     return True

@@ -104,11 +104,21 @@ class Ledger:
         return {cid: entry["cases"][pos][1] for cid, (entry, pos) in self.index().items()}
 
     def append(self, entry: dict) -> None:
-        """Add a batch's line; on disk (fsynced) before the call returns."""
+        """Add a batch's line; on disk (fsynced) before the call returns. A write that fails
+        (a full disk) leaves no torn line: the ledger is cut back to its old length, and the
+        error names the ledger."""
         fd = os.open(self.path, os.O_WRONLY | os.O_APPEND | os.O_CREAT | os.O_NOFOLLOW, 0o644)
         try:
-            os.write(fd, _line(entry).encode())
-            os.fsync(fd)
+            start = os.lseek(fd, 0, os.SEEK_END)
+            try:
+                _write_all(fd, _line(entry).encode())
+                os.fsync(fd)
+            except OSError as err:
+                try:
+                    os.ftruncate(fd, start)
+                except OSError:
+                    pass                      # a torn line is caught by its CRC at the next load
+                raise OSError(err.errno, err.strerror, str(self.path)) from None
         finally:
             os.close(fd)
         self.entries.append(entry)
@@ -118,15 +128,26 @@ class Ledger:
         tmp = self.path.with_name(f".{LEDGER}.tmp-{os.getpid()}-{time.monotonic_ns()}")
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
         try:
-            os.write(fd, "".join(_line(e) for e in self.entries).encode())
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, self.path)
+            try:
+                _write_all(fd, "".join(_line(e) for e in self.entries).encode())
+                os.fsync(fd)
+            finally:
+                os.close(fd)
+            os.replace(tmp, self.path)
+        except OSError as err:
+            tmp.unlink(missing_ok=True)
+            raise OSError(err.errno, err.strerror, str(self.path)) from None
         self.bad_lines = 0
 
     def drop(self, file_name: str) -> None:
         self.entries = [e for e in self.entries if e["file"] != file_name]
+
+
+def _write_all(fd: int, data: bytes) -> None:
+    """os.write until every byte is written (a write may be short, on a full disk say)."""
+    view = memoryview(data)
+    while view:
+        view = view[os.write(fd, view):]
 
 
 def set_aside(path: Path, why: str = "damaged") -> Path:

@@ -250,3 +250,52 @@ def test_results_directory_removed_mid_run_stops_the_runner(tmp_path):
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 74, err
     assert "Traceback" not in err and err.strip().splitlines()[-1].startswith("error: the results directory"), err
+
+
+#: runs the pipeline with every ledger append failing as on a full disk, after half the line
+#: reached the file (a torn write)
+_TORN_LEDGER = r"""
+import errno, os, runpy, sys
+import pipeline.ledger as L
+real_write = os.write
+def torn(fd, data):
+    real_write(fd, bytes(data)[: len(data) // 2])
+    raise OSError(errno.ENOSPC, "No space left on device")
+original = L.Ledger.append
+def append(self, entry):
+    os.write = torn
+    try:
+        return original(self, entry)
+    finally:
+        os.write = real_write
+L.Ledger.append = append
+sys.argv = ["pipeline", *sys.argv[1:]]
+runpy.run_module("pipeline", run_name="__main__")
+"""
+
+
+def test_disk_full_at_the_ledger_is_exit_74_one_line_and_no_torn_line(study_file, finished, tmp_path):
+    from pipeline.ledger import Ledger
+    out = tmp_path / "full_ledger"
+    proc = subprocess.run([sys.executable, "-c", _TORN_LEDGER, "run", str(study_file), "--out", str(out),
+                           "--no-plots"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 74, proc.stderr
+    assert "Traceback" not in proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"error: cannot write {out / LEDGER}") and "MiB free" in last, last
+    assert "finished cases are kept" in last
+    ledger = Ledger.load(out)
+    assert ledger.bad_lines == 0 and not ledger.entries            # cut back, not torn
+    kept = batch_files(out)                                        # the batches written are kept
+    assert kept
+    import netCDF4
+    done = 0
+    for path in kept:
+        with netCDF4.Dataset(path) as nc:
+            done += len(nc.dimensions["case"])
+    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    assert code == 0, err
+    for path in kept:                                              # read back, not recomputed
+        assert f"batch file {path.name} was not in the ledger" in err
+    assert f"4 cases, {4 - done} to run, {done} already done" in err
+    assert_same_study(out, finished)
