@@ -81,3 +81,26 @@ def test_disk_full_while_writing_stops_the_study(tmp_path):
     assert "Traceback" not in proc.stderr
     assert all(p.stat().st_mtime_ns == stamps[p] for p in stamps)
     assert not files[-1].exists() and not list((out / "batches").glob(".*tmp*"))
+
+
+def test_make_study_says_which_exit_status_the_runner_gave(tmp_path):
+    """make turns every failing recipe into its own exit 2; the recipe prints the runner's
+    documented status in words first (bad input 2, another runner 75), then exits with it."""
+    def make_study(*args):
+        proc = subprocess.run(["make", "-s", "study", *args], cwd=ROOT, capture_output=True, text=True, timeout=300)
+        return proc.returncode, proc.stdout + proc.stderr
+    code, text = make_study("STUDY=no_such_study_here")
+    assert code != 0 and "make study: runner exit 2: bad input" in text, text
+    out = tmp_path / "held"
+    out.mkdir()
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
+                               "from pipeline.lock import StudyLock\n"
+                               "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
+                               str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "held"
+        code, text = make_study("STUDY=regression_small", f"ARGS=--out {out} --no-plots")
+        assert code != 0 and "make study: runner exit 75: another runner holds the study" in text, text
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait()
