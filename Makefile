@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup study status test test-slow bench bench-scale bench-revisions regenerate-reference clean
+.PHONY: help setup study status test test-slow bench bench-scale bench-revisions regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -14,7 +14,9 @@ help:  ## list the targets
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(VENV)/bin/pip install --quiet --upgrade pip
-	$(VENV)/bin/pip install --quiet -e ".[test]"
+	@# setuptools warns on every editable install of a flat layout that a folder named like a
+	@# package could shadow it; here those folders are the packages, so that one warning is muted
+	PYTHONWARNINGS="ignore:Editable installation" $(VENV)/bin/pip install --quiet -e ".[test]"
 	touch $@
 
 setup: $(VENV)/.installed  ## create .venv and install the package with its test extras
@@ -43,6 +45,9 @@ test-slow: setup  ## only the long tests (marked slow)
 bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 	$(PY) benchmarks/bench_solver.py
 	$(PY) benchmarks/bench_study.py
+
+variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests/test_variables.py checks it)
+	$(PY) -m pipeline.variables
 
 bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa .") -> results/bench/revisions.md
 	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .)

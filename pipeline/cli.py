@@ -65,7 +65,9 @@ def _parser():
     run.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     run.add_argument("--scheduler", default=os.environ.get("DASK_SCHEDULER_ADDRESS"),
                      help="address of an existing dask scheduler (default $DASK_SCHEDULER_ADDRESS)")
-    run.add_argument("--dry-run", action="store_true", help="print the cases and what is done; run nothing")
+    run.add_argument("--dry-run", action="store_true",
+                     help="print what a run would compute and write; run nothing")
+    run.add_argument("--all", action="store_true", help="with --dry-run: list every case to run")
     run.add_argument("--rerun-failed", action="store_true", help="recompute cases that failed before")
     run.add_argument("--yes", action="store_true", help=f"run studies of more than {LARGE_STUDY} cases")
     run.add_argument("--no-plots", action="store_true", help="skip the figures")
@@ -74,9 +76,17 @@ def _parser():
     run.add_argument("--batch-seconds", type=float, default=1.0,
                      help="solver time per batch of cases, one file each (default 1 s)")
     status = sub.add_parser("status", help="what a study has done")
-    status.add_argument("study")
+    status.add_argument("study", help="a study name, a study file, or a results directory")
     status.add_argument("--out")
     status.add_argument("--all", action="store_true", help=f"list every case (default: the first {TABLE_ROWS})")
+    show = sub.add_parser("show", help="draw one case's time series (force, contacts, strain, energy)")
+    show.add_argument("study", help="a study name, a study file, or a results directory")
+    show.add_argument("--case", help="a case id (or a unique start of one), or key=value,... of the grid")
+    show.add_argument("--out", help="results directory (default results/<name>)")
+    show.add_argument("--x", type=float, help="position of the strain curve [m] (default: where the "
+                                             "largest tension occurred)")
+    show.add_argument("--points", type=int, default=400, help="times on the curves (default 400)")
+    show.add_argument("--figure", help="where to write the PNG (default <results>/case_<id>.png)")
     return ap
 
 
@@ -102,27 +112,35 @@ def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
     return [_fmt(case.value(k)) for k in keys]
 
 
-def print_table(study, states: dict, stream=sys.stdout, all_rows: bool = False) -> None:
-    """The case table (case_id, the keys that vary, state, role) and a one-line summary."""
+def print_table(study, states: dict, stream=sys.stdout, all_rows: bool = False, only=None,
+                summary: bool = True) -> None:
+    """The case table (case_id, the keys that vary, state, and a role column when the study
+    has reference runs) and a one-line summary. only: the run ids to list (default all)."""
     keys = study.varying_keys
-    header = ["case_id", *keys, "state", "role"]
     first = study.first_position
-    ids = study.run_ids if all_rows else study.run_ids[:TABLE_ROWS]
+    with_role = len(study.run_ids) > len(study.case_id_set)
+    header = ["case_id", *keys, "state", *(["role"] if with_role else [])]
+    listed = study.run_ids if only is None else only
+    ids = listed if all_rows else listed[:TABLE_ROWS]
     rows = []
     for cid in ids:
         flat = first.get(cid)
-        role = "reference" if flat is None else "case"
-        rows.append([cid, *_row_values(study, cid, flat, keys), states[cid], role])
+        role = ["reference" if flat is None else "case"] if with_role else []
+        rows.append([cid, *_row_values(study, cid, flat, keys), states[cid], *role])
     widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
     for r in [header, *rows]:
         stream.write("  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip() + "\n")
-    if len(ids) < len(study.run_ids):
-        stream.write(f"... {len(study.run_ids) - len(ids)} more rows (--all lists them)\n")
-    counts = {}
-    for s in states.values():
-        counts[s] = counts.get(s, 0) + 1
-    summary = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-    stream.write(f"{study.name}: {_count(study)}: {summary}\n")
+    if len(ids) < len(listed):
+        stream.write(f"... {len(listed) - len(ids)} more rows (--all lists them)\n")
+    if with_role:
+        stream.write("role: case = a point of the study; reference = a converged run ([reference]) that "
+                     "the cases' errors are measured against\n")
+    if summary:
+        counts = {}
+        for s in states.values():
+            counts[s] = counts.get(s, 0) + 1
+        text = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+        stream.write(f"{study.name}: {_count(study)}: {text}\n")
 
 
 def _count(study) -> str:
@@ -154,7 +172,8 @@ def _prepare_dirs(out_dir: Path) -> Path:
     batches = out_dir / BATCHES
     batches.mkdir(parents=True, exist_ok=True)
     for stale in [*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
-                  *out_dir.glob(".study.nc.inputs.tmp-*"), *out_dir.glob(f".{LEDGER}.tmp-*")]:
+                  *out_dir.glob(".study.nc.inputs.tmp-*"), *out_dir.glob(f".{LEDGER}.tmp-*"),
+                  *out_dir.glob(".study.toml.tmp-*")]:
         if stale.is_file() and not stale.is_symlink():     # killed writers
             stale.unlink(missing_ok=True)
     return batches
@@ -175,8 +194,7 @@ def command_run(args) -> int:
         from .engine import probe_scheduler
         probe_scheduler(args.scheduler)
     if args.dry_run:
-        print_table(study, ledger_states(study, out_dir))
-        return EXIT_OK
+        return _dry_run(study, out_dir, args.all)
     _refuse_foreign_directory(out_dir, args.force)
     _refuse_what_cannot_fit(study, out_dir)
     try:
@@ -193,6 +211,33 @@ def command_run(args) -> int:
 
 #: what makes a directory a floe-impact results directory
 RESULTS_MARKERS = {"ledger.jsonl", "batches", ".lock"}
+
+
+def _dry_run(study, out_dir: Path, all_rows: bool) -> int:
+    """What a run would do: the cases it would compute, what is done, and the output size."""
+    states = ledger_states(study, out_dir)
+    todo = [cid for cid in study.run_ids if states[cid] == "pending"]
+    failed = sum(1 for cid in study.run_ids if states[cid] not in ("ok", "pending"))
+    print(f"{study.name}: {_count(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
+          f"-> {out_dir}")
+    if todo:
+        print(f"would run ({len(todo)}):")
+        print_table(study, states, all_rows=all_rows, only=todo, summary=False)
+    memory, disk = output_size(study)
+    print(f"estimated output: {_size(disk * len(todo) / max(len(study.run_ids), 1))} to write for these "
+          f"(batch files and study.nc), {_size(disk)} for the whole study; {_size(memory)} of worker memory "
+          f"per case")
+    if failed:
+        print(f"{failed} case(s) failed before and are not run again (--rerun-failed runs them)")
+    print("nothing was run (--dry-run)")
+    return EXIT_OK
+
+
+def _size(n: float) -> str:
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n:.0f} B"
 
 
 def _refuse_foreign_directory(out_dir: Path, force: bool) -> None:
@@ -282,6 +327,8 @@ def _run_locked(args, study, out_dir: Path) -> int:
     from .casefile import NUMERICAL_FAILURES
     from .ledger import reconcile
     batches = _prepare_dirs(out_dir)
+    from .study import keep_study_copy
+    keep_study_copy(study, out_dir)
     notes = []
     ledger = reconcile(out_dir, notes)
     for note in notes:
@@ -436,20 +483,69 @@ def _summary(study, ledger, states: dict, computed: set) -> None:
 
 
 def command_status(args) -> int:
-    from .study import find_study, load_study
-    study = load_study(find_study(args.study))
-    out_dir = Path(args.out) if args.out else Path("results") / study.name
+    study, out_dir = study_and_results(args.study, args.out)
     print_table(study, ledger_states(study, out_dir), all_rows=args.all)
     return EXIT_OK
 
 
+def command_show(args) -> int:
+    from .casefile import DamagedFile
+    from .show import ShowError, choose_case, show
+    study, out_dir = study_and_results(args.study, args.out)
+    if not 2 <= args.points <= 100_000:
+        raise StudyError(f"--points must be in 2 .. 100000, got {args.points}")
+    try:
+        case_id = choose_case(study, args.case)
+        figure = Path(args.figure) if args.figure else None
+        if figure is None and not out_dir.is_dir():
+            raise ShowError(f"no results directory {out_dir}; give --figure FILE to draw a case not run yet")
+        _, text = show(study, out_dir, case_id, x=args.x, points=args.points, figure=figure)
+    except ShowError as err:
+        raise StudyError(str(err)) from None
+    except DamagedFile as err:
+        raise _IOProblem(f"the case's batch file failed its checksum ({err}); run the study again to "
+                         f"recompute it") from None
+    except OSError as err:
+        raise _write_failed(Path(err.filename) if getattr(err, "filename", None) else out_dir, err) from None
+    print(text)
+    return EXIT_OK
+
+
+def study_and_results(name_or_path: str, out: str | None) -> tuple:
+    """The study and its results directory, from a study name or file (results/<name> unless
+    --out), or from a results directory alone (through the copy of the study a run keeps
+    there); a name whose studies/<name>.toml is gone falls back on results/<name>."""
+    from .study import STUDY_COPY, find_study, load_study, load_study_copy
+    given = Path(name_or_path)
+    if given.is_dir():
+        if not (given / STUDY_COPY).is_file():
+            raise StudyError(f"{given} is not a results directory of a study run by this version "
+                             f"(no {STUDY_COPY} in it)")
+        return load_study_copy(given), Path(out) if out else given
+    try:
+        study = load_study(find_study(name_or_path))
+    except StudyError:
+        fallback = Path(out) if out else Path("results") / given.stem
+        if given.suffix or not (fallback / STUDY_COPY).is_file():
+            raise
+        return load_study_copy(fallback), fallback
+    return study, Path(out) if out else Path("results") / study.name
+
+
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv:
+        _parser().print_help(sys.stderr)
+        print("error: give a command (run, status, show)", file=sys.stderr)
+        return EXIT_BAD_INPUT
     try:
         args = _parser().parse_args(argv)
         if args.command == "run":
             name = Path(args.study).stem
             refuse_if_locked(Path(args.out) if args.out else Path("results") / name)
             return command_run(args)
+        if args.command == "show":
+            return command_show(args)
         return command_status(args)
     except StudyError as err:
         print(f"error: {err}", file=sys.stderr)

@@ -87,8 +87,10 @@ def cluster_client(workers: int, scheduler: str | None):
             # everything); what dask logs at ERROR is its own shutdown races (a worker's heartbeat
             # to a scheduler already gone when a full disk stops the study), a traceback the
             # user cannot act on
+            # dashboard_address=None still binds the scheduler's HTTP server to 8787 and warns
+            # when another process holds that port; ":0" takes any free port, silently
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL)
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
         finally:
             signal.signal(signal.SIGINT, previous)
             try:

@@ -425,6 +425,51 @@ def load_study(path: Path) -> Study:
     return load_study_text(text, path.stem, path)
 
 
+#: the copy of its study a run keeps in the results directory (status and show read it)
+STUDY_COPY = "study.toml"
+_COPY_HEADER = "# floe-impact keeps this copy of the study it ran here: name = "
+
+
+def keep_study_copy(study: Study, out_dir: Path) -> None:
+    """Write out_dir/study.toml (a header line naming the study, then its text byte for byte)
+    unless it holds that already; atomically, never through a symbolic link."""
+    import os
+    import time
+    target = Path(out_dir) / STUDY_COPY
+    data = (f"{_COPY_HEADER}{study.name!r}, from {study.path}\n" + study.text).encode()
+    try:
+        if not target.is_symlink() and target.is_file() and target.read_bytes() == data:
+            return
+    except OSError:
+        pass
+    tmp = target.with_name(f".{STUDY_COPY}.tmp-{os.getpid()}-{time.monotonic_ns()}")
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+    try:
+        os.write(fd, data)
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+    os.replace(tmp, target)
+
+
+def load_study_copy(out_dir: Path) -> Study:
+    """The study a results directory was run with, from its copy (see keep_study_copy)."""
+    path = Path(out_dir) / STUDY_COPY
+    try:
+        text = path.read_bytes().decode("utf-8")
+    except OSError as err:
+        raise StudyError(f"cannot read {path}: {err.strerror}") from None
+    except UnicodeDecodeError:
+        raise StudyError(f"{path}: not UTF-8 text") from None
+    name = Path(out_dir).name
+    if text.startswith(_COPY_HEADER):
+        header, _, text = text.partition("\n")
+        quoted = header[len(_COPY_HEADER):].split(", from ", 1)[0]
+        if len(quoted) >= 2 and quoted[0] == quoted[-1] and quoted[0] in "'\"":
+            name = quoted[1:-1]
+    return load_study_text(text, name, path)
+
+
 def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
     """Validate a study from its text (what a worker receives); expand its cases."""
     path = Path(path) if path is not None else Path(f"{name}.toml")

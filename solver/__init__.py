@@ -6,10 +6,17 @@ Pure numerics (no files, no xarray, no dask, no plots). Three lines run one case
     result = solve(Parameters(V=5.0, Nmod=40), times=[0.0, 0.05, 0.1])
     result.fields["strain"], result.crack_onset(8e-5), result.status
 """
+from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version
+
 from .core import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, STATUS_INFO, Result, compile_kernels, solve
 from .fracture import EPS_Y_INFO, PAPER_EPS_Y, crack_onset, default_eps_Y
 from .parameters import (INTEGRATORS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters,
                          Settings)
+
+try:
+    __version__ = _version("floe-impact")
+except _NotInstalled:                           # a source tree that was not installed
+    __version__ = "unknown"
 
 __all__ = [
     "DIAGNOSTIC_INFO", "EPS_Y_INFO", "FIELD_INFO", "FIELDS", "INTEGRATORS", "PAPER_EPS_Y",

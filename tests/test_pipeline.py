@@ -156,7 +156,8 @@ def test_a_rerun_with_nothing_new_rewrites_nothing(regression_run, tmp_path):
     shutil.copytree(regression_run, out)
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
     assert code == 0, err                         # the copy's mtimes differ: rebuilt once
-    products = [out / "study.nc", out / "diagnostics.png", out / "crack_onset.png"]
+    products = [out / "study.nc", out / "diagnostics.png", out / "crack_onset.png", out / "study.toml",
+                out / "ledger.jsonl", *batch_files(out)]
     stamps = {p: p.stat().st_mtime_ns for p in products}
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
     assert code == 0, err
@@ -227,17 +228,22 @@ def test_stale_temporary_files_are_swept(regression_run, tmp_path):
     assert not stale.exists()
 
 
-def test_dry_run_and_status_print_the_case_table(regression_run, tmp_path):
+def test_dry_run_says_what_would_run_and_status_what_is_done(regression_run, tmp_path):
     code, outp, err = pipeline("run", "studies/regression_small.toml", "--out", regression_run, "--dry-run")
     assert code == 0, err
-    assert "regression_small: 4 cases: 4 ok" in outp
-    rows = [line.split() for line in outp.splitlines()[1:-1]]
-    assert len(rows) == 4 and all(r[-2:] == ["ok", "case"] for r in rows)
+    assert outp.splitlines()[0] == f"regression_small: 4 cases, 0 to run, 4 already done -> {regression_run}"
+    assert "would run" not in outp and outp.strip().endswith("nothing was run (--dry-run)")
     fresh = tmp_path / "never_run"
     code, outp, _ = pipeline("run", "studies/regression_small.toml", "--out", fresh, "--dry-run")
-    assert code == 0 and "4 pending" in outp and not fresh.exists()
+    lines = outp.splitlines()
+    assert code == 0 and lines[1] == "would run (4):" and not fresh.exists()
+    assert lines[2].split() == ["case_id", "V", "hi", "state"]             # no role column: no references
+    assert all(line.split()[-1] == "pending" for line in lines[3:7])
+    assert lines[7].startswith("estimated output: ") and "of worker memory per case" in lines[7]
     code, outp, _ = pipeline("status", "regression_small", "--out", regression_run)
-    assert code == 0 and "4 ok" in outp
+    rows = [line.split() for line in outp.splitlines()[1:-1]]
+    assert code == 0 and outp.splitlines()[-1] == "regression_small: 4 cases: 4 ok"
+    assert len(rows) == 4 and all(r[-1] == "ok" for r in rows) and "would run" not in outp
 
 
 def test_case_ids_are_stable_and_change_with_settings(tmp_path):

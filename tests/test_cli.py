@@ -1,0 +1,154 @@
+"""What a new user meets on the command line (issue 11): a bare command, --version, status
+of a results directory on its own, the role column, `show` for one case, and a run's output
+free of warnings."""
+import shutil
+import socket
+from pathlib import Path
+
+import pytest
+
+from test_pipeline import ROOT, batch_files, pipeline
+
+SMALL = """
+description = "cli tests"
+[base]
+Nmod = 6
+[grid]
+V = [3.0, 5.0]
+hi = [0.3, 0.5]
+[output]
+times = { unit = "t_sc", step = 0.25, stop = 0.5 }
+fields = ["strain"]
+x_points = 11
+end = "last_output"
+eps_Y = [1e-4, 1e-3]
+"""
+
+
+@pytest.fixture(scope="module")
+def small_run(tmp_path_factory):
+    """A finished study run from a file outside studies/, with port 8787 held by another
+    process (dask's scheduler used to warn about it)."""
+    base = tmp_path_factory.mktemp("cli")
+    study = base / "cli_small.toml"
+    study.write_text(SMALL)
+    out = base / "results" / "cli_small"
+    holder = socket.socket()
+    try:
+        holder.bind(("0.0.0.0", 8787))
+        holder.listen()
+    except OSError:
+        pass                                # taken already: the condition holds anyway
+    try:
+        code, outp, err = pipeline("run", study, "--out", out)
+    finally:
+        holder.close()
+    assert code == 0, err
+    return study, out, outp + err
+
+
+def test_a_run_prints_no_warnings(small_run):
+    _, _, text = small_run
+    assert "Warning" not in text and "warn" not in text.lower(), text
+
+
+def test_bare_command_prints_the_help_and_exits_2():
+    code, outp, err = pipeline()
+    assert code == 2 and "Traceback" not in err
+    assert "usage: python -m pipeline" in err and "{run,status,show}" in err
+    assert err.strip().splitlines()[-1] == "error: give a command (run, status, show)"
+
+
+def test_version_of_both_packages():
+    import pipeline as pl
+    import solver
+    code, outp, _ = pipeline("--version")
+    assert code == 0 and outp.strip() == f"floe-impact {pl.__version__}"
+    assert solver.__version__ == pl.__version__ != "unknown"
+
+
+def test_status_of_a_results_directory_on_its_own(small_run, tmp_path):
+    """The run keeps a copy of its study: status works on the directory alone (moved, the study
+    file gone), and by name from where results/<name> is."""
+    study, out, _ = small_run
+    copy = tmp_path / "elsewhere" / "moved"
+    shutil.copytree(out, copy)
+    code, outp, err = pipeline("status", copy, cwd=tmp_path)
+    assert code == 0, err
+    assert outp.splitlines()[-1] == "cli_small: 4 cases: 4 ok"
+    (tmp_path / "results").mkdir()
+    shutil.copytree(out, tmp_path / "results" / "cli_small")
+    code, outp, err = pipeline("status", "cli_small", cwd=tmp_path)        # no studies/cli_small.toml here
+    assert code == 0 and outp.splitlines()[-1] == "cli_small: 4 cases: 4 ok", err
+    code, _, err = pipeline("status", tmp_path / "elsewhere")             # not a results directory
+    assert code == 2 and err.count("\n") == 1 and "study.toml" in err
+
+
+def test_role_column_only_with_reference_runs_and_explained(tmp_path):
+    study = tmp_path / "with_reference.toml"
+    study.write_text(SMALL.replace("[grid]\nV = [3.0, 5.0]\nhi = [0.3, 0.5]",
+                                   "[grid]\nV = [3.0, 5.0]\n[reference]\nNmod = 12"))
+    code, outp, err = pipeline("status", study, "--out", tmp_path / "none")
+    assert code == 0, err
+    lines = outp.splitlines()
+    assert lines[0].split() == ["case_id", "V", "state", "role"]
+    assert sorted(line.split()[-1] for line in lines[1:5]) == ["case", "case", "reference", "reference"]
+    assert any(line.startswith("role: case = a point of the study; reference = a converged run") for line in lines)
+
+
+def test_show_draws_one_case_and_prints_its_summary(small_run):
+    study, out, _ = small_run
+    code, outp, err = pipeline("show", out, "--case", "V=5,hi=0.5")
+    assert code == 0, err
+    lines = outp.splitlines()
+    assert lines[0].startswith("case ") and lines[0].endswith("of cli_small: V=5, hi=0.5")
+    assert "status: ok" in lines
+    assert any(line.startswith("crack onset, upper surface: εY = 0.0001: ") for line in lines)
+    figure = Path(lines[-1].removeprefix("wrote "))
+    assert figure.parent == out and figure.name.startswith("case_") and figure.stat().st_size > 20_000
+    # by a unique start of its id, from the study file, to a chosen file
+    cid = figure.stem.removeprefix("case_")
+    code, outp, err = pipeline("show", study, "--out", out, "--case", cid[:6], "--figure", out / "mine.png")
+    assert code == 0 and (out / "mine.png").exists(), err
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--case", "V=5"], "2 cases have V=5; add keys"),
+    (["--case", "V=7"], "no case of the study has V=7"),
+    (["--case", "zz"], "no case id of the study starts with 'zz'"),
+    ([], "the study has 4 runs: choose one with --case"),
+    (["--case", "V=5,hi=0.5", "--x", "99"], "--x 99 m is outside the plate"),
+])
+def test_show_bad_choices_are_one_line(small_run, args, words):
+    _, out, _ = small_run
+    code, _, err = pipeline("show", out, *args)
+    assert code == 2 and err.count("\n") == 1 and words in err, err
+
+
+def test_show_a_damaged_batch_is_an_io_error_not_a_wrong_figure(small_run, tmp_path):
+    _, out, _ = small_run
+    copy = tmp_path / "damaged"
+    shutil.copytree(out, copy)
+    for path in batch_files(copy):
+        data = bytearray(path.read_bytes())
+        data[len(data) // 2] ^= 0x10
+        path.write_bytes(bytes(data))
+    before = sorted(copy.glob("case_*.png"))
+    code, _, err = pipeline("show", copy, "--case", "V=3,hi=0.3")
+    assert code == 74 and err.count("\n") == 1 and "checksum" in err, err
+    assert sorted(copy.glob("case_*.png")) == before                    # no figure drawn
+
+
+def test_show_a_case_not_run_yet_solves_it_and_says_so(tmp_path):
+    study = tmp_path / "fresh.toml"
+    study.write_text(SMALL)
+    code, outp, err = pipeline("show", study, "--case", "V=3,hi=0.5", "--figure", tmp_path / "f.png",
+                               "--out", tmp_path / "nothing_here")
+    assert code == 0, err
+    assert "not computed yet in this results directory: solved here, nothing stored" in outp
+    assert (tmp_path / "f.png").exists() and not (tmp_path / "nothing_here").exists()
+
+
+def test_show_is_in_the_readme():
+    readme = (ROOT / "README.md").read_text()
+    assert "python -m pipeline show " in readme
