@@ -37,7 +37,7 @@ status: setup  ## what a study has done: make status STUDY=speed_sweep
 	$(PY) -m pipeline status $(STUDY)
 
 test: setup  ## the default test suite (fast; excludes tests marked slow)
-	$(PY) -m pytest -q
+	$(PY) -m pytest --durations=10
 
 test-slow: setup  ## only the long tests (marked slow)
 	$(PY) -m pytest -q -m slow

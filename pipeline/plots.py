@@ -23,11 +23,30 @@ DIAGNOSTICS = [
     ("crack_onset_time", "crack onset, upper [ms]"),
     ("crack_onset_time_lower", "crack onset, lower [ms]"),
     ("max_contact_intervals", "max contact intervals"),
-    ("max_force", "max force [N/m] (▲: layer bottomed out, unbounded)"),
+    ("max_force", "max force [N/m]; ▲: unbounded (bottomed out)"),
     ("max_compression", "max layer compression δ"),
     ("energy_residual", "energy residual / work"),
     ("run_time", "solver wall time [s]"),
 ]
+
+
+#: Okabe-Ito colours (distinct in grey print and for colour-blind readers), then markers, one per line
+PALETTE = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#000000", "#E69F00", "#56B4E9", "#999933"]
+MARKERS = ["o", "s", "^", "D", "v", "P", "X", "h"]
+
+
+def _line_styles(n: int) -> list:
+    """(colour, marker) of n lines: the palette while it lasts, then viridis."""
+    if n <= len(PALETTE):
+        return list(zip(PALETTE[:n], MARKERS[:n]))
+    return [(plt.cm.viridis(v), "o") for v in np.linspace(0, 0.85, n)]
+
+
+def _log_spaced(values) -> bool:
+    """True for keys swept over more than a decade in positive values (K, tolerance...): they
+    belong on a log axis."""
+    v = np.asarray(values, dtype=float)
+    return v.size > 2 and bool(np.all(v > 0)) and float(v.max() / v.min()) >= 20.0
 
 
 def _save(fig, path, dpi) -> None:
@@ -78,13 +97,13 @@ def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     rows = combos[:6]
     fig, axes = plt.subplots(len(rows), 2, figsize=(12, 3.2 * len(rows) + 1.0), squeeze=False,
                              constrained_layout=True, sharex=True)
-    colors = plt.cm.viridis(np.linspace(0, 0.9, ds.sizes[first]))
+    colors = [c for c, _ in _line_styles(ds.sizes[first])]
     for row, combo in zip(axes, rows):
         where = dict(zip(others, combo))
         for ax, name, surface in ((row[0], "crack_onset_time", "upper"), (row[1], "crack_onset_time_lower", "lower")):
             sel = ds[name].sel(where)
             for i, (color, label) in enumerate(zip(colors, labels)):
-                ax.loglog(eps, sel.isel({first: i}).values * 1e3, "-", color=color, label=label, lw=1.4)
+                ax.loglog(eps, sel.isel({first: i}).values * 1e3, "-", color=color, label=label, lw=1.8)
             ax.axvline(PAPER_EPS_Y, color="k", lw=0.8, ls="--")
             ax.set_ylabel("crack onset [ms]")
             ax.set_title(f"{surface} surface" + (", " + ", ".join(_label(k, v) for k, v in where.items())
@@ -194,35 +213,43 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
                     for name in ("crack_onset_time", "crack_onset_time_lower")})
     fig, axes = plt.subplots(3, 3, figsize=(13, 10), constrained_layout=True)
     combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
-    colors = plt.cm.viridis(np.linspace(0, 0.9, len(combos)))
+    styles = _line_styles(len(combos))
     xvals = ds[first].values
+    log_x = _log_spaced(xvals)
     for ax, (name, title) in zip(axes.flat, DIAGNOSTICS):
         unbounded = []
-        for color, combo in zip(colors, combos):
+        for (color, marker), combo in zip(styles, combos):
             where = dict(zip(others, combo))
             values = np.asarray(ds[name].sel(where).values, dtype=float)
             ok = np.asarray(ds["status"].sel(where).values == "ok")
             inf = np.isinf(values)
             shown = np.where(inf, np.nan, values)        # no meaningless value on an axis
             label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
-            ax.plot(xvals, shown, "-", color=color, label=label)
-            ax.plot(xvals[ok], shown[ok], "o", color=color, ms=4)
-            ax.plot(xvals[~ok], shown[~ok], "o", mfc="white", mec=color, ms=5)
+            ax.plot(xvals, shown, "-", color=color, lw=1.6)
+            ax.plot(xvals[ok], shown[ok], marker, color=color, ms=6)
+            ax.plot(xvals[~ok], shown[~ok], marker, mfc="white", mec=color, mew=1.4, ms=6.5)
+            ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)   # legend entry
             unbounded.append((color, xvals[inf]))
         if any(x.size for _, x in unbounded):           # drawn just inside the top edge
             for i, (color, x) in enumerate(unbounded):   # one row per line, so none hides another
                 ax.plot(x, np.full(x.size, 0.95 - 0.05 * i), "^", color=color, ms=7,
                         transform=ax.get_xaxis_transform())
-        span = float(np.max(xvals) - np.min(xvals)) or 1.0
-        ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
+        if log_x:
+            ax.set_xscale("log")
+            if xvals.size <= 10:                         # the swept values as plain tick labels
+                ax.set_xticks(xvals, [f"{v:g}" for v in xvals])
+                ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+        else:
+            span = float(np.max(xvals) - np.min(xvals)) or 1.0
+            ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
+            ax.ticklabel_format(axis="x", useOffset=False)
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]")
+        if name in ("max_strain", "max_strain_lower", "energy_residual", "run_time", "max_force"):
+            _auto_log_y(ax, ds[name].values)
         if name in ("max_strain", "max_strain_lower"):
-            ax.axhline(eps_y, color="k", lw=0.8, ls="--")
-            ax.set_yscale("log")
-        if name in ("energy_residual", "run_time", "max_force"):
-            ax.set_yscale("log")
-        ax.grid(alpha=0.3)
+            _yield_line(ax, ds[name].values, eps_y)
+        ax.grid(alpha=0.3, which="both" if log_x else "major")
     handles, labels = axes.flat[0].get_legend_handles_labels()
     if labels:
         fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(labels)), fontsize=9)
@@ -236,9 +263,33 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     return path
 
 
+def _auto_log_y(ax, values) -> None:
+    """A log y axis for positive values spanning more than a decade; else linear."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    if v.size and np.all(v > 0) and float(v.max() / v.min()) > 10.0:
+        ax.set_yscale("log")
+        ax.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda y, _: f"{y:g}"))
+        ax.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+
+
+def _yield_line(ax, values, eps_y: float) -> None:
+    """εY as a dashed line when it lies near the data; far below it, a note instead (the axis
+    would otherwise spend decades of empty space reaching it)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v) & (v > 0)]
+    if v.size and eps_y < v.min() / 10:
+        ax.set_title(f"{ax.get_title()}\n(εY = {eps_y:g} is off the axis: every value ≥ {v.min() / eps_y:.0f}× εY)",
+                     fontsize=10)
+    else:
+        ax.axhline(eps_y, color="k", lw=0.8, ls="--", label=None)
+
+
 def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4, 4.6)) -> Path:
-    """The paper's figure 2 for the first case: (a) body and ice at 3.8 t_sc, (b) deflection,
-    (c) layer pressure, (d) upper-surface strain at 3.8 ... 4.6 t_sc."""
+    """The paper's figure 2 for the first case: (a) body and ice at 3.8 t_sc, with an inset on
+    the contact zone where the layer (thickness he) shows, (b) deflection, (c) layer pressure,
+    (d) upper-surface strain at 3.8 ... 4.6 t_sc."""
     case = ds.isel({d: 0 for d in dims})
     x = case["x"].values
 
@@ -246,37 +297,57 @@ def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4
         return float(case[key].values)
 
     R, he, V = param("R"), param("he"), param("V")
+    t_sc = float(case["t_sc"].values)
     fig, axes = plt.subplots(2, 2, figsize=(12, 8.5), constrained_layout=True)
     k38 = case["t"].sel(t=times[0], method="nearest")
     t38 = float(case["time"].sel(t=k38))
+    w38 = case["deflection"].sel(t=k38).values
+    body = x**2 / (2 * R) + he - V * t38
     ax = axes[0, 0]
-    ax.plot(x, x**2 / (2 * R) + he - V * t38, "k-", label="body surface")
-    ax.plot(x, case["deflection"].sel(t=k38).values, "C0-", label="ice (upper surface)")
-    ax.set_title(f"(a) body and ice at t = {float(k38):.1f} t_sc")
+    ax.plot(x, body, "k-", lw=1.6, label="body surface")
+    ax.plot(x, w38, "C0-", lw=1.6, label="ice, upper surface")
+    ax.set_title(f"(a) body and ice at t = {float(k38):.1f} t_sc = {t38 * 1e3:.1f} ms", loc="left")
     ax.set_ylabel("y [m]")
-    ax.set_ylim(-V * t38 - 0.1, max(0.5, float(np.nanmax(case['deflection'].sel(t=k38))) + 0.1))
-    ax.legend()
-    panels = [(axes[0, 1], "deflection", "(b) deflection w [m]", 1.0),
-              (axes[1, 0], "layer_pressure", "(c) layer pressure P_e [MPa]", 1e-6),
-              (axes[1, 1], "strain", "(d) strain, upper surface", 1.0)]
-    for ax, name, title, scale in panels:
+    ax.set_ylim(-V * t38 - 0.1, max(0.5, float(np.nanmax(w38)) + 0.1))
+    ax.legend(loc="lower left", fontsize=9)
+    # the 2 cm layer is invisible at this scale: an inset on the contact zone
+    touch = np.flatnonzero(body - (w38 + he) <= he)          # within a layer thickness of touching
+    half = float(np.max(np.abs(x[touch]))) * 1.3 if touch.size else 0.2 * float(np.max(x))
+    zoom = np.abs(x) <= half
+    inset = ax.inset_axes([0.33, 0.5, 0.34, 0.45])           # the empty space between the body's flanks
+    inset.fill_between(x[zoom], w38[zoom], w38[zoom] + he, color="C0", alpha=0.25, lw=0,
+                       label=f"layer, he = {he * 100:g} cm")
+    inset.plot(x[zoom], w38[zoom], "C0-", lw=1.2)
+    inset.plot(x[zoom], body[zoom], "k-", lw=1.2)
+    lo = float(np.nanmin(w38[zoom]))
+    inset.set_ylim(lo - 1.5 * he, lo + 4 * he)
+    inset.set_xlim(-half, half)
+    inset.tick_params(labelsize=7)
+    inset.set_title("contact zone", fontsize=8, pad=2)
+    inset.legend(fontsize=7, loc="lower right")
+    ax.indicate_inset_zoom(inset, edgecolor="0.4")
+    panels = [(axes[0, 1], "deflection", "(b) deflection", "w [m]", 1.0),
+              (axes[1, 0], "layer_pressure", "(c) layer pressure", "P_e [MPa]", 1e-6),
+              (axes[1, 1], "strain", "(d) bending strain, upper surface", "ε [–] (positive: tension)", 1.0)]
+    colors = plt.cm.plasma(np.linspace(0, 0.85, len(times)))
+    for ax, name, title, ylabel, scale in panels:
         for i, tt in enumerate(times):
             sel = case[name].sel(t=tt, method="nearest")
-            ax.plot(x, sel.values * scale, color=plt.cm.plasma(i / len(times)),
-                    label=f"({i + 1}) t = {float(sel['t']):.1f} t_sc")
-        ax.set_title(title)
-        ax.set_ylabel(title.split(") ", 1)[1])
+            ax.plot(x, sel.values * scale, color=colors[i], lw=1.4,
+                    label=f"({i + 1}) t = {float(sel['t']):.1f} t_sc = {float(sel['t']) * t_sc * 1e3:.1f} ms")
+        ax.set_title(title, loc="left")
+        ax.set_ylabel(ylabel)
         ax.legend(fontsize=8)
     for ax in axes.flat:
         ax.set_xlabel("x [m]")
         ax.grid(alpha=0.3)
+    units = {"K": ("MPa", 1e-6), "he": ("cm", 100.0), "R": ("m", 1.0), "V": ("m/s", 1.0), "hi": ("m", 1.0)}
     fig.suptitle("Impact of a parabolic body on floating ice: " + ", ".join(
-        f"{k} = {param(k):g}" for k in ("K", "he", "R", "V", "hi", "Nmod")), fontsize=11)
+        f"{k} = {param(k) * units[k][1]:g} {units[k][0]}" for k in units)
+        + f", {int(param('Nmod'))} modes; t_sc = 1/ω₁ = {t_sc * 1e3:.2f} ms", fontsize=11)
     _save(fig, path, dpi=120)
     plt.close(fig)
     return path
-
-
 
 
 def make_plots(ds: xr.Dataset, dims: list, kinds: list, out_dir: Path) -> list:
@@ -334,10 +405,10 @@ def work_precision_figure(ds: xr.Dataset, path: Path) -> Path:
     err, run = ds["error_strain"].values, ds["run_time"].values
     for row, (label, mask) in zip(axes, phys):
         ax = row[0]
-        for name, marker in (("rk4", "s"), ("etd34", "o"), ("dop853", "^")):
+        for (name, marker), color in zip((("rk4", "s"), ("etd34", "o"), ("dop853", "^")), PALETTE):
             sel = mask & (group == "integrator") & (ds["integrator"].values == name)
             order = np.argsort(run[sel])
-            ax.loglog(run[sel][order], err[sel][order], marker + "-", label=name)
+            ax.loglog(run[sel][order], err[sel][order], marker + "-", color=color, label=name)
         ax.set_xlabel("solver wall time [s]")
         ax.set_ylabel("relative L2 strain error")
         ax.set_title(f"{label}\nintegrators (Nmod 60)", fontsize=10)
@@ -349,7 +420,9 @@ def work_precision_figure(ds: xr.Dataset, path: Path) -> Path:
             for xv, ev, tv in zip(ds[key].values[sel][order], err[sel][order], run[sel][order]):
                 ax.annotate(f"{tv:.2f} s", (xv, ev), textcoords="offset points", xytext=(4, 4), fontsize=7)
             ax.set_xlabel(key)
-            ax.set_title(f"{label}\n{title} (etd34, tolerance 1e-10)", fontsize=10)
+            ax.set_ylabel("relative L2 strain error")
+            ax.set_title(f"{label}\n{title} (etd34, tolerance 1e-10)\nlabels: solver wall time of each run",
+                         fontsize=10)
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
     for ax in axes.flat:
         ax.grid(alpha=0.3, which="both")

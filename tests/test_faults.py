@@ -116,7 +116,7 @@ def _kill_runner_then_resume(study_file, undisturbed, out, delay):
     _assert_same_results(out, undisturbed)
 
 
-@pytest.mark.parametrize("trial", range(2))
+@pytest.mark.parametrize("trial", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_killed_runner_resumes_without_loss(study_file, undisturbed, tmp_path, trial):
     _kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
                              delay=random.Random(trial).uniform(2.0, 6.0))
@@ -162,7 +162,7 @@ def _ctrl_c_at(study_file, undisturbed, out, delay):
     _assert_same_results(out, undisturbed)
 
 
-@pytest.mark.parametrize("trial", range(5))
+@pytest.mark.parametrize("trial", [0, 1, *(pytest.param(i, marks=pytest.mark.slow) for i in (2, 3, 4))])
 def test_ctrl_c_at_random_moments_including_start_up(study_file, undisturbed, tmp_path, trial):
     _ctrl_c_at(study_file, undisturbed, tmp_path / f"int{trial}", random.Random(7 + trial).uniform(0.05, 4.0))
 

@@ -192,7 +192,8 @@ def test_resume_computes_exactly_the_missing_cases(regression_run, tmp_path):
     assert all(p.stat().st_mtime_ns == stamps[p] for p in kept), "finished cases were rewritten"
 
 
-@pytest.mark.parametrize("damage", ["truncate", "empty", "flip", "other_case"])
+@pytest.mark.parametrize("damage", ["truncate", pytest.param("empty", marks=pytest.mark.slow),
+                                    pytest.param("flip", marks=pytest.mark.slow), "other_case"])   # flips: test_integrity
 def test_corrupt_case_file_is_set_aside_and_recomputed(regression_run, tmp_path, damage):
     out = tmp_path / damage
     shutil.copytree(regression_run, out)

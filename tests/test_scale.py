@@ -276,7 +276,7 @@ def _kill_and_resume(study_file, finished, out, delay):
     assert_same_study(out, finished)
 
 
-@pytest.mark.parametrize("trial", range(3))
+@pytest.mark.parametrize("trial", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)])
 def test_killed_runner_on_a_batched_study_loses_nothing(study_file, finished, tmp_path, trial):
     _kill_and_resume(study_file, finished, tmp_path / f"kill{trial}", random.Random(trial).uniform(3.0, 8.0))
 

@@ -1,0 +1,85 @@
+"""Figures a researcher can put in a paper (issue 11): log axes for keys swept over decades,
+no empty decades to reach εY, units and t_sc stated, every panel labelled."""
+import matplotlib
+import numpy as np
+import pytest
+import xarray as xr
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from pipeline import plots  # noqa: E402
+from test_pipeline import pipeline  # noqa: E402
+
+LOG_GRID = """
+description = "layer rigidity over three decades"
+[base]
+Nmod = 6
+[grid]
+K = [1e6, 1e7, 1e8, 1e9]
+hi = [0.3, 0.5]
+[output]
+times = { unit = "t_sc", step = 0.25, stop = 0.5 }
+fields = ["strain"]
+x_points = 11
+end = "last_output"
+"""
+
+
+@pytest.fixture(scope="module")
+def log_study(tmp_path_factory):
+    base = tmp_path_factory.mktemp("figures")
+    (base / "log_grid.toml").write_text(LOG_GRID)
+    code, _, err = pipeline("run", base / "log_grid.toml", "--out", base / "out", "--no-plots")
+    assert code == 0, err
+    with xr.open_dataset(base / "out" / "study.nc") as ds:
+        return ds.load(), base
+
+
+def _figure_axes(monkeypatch, draw):
+    """Draw with _save replaced, and return the figure's axes."""
+    captured = {}
+    monkeypatch.setattr(plots, "_save", lambda fig, path, dpi: captured.setdefault("fig", fig))
+    monkeypatch.setattr(plots.plt, "close", lambda fig: None)
+    draw()
+    return captured["fig"].axes
+
+
+def test_diagnostics_log_key_on_a_log_axis_and_no_empty_decades(log_study, monkeypatch, tmp_path):
+    ds, _ = log_study
+    axes = _figure_axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
+    panels = axes[:9]
+    assert all(ax.get_xscale() == "log" for ax in panels)              # K spans three decades
+    assert [float(t) for t in panels[0].get_xticks()] == [1e6, 1e7, 1e8, 1e9]
+    strain = panels[0]
+    lo, hi = strain.get_ylim()
+    values = ds["max_strain"].values
+    if np.nanmin(values) > 10 * 8e-5:                                  # εY far below: a note, not an axis
+        assert "off the axis" in strain.get_title() and lo > 8e-5
+    for ax in panels:
+        assert ax.get_xlabel() == "K [Pa]" and ax.get_title()
+    plt.close("all")
+
+
+def test_linear_key_keeps_plain_ticks_without_offset(log_study, monkeypatch, tmp_path):
+    ds, _ = log_study
+    axes = _figure_axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["hi", "K"], tmp_path / "d.png"))
+    assert axes[0].get_xscale() == "linear"
+    assert axes[0].xaxis.get_major_formatter().get_offset() == ""
+    plt.close("all")
+
+
+def test_paper_fig2_states_units_and_time_scale(monkeypatch, tmp_path):
+    code, _, err = pipeline("run", "studies/paper_fig2.toml", "--out", tmp_path / "fig2", "--no-plots")
+    assert code == 0, err
+    with xr.open_dataset(tmp_path / "fig2" / "study.nc") as ds:
+        ds = ds.load()
+    axes = _figure_axes(monkeypatch, lambda: plots.paper_fig2(ds, list(ds["status"].dims), tmp_path / "f.png"))
+    fig = axes[0].figure
+    title = fig._suptitle.get_text()
+    for text in ("K = 8 MPa", "he = 2 cm", "R = 10 m", "V = 5 m/s", "hi = 0.5 m", "t_sc = 1/ω₁ = "):
+        assert text in title, title
+    main = [ax for ax in axes if ax.get_title(loc="left")]
+    assert len(main) == 4 and all(ax.get_ylabel() and "[" in ax.get_ylabel() for ax in main)
+    assert any(c.get_title() == "contact zone" for ax in axes for c in ax.child_axes)   # the layer, zoomed
+    plt.close("all")
