@@ -126,6 +126,11 @@ class Result:
         """L^2/(6RV) of the case [s]."""
         return self.parameters.stage_duration
 
+    @property
+    def t_sc(self) -> float:
+        """The time scale 1/omega_1 [s], by the name study.nc gives it (= time_scale)."""
+        return self.parameters.time_scale
+
     def crack_onset(self, eps_Y, surface: str = "upper"):
         """First time [s] and place [m] at which the tension on a surface ("upper": +eps,
         "lower": -eps) reaches each yield strain eps_Y, from the run's tension record (NaN:

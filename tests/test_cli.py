@@ -152,3 +152,10 @@ def test_show_a_case_not_run_yet_solves_it_and_says_so(tmp_path):
 def test_show_is_in_the_readme():
     readme = (ROOT / "README.md").read_text()
     assert "python -m pipeline show " in readme
+
+
+def test_result_gives_its_time_scales_as_the_readme_says():
+    from solver import Parameters, solve
+    r = solve(Parameters(V=5.0, Nmod=10), times=[0.0, 0.01], fields=())
+    p = Parameters(V=5.0, Nmod=10)
+    assert r.t_sc == r.time_scale == p.time_scale and r.stage_duration == p.L**2 / (6 * p.R * p.V)
