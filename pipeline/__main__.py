@@ -7,6 +7,7 @@ try:
     from .cli import main
     code = main()
 except KeyboardInterrupt:                        # Ctrl-C while Python imports the runner, or
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     print("interrupted: finished cases are kept; run the same command again to resume",  # just
           file=sys.stderr)                                                              # after it
     code = INTERRUPTED

@@ -16,6 +16,7 @@ import argparse
 import errno
 import os
 import shutil
+import signal
 import sys
 import time
 from pathlib import Path
@@ -372,8 +373,12 @@ def _run_locked(args, study, out_dir: Path) -> int:
                         if reduced is not None:
                             writer = writer or open_writer(study, out_dir)
                             writer.write([position for _, position in batch], reduced)
-                    lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids), skipped,
-                                       args.batch_seconds, spec)
+                    try:
+                        lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids),
+                                           skipped, args.batch_seconds, spec)
+                    except OSError:
+                        _still_ours(out_dir, identity)   # a batch write failing because the directory went
+                        raise
                     for record in lost:
                         print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
                               file=sys.stderr)
@@ -572,6 +577,9 @@ def main(argv=None) -> int:
         sys.stdout = open(os.devnull, "w")
         return EXIT_OK
     except KeyboardInterrupt:
+        # the run is over: a second SIGINT (seen once in CI, 1.3 s into the start-up) must not
+        # kill the shutdown that follows with a signal instead of this exit status
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
         print("interrupted: finished cases are kept; run the same command again to resume",
               file=sys.stderr)
         return EXIT_INTERRUPTED
