@@ -36,11 +36,11 @@ study: setup  ## run a study: make study STUDY=speed_sweep [ARGS="--workers 1"]
 status: setup  ## what a study has done: make status STUDY=speed_sweep
 	$(PY) -m pipeline status $(STUDY)
 
-test: setup  ## the default test suite (fast; excludes tests marked slow)
-	$(PY) -m pytest --durations=10
+test: setup  ## the default test suite (fast; excludes tests marked slow): 2 processes, a file each
+	$(PY) -m pytest -q -n 2 --dist loadfile --durations=10
 
 test-slow: setup  ## only the long tests (marked slow)
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -n 2 --dist loadfile -m slow --durations=10
 
 bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 	$(PY) benchmarks/bench_solver.py
