@@ -382,6 +382,13 @@ SAMPLE = "sample"
 SAMPLE_EVERY = 10
 
 
+def id_parameters(parameters: dict) -> dict:
+    """The parameters a case id hashes: those beyond the paper's model are left out at the
+    value that is the paper's (H = inf), so ids from before they existed still hold."""
+    from solver.parameters import PAPER_DEFAULTS
+    return {k: v for k, v in parameters.items() if not (k in PAPER_DEFAULTS and v == PAPER_DEFAULTS[k])}
+
+
 def _parameter_text(parameters: dict) -> str:
     """'"name":value,...' in sorted order: the parameters part of a case id's JSON."""
     return ",".join(f'"{n}":' + json.dumps(parameters[n]) for n in sorted(parameters))
@@ -395,7 +402,7 @@ def _resolve_sample(values: dict) -> dict:
     """values with error_estimate = "sample" replaced by whether this case is in the sample."""
     if values.get("error_estimate") != SAMPLE:
         return values
-    params = Parameters(**{k: v for k, v in values.items() if k in PARAMETER_INFO}).as_dict()
+    params = id_parameters(Parameters(**{k: v for k, v in values.items() if k in PARAMETER_INFO}).as_dict())
     return {**values, "error_estimate": _sampled(_parameter_text(params))}
 
 
@@ -576,7 +583,7 @@ def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
     """Stable id: hash of the normalised parameters, the settings the integrator reads, the
     output request (not eps_Y, not records) and the schema version (two runs with the same id
     give the same data)."""
-    text = _payload_text(parameters.as_dict(), _used_settings(settings), output)
+    text = _payload_text(id_parameters(parameters.as_dict()), _used_settings(settings), output)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -601,10 +608,14 @@ def _grid_case_ids(study: Study) -> list:
     skeys = [k for k in keys if k not in PARAMETER_INFO]
     base_p = {k: v for k, v in study.base.items()}
     normal = Parameters(**base_p).as_dict()
-    # parameter fragments: '"name":value' in sorted order; grid keys vary
-    frag = {k: [json.dumps(Parameters(**{**base_p, k: v}).as_dict()[k]) for v in study.grid[k]] for k in pkeys}
-    names = sorted(normal)
-    consts = {n: json.dumps(normal[n]) for n in names if n not in frag}
+    # parameter fragments: '"name":value' in sorted order; grid keys vary; a value an id leaves
+    # out (id_parameters: H = inf) has no fragment (None)
+    frag = {k: [('"%s":' % k + json.dumps(Parameters(**{**base_p, k: v}).as_dict()[k]))
+                if id_parameters({k: Parameters(**{**base_p, k: v}).as_dict()[k]}) else None
+                for v in study.grid[k]] for k in pkeys}
+    kept = id_parameters(normal)
+    names = sorted(n for n in normal if n in kept or n in frag)
+    consts = {n: f'"{n}":' + json.dumps(normal[n]) for n in names if n not in frag}
     output_text = _payload_text({}, {}, study.output)
     head, tail = output_text.split('"parameters":{}', 1)
     settings_split = tail.split('"settings":{}', 1)
@@ -614,7 +625,8 @@ def _grid_case_ids(study: Study) -> list:
     sha = hashlib.sha256
     sample = study.solver.get("error_estimate") == SAMPLE
     for idx in itertools.product(*(range(len(v)) for v in study.grid.values())):
-        ptext = ",".join(f'"{n}":' + (consts[n] if n in consts else frag[n][idx[positions[n]]]) for n in names)
+        parts = [consts[n] if n in consts else frag[n][idx[positions[n]]] for n in names]
+        ptext = ",".join(p for p in parts if p is not None)
         skey = tuple(idx[positions[k]] for k in skeys) + ((_sampled(ptext),) if sample else ())
         stext = settings_cache.get(skey)
         if stext is None:

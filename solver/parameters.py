@@ -9,7 +9,8 @@ Derived quantities (docs/model.md, "Equations" and "Scales")::
     m   = rho_i hi                          plate mass per unit area        [kg m-2]
     D   = E hi^3 / (12 (1 - nu^2))          flexural rigidity               [N m]
     lambda_n = pi n / L                     modal wavenumber                [m-1]
-    M_n = m + rho_w / lambda_n              mass with added water mass      [kg m-2]
+    M_n = m + rho_w coth(lambda_n H) / lambda_n   mass with added water mass [kg m-2]
+                                            (deep water, H = inf: m + rho_w / lambda_n)
     omega_n^2 = (D lambda_n^4 + rho_w g) / M_n                              [s-2]
     t_sc = 1 / omega_1,  w_sc = K / (omega_1^2 M_1),  T = L^2 / (6 R V)
     d1 = w_sc / he,  d2 = V / (omega_1 he),  d3 = L^2 / (2 R he)
@@ -36,7 +37,12 @@ PARAMETER_INFO = {
     "rho_i": ("ice density", "kg m-3"),
     "rho_w": ("water density", "kg m-3"),
     "g": ("gravitational acceleration", "m s-2"),
+    "H": ("water depth under the ice (inf: deep water, the paper's model)", "m"),
 }
+
+#: parameters beyond the paper's model, with the value that is the paper's model: a case id
+#: leaves them out at that value, so the ids of every study from before they existed hold
+PAPER_DEFAULTS = {"H": math.inf}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -45,7 +51,7 @@ PARAMETER_INFO = {
 PHYSICAL_RANGES = {
     "K": (1e3, 1e12), "he": (1e-5, 1.0), "R": (1e-2, 1e4), "V": (1e-3, 1e3), "hi": (1e-3, 100.0),
     "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
-    "rho_w": (10.0, 1e5), "g": (1e-3, 1e3),
+    "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5),
 }
 
 
@@ -53,6 +59,8 @@ def outside_physical_range(values: dict) -> str | None:
     """A one-line reason if a parameter lies outside PHYSICAL_RANGES (or hi > L), else None."""
     for key, value in values.items():
         lo, hi = PHYSICAL_RANGES.get(key, (None, None))
+        if key in PAPER_DEFAULTS and float(value) == PAPER_DEFAULTS[key]:
+            continue                                       # H = inf: deep water
         if lo is not None and not lo <= float(value) <= hi:
             unit = PARAMETER_INFO[key][1]
             return (f"{key} = {value!r} lies outside the range the model is meant for, {lo:g}..{hi:g} "
@@ -99,15 +107,30 @@ def _check_positive(name: str, value, integer: bool = False) -> None:
 
 
 #: the parameters t_sc depends on
-TIME_SCALE_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g")
+TIME_SCALE_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H")
 
 
-def time_scale_of(hi, L, E, nu, rho_i, rho_w, g):
+def water_added_mass(rho_w, lam, H):
+    """rho_w coth(lambda H) / lambda [kg m-2], the water's added mass of a mode of wavenumber
+    lambda under depth H (scalars or arrays); exactly rho_w / lambda where H is infinite."""
+    lam = np.asarray(lam, dtype=float)
+    H = np.asarray(H, dtype=float)
+    deep = np.asarray(rho_w) / lam
+    finite = np.isfinite(H)
+    if not np.any(finite):
+        return deep
+    with np.errstate(over="ignore", invalid="ignore"):
+        shallow = deep / np.tanh(lam * np.where(finite, H, 1.0))
+    return np.where(finite, shallow, deep)
+
+
+def time_scale_of(hi, L, E, nu, rho_i, rho_w, g, H=math.inf):
     """t_sc = 1/omega_1 [s] for scalars or broadcastable arrays: omega_1^2 = (D lambda_1^4 +
-    rho_w g) / (rho_i hi + rho_w / lambda_1), D = E hi^3 / (12 (1 - nu^2)), lambda_1 = pi / L."""
+    rho_w g) / (rho_i hi + rho_w coth(lambda_1 H) / lambda_1), D = E hi^3 / (12 (1 - nu^2)),
+    lambda_1 = pi / L."""
     lam = np.pi / np.asarray(L, dtype=float)
     rigidity = np.asarray(E) * np.asarray(hi) ** 3 / (12.0 * (1.0 - np.asarray(nu) ** 2))
-    omega2 = (rigidity * lam**4 + np.asarray(rho_w) * g) / (np.asarray(rho_i) * hi + np.asarray(rho_w) / lam)
+    omega2 = (rigidity * lam**4 + np.asarray(rho_w) * g) / (np.asarray(rho_i) * hi + water_added_mass(rho_w, lam, H))
     return 1.0 / np.sqrt(omega2)
 
 
@@ -123,6 +146,8 @@ class Parameters:
     L : plate half-length [m].        E : Young's modulus [Pa].
     nu : Poisson's ratio, 0 <= nu < 0.5 [1].
     rho_i, rho_w : ice and water density [kg/m^3].  g : gravity [m/s^2].
+    H : water depth under the ice [m]; inf (the default) is the paper's deep water
+        (docs/model.md, "Finite water depth").
     """
 
     K: float = 8e6
@@ -137,11 +162,16 @@ class Parameters:
     rho_i: float = 917.0
     rho_w: float = 1000.0
     g: float = 9.81
+    H: float = math.inf
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name == "nu":
+            if f.name == "H":
+                if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+                        or math.isnan(float(value)) or float(value) <= 0.0:
+                    raise ParameterError(f"H must be > 0 (inf: deep water), got {value!r}")
+            elif f.name == "nu":
                 if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                         or not math.isfinite(float(value)) or not 0.0 <= float(value) < 0.5:
                     raise ParameterError(f"nu must be in [0, 0.5), got {value!r}")
@@ -169,8 +199,11 @@ class Parameters:
 
     @property
     def added_masses(self) -> np.ndarray:
-        """M_n = m + rho_w / lambda_n [kg m-2]."""
-        return self.plate_mass + self.rho_w / self.wavenumbers
+        """M_n = m + rho_w coth(lambda_n H) / lambda_n [kg m-2]; m + rho_w / lambda_n for deep
+        water (H = inf, bit for bit the paper's)."""
+        if math.isinf(self.H):
+            return self.plate_mass + self.rho_w / self.wavenumbers
+        return self.plate_mass + water_added_mass(self.rho_w, self.wavenumbers, self.H)
 
     @property
     def frequencies(self) -> np.ndarray:
