@@ -195,7 +195,7 @@ def command_run(args) -> int:
         from .engine import probe_scheduler
         probe_scheduler(args.scheduler)
     if args.dry_run:
-        return _dry_run(study, out_dir, args.all)
+        return _dry_run(study, out_dir, args.all, args.rerun_failed)
     _refuse_foreign_directory(out_dir, args.force)
     _refuse_what_cannot_fit(study, out_dir)
     try:
@@ -214,11 +214,12 @@ def command_run(args) -> int:
 RESULTS_MARKERS = {"ledger.jsonl", "batches", ".lock"}
 
 
-def _dry_run(study, out_dir: Path, all_rows: bool) -> int:
+def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     """What a run would do: the cases it would compute, what is done, and the output size."""
     states = ledger_states(study, out_dir)
-    todo = [cid for cid in study.run_ids if states[cid] == "pending"]
-    failed = sum(1 for cid in study.run_ids if states[cid] not in ("ok", "pending"))
+    items, _ = _todo(study, states, rerun_failed)
+    todo = [cid for cid, _ in items]
+    failed = sum(1 for cid in study.run_ids if states[cid] not in ("ok", "pending")) if not rerun_failed else 0
     print(f"{study.name}: {_count(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
           f"-> {out_dir}")
     if todo:

@@ -522,30 +522,12 @@ def count_contacts(delta, jmax):
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def strain_nodes(a, strain_coef, cosq, eps):
-    """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node (eps: (J,) scratch)."""
-    N = a.shape[0]
-    J = eps.shape[0]
-    for j in range(J):
-        eps[j] = 0.0
-    n = 0
-    while n + 4 <= N:
-        c0 = strain_coef[n] * a[n]
-        c1 = strain_coef[n + 1] * a[n + 1]
-        c2 = strain_coef[n + 2] * a[n + 2]
-        c3 = strain_coef[n + 3] * a[n + 3]
-        r0 = cosq[n]
-        r1 = cosq[n + 1]
-        r2 = cosq[n + 2]
-        r3 = cosq[n + 3]
-        for j in range(J):
-            eps[j] += (c0 * r0[j] + c1 * r1[j]) + (c2 * r2[j] + c3 * r3[j])
-        n += 4
-    while n < N:
-        c = strain_coef[n] * a[n]
-        r0 = cosq[n]
-        for j in range(J):
-            eps[j] += c * r0[j]
-        n += 1
+    """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node (eps: (J,) scratch):
+    modal_sum of the products strain_coef_n a_n (the same arithmetic as modal_sum_strain)."""
+    c = np.empty(a.shape[0])
+    for n in range(a.shape[0]):
+        c[n] = strain_coef[n] * a[n]
+    modal_sum(c, cosq, eps, eps.shape[0])
 
 
 @njit(cache=True, nogil=True)

@@ -7,22 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from test_integrity import STUDY
 from test_pipeline import ROOT, batch_files, pipeline
 
-SMALL = """
-description = "cli tests"
-[base]
-Nmod = 6
-[grid]
-V = [3.0, 5.0]
-hi = [0.3, 0.5]
-[output]
-times = { unit = "t_sc", step = 0.25, stop = 0.5 }
-fields = ["strain"]
-x_points = 11
-end = "last_output"
-eps_Y = [1e-4, 1e-3]
-"""
+SMALL = STUDY.replace('description = "integrity tests"', 'description = "cli tests"') + "eps_Y = [1e-4, 1e-3]\n"
 
 
 @pytest.fixture(scope="module")

@@ -9,21 +9,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from pipeline import plots  # noqa: E402
+from test_integrity import STUDY  # noqa: E402
 from test_pipeline import pipeline  # noqa: E402
 
-LOG_GRID = """
-description = "layer rigidity over three decades"
-[base]
-Nmod = 6
-[grid]
-K = [1e6, 1e7, 1e8, 1e9]
-hi = [0.3, 0.5]
-[output]
-times = { unit = "t_sc", step = 0.25, stop = 0.5 }
-fields = ["strain"]
-x_points = 11
-end = "last_output"
-"""
+LOG_GRID = STUDY.replace('description = "integrity tests"', 'description = "layer rigidity over three decades"') \
+    .replace("V = [3.0, 5.0]", "K = [1e6, 1e7, 1e8, 1e9]")
 
 
 @pytest.fixture(scope="module")

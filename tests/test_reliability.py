@@ -13,17 +13,23 @@ def _snapshot(directory):
             for p in Path(directory).rglob("*")}
 
 
+def _hold_lock(out):
+    """Another process that holds the study's lock (it says so before returning)."""
+    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
+                               "from pipeline.lock import StudyLock\n"
+                               "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
+                               str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    assert holder.stdout.readline().strip() == "held"
+    return holder
+
+
 def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
     out = tmp_path / "study"
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     sorted((out / "batches").glob("*.nc"))[0].unlink()   # work left to do
-    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
-                               "from pipeline.lock import StudyLock\n"
-                               "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
-                               str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    holder = _hold_lock(out)
     try:
-        assert holder.stdout.readline().strip() == "held"
         before = _snapshot(out)
         started = time.monotonic()
         code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
@@ -93,12 +99,8 @@ def test_make_study_says_which_exit_status_the_runner_gave(tmp_path):
     assert code != 0 and "make study: runner exit 2: bad input" in text, text
     out = tmp_path / "held"
     out.mkdir()
-    holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
-                               "from pipeline.lock import StudyLock\n"
-                               "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
-                               str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    holder = _hold_lock(out)
     try:
-        assert holder.stdout.readline().strip() == "held"
         code, text = make_study("STUDY=regression_small", f"ARGS=--out {out} --no-plots")
         assert code != 0 and "make study: runner exit 75: another runner holds the study" in text, text
     finally:
