@@ -237,7 +237,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         if log_x:
             ax.set_xscale("log")
             if xvals.size <= 10:                         # the swept values as plain tick labels
-                ax.set_xticks(xvals, [f"{v:g}" for v in xvals])
+                ax.set_xticks(xvals, _spaced_labels(xvals))
                 ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         else:
             span = float(np.max(xvals) - np.min(xvals)) or 1.0
@@ -261,6 +261,19 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     _save(fig, path, dpi=120)
     plt.close(fig)
     return path
+
+
+def _spaced_labels(values) -> list:
+    """Tick labels for swept values on a log axis, blank where a label would run into the
+    previous one (closer than 10% of the axis' decades)."""
+    logs = np.log10(np.asarray(values, dtype=float))
+    span = float(logs.max() - logs.min()) or 1.0
+    labels, last = [], -np.inf
+    for v, lv in zip(values, logs):
+        keep = lv - last >= 0.1 * span
+        labels.append(f"{v:g}" if keep else "")
+        last = lv if keep else last
+    return labels
 
 
 def _auto_log_y(ax, values) -> None:

@@ -73,3 +73,8 @@ def test_paper_fig2_states_units_and_time_scale(monkeypatch, tmp_path):
     assert len(main) == 4 and all(ax.get_ylabel() and "[" in ax.get_ylabel() for ax in main)
     assert any(c.get_title() == "contact zone" for ax in axes for c in ax.child_axes)   # the layer, zoomed
     plt.close("all")
+
+
+def test_crowded_log_ticks_leave_a_label_out():
+    labels = plots._spaced_labels([0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 1000.0])
+    assert labels == ["0.25", "", "1", "", "4", "", "1000"]         # every other octave, and the deep end
