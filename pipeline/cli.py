@@ -559,6 +559,12 @@ def main(argv=None) -> int:
     except StudyLocked as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_LOCKED
+    except RuntimeError as err:
+        from .engine import KernelCompileError
+        if not isinstance(err, KernelCompileError):
+            raise
+        print(f"error: {err}", file=sys.stderr)
+        return EXIT_FAILED
     except _IOProblem as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_IO

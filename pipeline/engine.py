@@ -216,11 +216,23 @@ class Batcher:
         return self.items[start:end]
 
 
+class KernelCompileError(RuntimeError):
+    """The solver's kernels could not be compiled (an installation problem): one line, exit 1."""
+
+
 def start_kernels() -> None:
+    """Fill numba's cache once, before the workers load it: in a child process, so that a
+    Ctrl-C during the compile interrupts only the child (an interrupt inside LLVM left the
+    runner to crash at exit: SIGSEGV, or a second SIGINT) and the runner exits cleanly."""
+    import subprocess
     started = time.monotonic()
     print("loading the solver's kernels (the first run after an install or an update compiles "
           "them: about 40 s on this 2-core machine) ...", file=sys.stderr, flush=True)
-    compile_kernels()                                  # fill numba's cache once, here
+    proc = subprocess.run([sys.executable, "-c", "from solver import compile_kernels; compile_kernels()"],
+                          capture_output=True, text=True)
+    if proc.returncode != 0:
+        last = (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+        raise KernelCompileError(f"compiling the solver's kernels failed: {last}")
     print(f"kernels ready in {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
 
 

@@ -171,3 +171,21 @@ def test_ctrl_c_at_random_moments_including_start_up(study_file, undisturbed, tm
 @pytest.mark.parametrize("trial", range(20))
 def test_ctrl_c_at_random_moments_many(study_file, undisturbed, tmp_path, trial):
     _ctrl_c_at(study_file, undisturbed, tmp_path / f"int{trial}", random.Random(70 + trial).uniform(0.05, 6.0))
+
+
+@pytest.mark.parametrize("delay", [1.0, 4.0])
+def test_ctrl_c_while_the_kernels_compile(study_file, tmp_path, delay):
+    """A first run compiles the numba kernels (about 40 s). Ctrl-C then used to interrupt LLVM
+    inside the runner, which crashed at exit (SIGSEGV, seen on a clean clone) instead of exit
+    130. The compile now runs in a child process, which the Ctrl-C stops alone."""
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty_numba_cache")}
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study_file), "--out",
+                             str(tmp_path / "out"), "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True, env=env)
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGINT)
+    started = time.monotonic()
+    _, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].startswith("interrupted:"), stderr
+    assert time.monotonic() - started < 10, "the runner waited for the compile to finish"
