@@ -220,18 +220,32 @@ class KernelCompileError(RuntimeError):
     """The solver's kernels could not be compiled (an installation problem): one line, exit 1."""
 
 
-def start_kernels() -> None:
-    """Fill numba's cache once, before the workers load it: in a child process, so that a
+def start_kernels():
+    """Start filling numba's cache, before the workers load it: in a child process, so that a
     Ctrl-C during the compile interrupts only the child (an interrupt inside LLVM left the
-    runner to crash at exit: SIGSEGV, or a second SIGINT) and the runner exits cleanly."""
+    runner to crash at exit: SIGSEGV, or a second SIGINT) and the runner exits cleanly. It
+    runs while the cluster starts; kernels_ready waits for it. Returns (process, start time)."""
     import subprocess
-    started = time.monotonic()
     print("loading the solver's kernels (the first run after an install or an update compiles "
           "them: about 40 s on this 2-core machine) ...", file=sys.stderr, flush=True)
-    proc = subprocess.run([sys.executable, "-c", "from solver import compile_kernels; compile_kernels()"],
-                          capture_output=True, text=True)
+    proc = subprocess.Popen([sys.executable, "-c", "from solver import compile_kernels; compile_kernels()"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    return proc, time.monotonic()
+
+
+def kernels_ready(handle) -> None:
+    """Wait for start_kernels' child; one line if it failed (KernelCompileError)."""
+    proc, started = handle
+    try:
+        _, stderr = proc.communicate()
+    except BaseException:                              # Ctrl-C: the child got it too
+        proc.kill()
+        proc.wait()
+        raise
     if proc.returncode != 0:
-        last = (proc.stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+        last = (stderr.strip().splitlines() or [f"exit {proc.returncode}"])[-1]
+        if proc.returncode == -signal.SIGINT or last == "KeyboardInterrupt":
+            raise KeyboardInterrupt         # the Ctrl-C reached the child while the runner ignored it
         raise KernelCompileError(f"compiling the solver's kernels failed: {last}")
     print(f"kernels ready in {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
 

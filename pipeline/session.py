@@ -29,11 +29,17 @@ class Session:
         if self.client is None:
             from contextlib import ExitStack
 
-            from .engine import cluster_client, start_kernels, warm_workers
-            start_kernels()
+            from .engine import cluster_client, kernels_ready, start_kernels, warm_workers
+            compiling = start_kernels()                  # alongside the cluster's start
             stack = ExitStack()
             try:
-                self.client = stack.enter_context(cluster_client(self.workers, self.scheduler))
+                try:
+                    self.client = stack.enter_context(cluster_client(self.workers, self.scheduler))
+                except BaseException:
+                    compiling[0].kill()
+                    compiling[0].wait()
+                    raise
+                kernels_ready(compiling)
                 warm_workers(self.client, one_at_a_time=bool(self.scheduler))
             except BaseException:
                 stack.close()

@@ -237,8 +237,9 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
 
 def _contact_record(ds, i: int):
     """(n, 2) rows (t, contact intervals) of case i of a batch dataset."""
+    from .casefile import ragged_offsets
     counts = ds["contact_change_entries"].values
-    start = int(np.sum(counts[:i]))
+    start = int(ragged_offsets(counts)[i])
     n = int(counts[i])
     if n <= 0:
         return np.empty((0, 2))
