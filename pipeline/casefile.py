@@ -4,7 +4,8 @@ A batch file ``batches/<sha256>.nc`` holds the cases of one task along a ``case`
 (coordinate: the case ids), each with everything a case produces:
 
 - the requested fields over (case, t, x), x as a fraction of the case's L;
-- the series over (case, t): ``time``, ``contact_intervals``, ``force``;
+- the series over (case, t): ``time``, ``contact_intervals``, ``force``, and in a study with a
+  free body (a finite ``body_mass``) ``body_position`` and ``body_speed``;
 - per case: the diagnostics, the run records (t_sc, steps, run_time, ...), ``status`` and
   ``message``, its parameters and ``solver_settings`` (JSON);
 - the event records as contiguous ragged arrays: ``tension_record_count`` (case, surface)
@@ -38,6 +39,12 @@ SERIES_INFO = {
     "contact_intervals": ("number of disjoint contact intervals on -L..L", "1"),
     "force": ("force on the body per unit width", "N m-1"),
 }
+#: series of a study with a free body (finite body_mass in some case): left out otherwise
+BODY_SERIES_INFO = {
+    "body_position": ("penetration s of the body below first touch: its lowest point is at he - s "
+                      "(V t for the paper's body at constant speed)", "m"),
+    "body_speed": ("downward speed U of the body (V for the paper's body)", "m s-1"),
+}
 RECORD_INFO = {
     "t_sc": ("time scale 1/omega_1 of the case", "s"),
     "stage_duration": ("impact stage L^2/(6 R V) of the case", "s"),
@@ -67,10 +74,13 @@ CONTACT_RECORD_INFO = {
     "contact_change_count": ("number of contact intervals on -L..L from that time on", "1"),
 }
 SURFACES = ("upper", "lower")
-#: statuses of a case that did not end ok: the model's own end, and numerical failures
-ENDED_EARLY = ("layer_bottomed_out",)
+#: statuses of a run that covered what it was asked to: ok, and a free body's ends
+COMPLETE = ("ok", "separated", "stopped")
+#: statuses of a case that ended by the model itself (not ok), and numerical failures
+ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped")
 NUMERICAL_FAILURES = ("nonfinite", "step_limit", "energy_violation", "error")
-FAILED = ENDED_EARLY + NUMERICAL_FAILURES
+#: what --rerun-failed computes again (a free body's end is a result, not a failure)
+FAILED = ("layer_bottomed_out",) + NUMERICAL_FAILURES
 
 
 class CaseWriteError(OSError):
@@ -89,7 +99,8 @@ def compute_case(case: Case):
     inside = t_sec <= case.t_end * (1 + 1e-12)
     times = np.minimum(t_sec[inside], case.t_end)
     x = np.linspace(-1.0, 1.0, case.x_points) * case.parameters.L
-    return solve(case.parameters, case.settings, times=times, fields=case.fields, x=x, t_end=case.t_end)
+    return solve(case.parameters, case.settings, times=times, fields=case.fields, x=x, t_end=case.t_end,
+                 until_separation=case.end == "separation")
 
 
 def case_arrays(case: Case, result=None, status=None, message="") -> dict:
@@ -113,7 +124,7 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
         return arr
 
     out["time"] = np.where(inside, t_sec, np.nan)
-    for name in ("contact_intervals", "force"):
+    for name in ("contact_intervals", "force", *(BODY_SERIES_INFO if case.body else ())):
         out[name] = series(None if result is None else getattr(result, name))
     for name in DIAGNOSTIC_INFO:
         value = np.nan if result is None else float(result.diagnostics[name])
@@ -153,7 +164,7 @@ def batch_dataset(cases: list, arrays: list) -> dict:
     for name in first.fields:
         long_name, units = FIELD_INFO[name]
         data[name] = (("case", "t", "x"), np.stack([a[name] for a in arrays]), _attrs(long_name, units))
-    for name, (long_name, units) in SERIES_INFO.items():
+    for name, (long_name, units) in {**SERIES_INFO, **(BODY_SERIES_INFO if first.body else {})}.items():
         data[name] = (("case", "t"), np.stack([a[name] for a in arrays]), _attrs(long_name, units))
     for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
         data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))

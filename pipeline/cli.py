@@ -219,7 +219,8 @@ def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     states = ledger_states(study, out_dir)
     items, _ = _todo(study, states, rerun_failed)
     todo = [cid for cid, _ in items]
-    failed = sum(1 for cid in study.run_ids if states[cid] not in ("ok", "pending")) if not rerun_failed else 0
+    from .casefile import FAILED
+    failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
     print(f"{study.name}: {_count(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
           f"-> {out_dir}")
     if todo:
@@ -470,7 +471,8 @@ def _summary(study, ledger, states: dict, computed: set) -> None:
     """The cases that did not end ok: listed (30 at most) when this run computed them, one
     line when they are old news (status lists them)."""
     index = ledger.index()
-    not_ok = [cid for cid in study.run_ids if states[cid] != "ok"]
+    from .casefile import COMPLETE
+    not_ok = [cid for cid in study.run_ids if states[cid] not in COMPLETE]
     if not not_ok:
         return
     new = [cid for cid in not_ok if cid in computed]

@@ -27,8 +27,8 @@ import numpy as np
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
 
 from . import provenance
-from .casefile import (CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
-                       TEXT_INFO, DamagedFile, read_batch_arrays, tension_records)
+from .casefile import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES,
+                       TENSION_RECORD_INFO, TEXT_INFO, DamagedFile, read_batch_arrays, tension_records)
 from .fracture import CRACK_INFO, onset_from_records
 from .ledger import BATCHES, write_sidecar
 from .study import SCHEMA_VERSION, Study
@@ -89,7 +89,7 @@ def per_case_variables(study: Study) -> list:
     for name in study.output["fields"]:
         long_name, units = FIELD_INFO[name]
         out.append((name, ("t", "x"), "f", {"long_name": long_name, "units": units}))
-    for name, (long_name, units) in SERIES_INFO.items():
+    for name, (long_name, units) in {**SERIES_INFO, **(BODY_SERIES_INFO if study.output.get("body") else {})}.items():
         out.append((name, ("t",), "f", {"long_name": long_name, "units": units}))
     for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
         out.append((name, (), "f", {"long_name": long_name, "units": units}))
@@ -469,12 +469,13 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
             writer.abandon()
             return None, sorted(damaged)
         statuses = [states.get(cid, "missing") for cid in study.case_ids]
+        complete = sum(1 for s in statuses if s in COMPLETE)     # ok, or a free body's end
         attrs = {"title": f"floe-impact study {study.name}", "description": study.description,
                  "study_name": study.name, "study_file": study.text, "schema_version": SCHEMA_VERSION,
                  "solver_settings": json.dumps(first.settings.as_dict()),
                  "base_parameters": json.dumps(study.base), "cases": study.n_cases,
-                 "cases_ok": statuses.count("ok"), "cases_missing": statuses.count("missing"),
-                 "cases_failed": len(statuses) - statuses.count("ok") - statuses.count("missing"),
+                 "cases_ok": complete, "cases_missing": statuses.count("missing"),
+                 "cases_failed": len(statuses) - complete - statuses.count("missing"),
                  **provenance.attributes()}
         if study.references:
             attrs["reference"] = json.dumps(study.reference)

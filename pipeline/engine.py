@@ -20,7 +20,7 @@ from distributed import Client, LocalCluster, as_completed
 
 from solver import compile_kernels
 
-from .casefile import ENDED_EARLY, WRITE_FAILED, CaseWriteError, run_batch
+from .casefile import COMPLETE, ENDED_EARLY, WRITE_FAILED, CaseWriteError, run_batch
 
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                      "NUMBA_NUM_THREADS": "1"}
@@ -125,7 +125,7 @@ class Progress:
             self.done += 1
             if record["status"] in ENDED_EARLY:
                 self.early += 1
-            elif record["status"] != "ok":
+            elif record["status"] not in COMPLETE:
                 self.failed += 1
         todo = self.total - self.skipped
         elapsed = time.monotonic() - self.start

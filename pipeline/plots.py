@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import itertools
+import textwrap
 from pathlib import Path
 
 import matplotlib
@@ -15,7 +16,7 @@ import xarray as xr  # noqa: E402
 
 from solver import PAPER_EPS_Y, PARAMETER_INFO, SETTING_INFO  # noqa: E402
 
-from .casefile import temporary_path  # noqa: E402
+from .casefile import COMPLETE, temporary_path  # noqa: E402
 
 DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper surface"),
@@ -177,7 +178,7 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
             mesh = ax.pcolormesh(np.arange(ds.sizes[first]), np.arange(ds.sizes[second]),
                                  np.where(np.isfinite(values), values, np.nan), norm=norm, cmap="viridis",
                                  shading="nearest")
-            bad = ds["status"].sel(where).transpose(second, first).values != "ok"
+            bad = ~np.isin(ds["status"].sel(where).transpose(second, first).values, COMPLETE)
             yy, xx = np.nonzero(bad)
             ax.plot(xx, yy, "x", color="w", ms=3, mew=0.6)
             if r == 0:
@@ -191,7 +192,7 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
         ticks = np.unique(np.linspace(0, ds.sizes[second] - 1, 5).round().astype(int))
         ax.set_yticks(ticks, [f"{v:g}" for v in ds[second].values[ticks]])
         ax.set_ylabel(f"{second} [{ds[second].attrs.get('units', '1')}]")
-    title = ds.attrs.get("description") or ds.attrs.get("study_name", "")
+    title = "\n".join(textwrap.wrap(ds.attrs.get("description") or ds.attrs.get("study_name", ""), 140))
     title += f"\n{int(np.prod([ds.sizes[d] for d in dims]))} cases; × : the case did not end ok (see status)"
     if rest:
         title += "; at " + ", ".join(_label(k, v) for k, v in rest.items())
@@ -214,17 +215,22 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     fig, axes = plt.subplots(3, 3, figsize=(13, 10), constrained_layout=True)
     combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
     styles = _line_styles(len(combos))
-    xvals = ds[first].values
+    all_x = ds[first].values
+    on_axis = np.isfinite(all_x) if all_x.dtype.kind == "f" else np.ones(all_x.size, bool)
+    xvals = all_x[on_axis]               # an infinite key value (H, body_mass): a dashed line
     log_x = _log_spaced(xvals)
     for ax, (name, title) in zip(axes.flat, DIAGNOSTICS):
         unbounded = []
         for (color, marker), combo in zip(styles, combos):
             where = dict(zip(others, combo))
             values = np.asarray(ds[name].sel(where).values, dtype=float)
-            ok = np.asarray(ds["status"].sel(where).values == "ok")
+            ok = np.isin(np.asarray(ds["status"].sel(where).values), COMPLETE)[on_axis]
             inf = np.isinf(values)
             shown = np.where(inf, np.nan, values)        # no meaningless value on an axis
             label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
+            for value in shown[~on_axis][np.isfinite(shown[~on_axis])]:
+                ax.axhline(value, color=color, lw=1.0, ls="--")
+            shown, inf = shown[on_axis], inf[on_axis]
             ax.plot(xvals, shown, "-", color=color, lw=1.6)
             ax.plot(xvals[ok], shown[ok], marker, color=color, ms=6)
             ax.plot(xvals[~ok], shown[~ok], marker, mfc="white", mec=color, mew=1.4, ms=6.5)
@@ -253,11 +259,73 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     handles, labels = axes.flat[0].get_legend_handles_labels()
     if labels:
         fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(labels)), fontsize=9)
-    title = ds.attrs.get("description") or ds.attrs.get("study_name", "")
-    if np.any(ds["status"].values != "ok"):
+    title = "\n".join(textwrap.wrap(ds.attrs.get("description") or ds.attrs.get("study_name", ""), 140))
+    if not on_axis.all():
+        title += f"\ndashed: {first} = {all_x[~on_axis][0]:g}"
+    if not np.all(np.isin(ds["status"].values, COMPLETE)):
         title += ("\nopen markers: the case did not end ok (see status), e.g. the layer bottomed out: "
                   "values cover the run up to then")
     fig.suptitle(title, fontsize=11)
+    _save(fig, path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+#: the drop figure's panels: variable (or derived name), title, log y when it spans a decade
+DROP_PANELS = [
+    ("max_strain", "max tensile strain, upper surface"),
+    ("max_force", "max force [N/m]"),
+    ("max_penetration", "deepest penetration of the body [m]"),
+    ("restitution", "rebound speed / impact speed V"),
+    ("separation_time", "contact time: separation [ms]"),
+    ("crack_onset_time", "crack onset, upper [ms]"),
+]
+
+
+def drop_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
+    """A free body against its mass (the grid key body_mass, on a log axis): max strain, max
+    force, deepest penetration, restitution (rebound over impact speed), contact time and crack
+    onset at the paper's yield strain; one line per combination of the other keys. The
+    paper's body (body_mass = inf in the grid) is the dashed line each curve tends to."""
+    others = [d for d in dims if d != "body_mass"]
+    eps_y = _paper_eps_Y(ds)
+    V = ds["V"]
+    derived = {"restitution": ds["separation_speed"] / V,
+               "separation_time": ds["separation_time"] * 1e3,
+               "crack_onset_time": ds["crack_onset_time"].sel(eps_Y=eps_y) * 1e3}
+    masses = ds["body_mass"].values
+    finite = np.isfinite(masses)
+    fig, axes = plt.subplots(2, 3, figsize=(13, 7.5), constrained_layout=True)
+    combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
+    styles = _line_styles(len(combos))
+    for ax, (name, title) in zip(axes.flat, DROP_PANELS):
+        var = derived.get(name, ds[name] if name in ds else None)
+        for (color, marker), combo in zip(styles, combos):
+            where = dict(zip(others, combo))
+            values = np.asarray(var.sel(where).values, dtype=float)
+            status = np.asarray(ds["status"].sel(where).values)
+            ok = np.isin(status, COMPLETE) & finite
+            label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
+            ax.plot(masses[finite], values[finite], "-", color=color, lw=1.6)
+            ax.plot(masses[ok], values[ok], marker, color=color, ms=6)
+            bad = finite & ~ok
+            ax.plot(masses[bad], values[bad], marker, mfc="white", mec=color, mew=1.4, ms=6.5)
+            ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)
+            if not finite.all() and np.isfinite(values[~finite]).any():
+                ax.axhline(float(values[~finite][0]), color=color, lw=1.0, ls="--")
+        ax.set_xscale("log")
+        ax.set_xlabel("body_mass [kg/m]")
+        ax.set_title(title if name != "crack_onset_time" else f"{title} at εY = {eps_y:g}", fontsize=10)
+        if name in ("max_strain", "max_force", "max_penetration"):
+            _auto_log_y(ax, var.sel(body_mass=masses[finite]).values)
+        ax.grid(alpha=0.3, which="both")
+    handles, labels = axes.flat[0].get_legend_handles_labels()
+    if labels:
+        fig.legend(handles, labels, loc="outside lower center", ncol=min(4, len(labels)), fontsize=9)
+    title = ds.attrs.get("description") or ds.attrs.get("study_name", "")
+    note = "dashed: the paper's body at constant speed (body_mass = inf)" if not finite.all() else ""
+    note += ("; " if note else "") + "no point: the body had not left the ice (or stopped) within the run"
+    fig.suptitle("\n".join(textwrap.wrap(title, 140) + [note]), fontsize=11)
     _save(fig, path, dpi=120)
     plt.close(fig)
     return path
@@ -373,6 +441,11 @@ def make_plots(ds: xr.Dataset, dims: list, kinds: list, out_dir: Path) -> list:
                 notes.append("diagnostics figure needs a [grid]: skipped")
                 continue
             written.append(diagnostics_figure(ds, dims, out_dir / "diagnostics.png"))
+        elif kind == "drop":
+            if "body_mass" not in dims:
+                notes.append("drop figure needs body_mass as a [grid] key: skipped")
+                continue
+            written.append(drop_figure(ds, dims, out_dir / "drop.png"))
         elif kind == "crack_onset":
             written.append(crack_onset_figure(ds, dims, out_dir / "crack_onset.png"))
         elif kind == "paper_fig2":

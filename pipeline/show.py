@@ -141,7 +141,8 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
         raise ShowError(f"--x {x_point:g} m is outside the plate (-{p.L:g} .. {p.L:g} m)")
     end = case.t_end
     times = np.linspace(0.0, end, max(points, 2))
-    r = solve(p, settings, times=times, fields=("strain",), x=np.array([x_point]), t_end=end)
+    r = solve(p, settings, times=times, fields=("strain",), x=np.array([x_point]), t_end=end,
+              until_separation=case.end == "separation")
     if stored is None:
         status, message, t_reached = r.status, r.message, r.time_reached
         lines.append(f"status: {status}" + (f" ({message})" if message else ""))

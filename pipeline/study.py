@@ -40,7 +40,7 @@ from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parame
 from .errors import StudyError
 
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
-SCHEMA_VERSION = 7
+SCHEMA_VERSION = 8
 
 SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference",
             "accept_extreme_values"}
@@ -50,13 +50,15 @@ OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
 #: grid keys whose study.nc dimension has another name (the key is also a result's name)
 DIM_NAMES = {"error_estimate": "error_estimate_on"}
 #: [output] end: "stage" integrates every case over its impact stage (diagnostics cover the
-#: stage); "last_output" stops at the last output time (diagnostics cover 0..that time)
-ENDS = ("stage", "last_output")
-PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes")
+#: stage); "last_output" stops at the last output time (diagnostics cover 0..that time);
+#: "separation" (a free body in every case) runs until the body leaves the ice, at the latest
+#: to the last output time
+ENDS = ("stage", "last_output", "separation")
+PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop")
 #: the files each plot kind writes
 PLOT_FILES = {"diagnostics": ("diagnostics.png",), "crack_onset": ("crack_onset.png",),
               "paper_fig2": ("paper_fig2.png",), "work_precision": ("work_precision.png", "work_precision.md"),
-              "extremes": ("extremes.md",)}
+              "extremes": ("extremes.md",), "drop": ("drop.png",)}
 #: the one-line answer to eps_Y given as a parameter (it was one before schema 5)
 EPS_Y_AS_PARAMETER = ("eps_Y is not a solver input: crack onset is computed after the run for any "
                       "yield strain; give the values as [output] eps_Y = [...] or {min, max, count}")
@@ -77,11 +79,15 @@ class Case:
     fields: tuple
     x_points: int
     end: str = "stage"              # [output] end
+    body: bool = False              # store the body's position and speed (a study with a free body)
 
     @property
     def t_end(self) -> float:
-        """End of the run [s]: the impact stage, or the last output time inside it."""
+        """End of the run [s]: the impact stage, or the last output time inside it; for
+        end = "separation" the last output time (the run may end earlier, at separation)."""
         stage = self.parameters.stage_duration
+        if self.end == "separation":
+            return float(self.times_seconds()[-1])
         if self.end == "last_output":
             return min(stage, float(self.times_seconds()[-1]))
         return stage
@@ -108,13 +114,13 @@ class Case:
         return {"case_id": self.case_id, "index": list(self.index),
                 "parameters": self.parameters.as_dict(), "settings": self.settings.as_dict(),
                 "times_spec": self.times_spec, "fields": list(self.fields), "x_points": self.x_points,
-                "end": self.end}
+                "end": self.end, "body": self.body}
 
     @staticmethod
     def from_dict(d: dict) -> "Case":
         return Case(d["case_id"], tuple(d["index"]), Parameters(**d["parameters"]),
                     Settings(**d["settings"]), d["times_spec"], tuple(d["fields"]), d["x_points"],
-                    d.get("end", "stage"))
+                    d.get("end", "stage"), d.get("body", False))
 
 
 @dataclass
@@ -558,6 +564,11 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
     extreme = data.get("accept_extreme_values", False)
     if not isinstance(extreme, bool):
         raise StudyError(f"{path}: accept_extreme_values must be true or false")
+    masses = _body_masses(study)
+    study.output["body"] = any(math.isfinite(m) for m in masses if isinstance(m, (int, float)))
+    if output["end"] == "separation" and not all(isinstance(m, (int, float)) and math.isfinite(m) for m in masses):
+        raise StudyError('[output] end = "separation" needs a free body in every case: give body_mass a '
+                         'finite value in [base], or finite values in [grid] or in every [[cases]] entry')
     if not extreme:
         _check_ranges(study)
     expand(study)
@@ -603,7 +614,7 @@ def _make_case(index, values: dict, output: dict, label: str) -> Case:
     except ParameterError as err:
         raise StudyError(f"case {label}: {err}") from None
     return Case(case_id(p, s, output), tuple(index), p, s, output["times"], tuple(output["fields"]),
-                output["x_points"], output["end"])
+                output["x_points"], output["end"], output.get("body", False))
 
 
 def _grid_case_ids(study: Study) -> list:
@@ -644,6 +655,16 @@ def _grid_case_ids(study: Study) -> list:
         text = head + '"parameters":{' + ptext + "}" + settings_split[0] + '"settings":' + stext + settings_split[1]
         ids.append(sha(text.encode()).hexdigest()[:16])
     return ids
+
+
+def _body_masses(study: Study) -> list:
+    """Every body_mass value the study's cases take (inf: the paper's body)."""
+    base = study.base.get("body_mass", math.inf)
+    if "body_mass" in study.grid:
+        return list(study.grid["body_mass"])
+    if study.case_list:
+        return [entry.get("body_mass", base) for entry in study.case_list]
+    return [base]
 
 
 def _check_ranges(study: Study) -> None:

@@ -26,7 +26,12 @@ STATUS_INFO = {
                  "could not avoid one",
     "step_limit": "max_steps attempted, or error control drove the step below its floor",
     "energy_violation": "the energy identity E_plate + E_layer = W was broken: a step made it jump "
-                        "and no smaller step mended it, or the residual ended above 1e-3 of the work",
+                        "and no smaller step mended it, or the residual ended above 1e-3 of the work "
+                        "(for a free body, also its own balance M (U^2 - V^2)/2 - M body_g s + W = 0)",
+    "separated": "a free body (finite body_mass) left the ice moving up at separation_time, and the run "
+                 "was asked to end there (until separation); data up to then is valid",
+    "stopped": "a free body stopped (its speed reached zero at stop_time) and was still on the ice at the "
+               "end of a run asked to go until separation; data is valid",
 }
 
 #: field name -> (long_name, units)
@@ -63,8 +68,20 @@ DIAGNOSTIC_INFO = {
     "bottoming_closing_speed": ("speed at which the gap was closing at bottoming, he d(delta)/dt",
                                 "m s-1", kn.D_BOTTOM_SPEED),
     "energy_rejections": ("steps rejected because the energy identity jumped", "1", kn.D_ENERGY_JUMPS),
-    "energy_residual": ("max over time of |E_plate + E_layer - W| divided by the final work W", "1", kn.D_ENERGY_RESIDUAL),
-    "work": ("work done by the body up to the time reached", "J m-1", kn.D_WORK),
+    "energy_residual": ("max over time of |E_plate + E_layer - W| divided by the largest work W over the run "
+                        "(the final work for the paper's body)", "1", kn.D_ENERGY_RESIDUAL),
+    "work": ("work done by the body on the ice up to the time reached, int F U dt", "J m-1", kn.D_WORK),
+    "stop_time": ("first time a free body's speed reached zero (NaN: never, or the paper's body at "
+                  "constant speed)", "s", kn.D_STOP_T),
+    "max_penetration": ("deepest penetration s of a free body, at a zero of its speed", "m",
+                        kn.D_MAX_PENETRATION),
+    "separation_time": ("time a free body left the ice moving up after it had stopped (NaN: it did not)",
+                        "s", kn.D_SEPARATION_T),
+    "separation_speed": ("upward speed of a free body when it left the ice (rebound speed)", "m s-1",
+                         kn.D_SEPARATION_SPEED),
+    "body_energy_residual": ("max over time of |M (U^2 - V^2)/2 - M body_g s + W| divided by the largest "
+                             "work W: the free body's own energy balance (NaN for the paper's body)", "1",
+                             kn.D_BODY_RESIDUAL),
     # computed by solve() from the outputs (index None): estimates of the relative L2 strain error
     "error_estimate": ("estimated relative L2 strain error over the output times: "
                        "error_estimate_time + error_estimate_modes + error_estimate_quadrature", "1", None),
@@ -96,7 +113,7 @@ class Result:
     force: np.ndarray                  # (T,) F [N m-1]
     plate_energy: np.ndarray           # (T,) [J m-1]
     layer_energy: np.ndarray           # (T,) [J m-1]
-    work: np.ndarray                   # (T,) int V F dt [J m-1]
+    work: np.ndarray                   # (T,) int F U dt [J m-1]
     valid: np.ndarray                  # (T,) bool
     diagnostics: dict                  # name -> float, see DIAGNOSTIC_INFO
     status: str                        # see STATUS_INFO
@@ -110,6 +127,8 @@ class Result:
     wall_time: float                   # [s] of the integration (without the error estimate's companion)
     tension_record: dict = field(default_factory=dict)  # "upper", "lower" -> (n, 5) rows, see solver.fracture
     contact_record: np.ndarray = None  # (n, 2) rows (t [s], contact intervals from then on)
+    body_position: np.ndarray = None   # (T,) penetration s of the body, V t for the paper's body [m]
+    body_speed: np.ndarray = None      # (T,) downward speed U of the body, V for the paper's [m s-1]
     extra: dict = field(default_factory=dict)   # error_estimate_wall_time [s] when a companion ran
 
     @property
@@ -158,7 +177,9 @@ class _Tables:
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
         self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
         self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM]))
-        self.lay = np.array([lam[0], self.dx, p.V, p.R, p.he, p.K])
+        free = p.free_body
+        self.lay = np.array([lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
+                             p.body_g if free else 0.0])
 
 
 #: largest etd34 step as a fraction of the contact period 2 pi / contact_frequency
@@ -189,12 +210,13 @@ def _check_times(times, t_start, t_end):
     return np.minimum(times, t_end)
 
 
-def _layer_pressure(p, tables, a, t, x):
-    """K f at positions x from f at the quadrature nodes, linear between nodes, split as in the kernel.
+def _layer_pressure(p, tables, a, s, x):
+    """K f at positions x from f at the quadrature nodes, linear between nodes, split as in the
+    kernel, the body at penetration s [m].
 
     This is exactly the reaction the modes feel (the forcing integrates the same function).
     """
-    delta = (a @ tables.cosq + p.V * t - tables.xq**2 / (2 * p.R)) / p.he       # (J,)
+    delta = (a @ tables.cosq + s - tables.xq**2 / (2 * p.R)) / p.he       # (J,)
     f = np.where(delta > 0, delta / (1 - np.where(delta > 0, delta, 0.0)), 0.0)
     ax = np.abs(x)
     j = np.minimum((ax / tables.dx).astype(int), delta.size - 2)
@@ -258,7 +280,8 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
 
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
-          initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=()) -> Result:
+          initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
+          until_separation=False) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -275,6 +298,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         the integrator (etd34, rk4), in ``extra["located_crack_onset"]`` = {"upper": (t, x),
         "lower": (t, x)}: the exact reference for the tension record (costs a root search
         per value; for verification, not needed for results).
+    until_separation : a free body's run (finite body_mass) ends when the body leaves the ice
+        moving up (status ``separated``), at the latest at t_end (``stopped`` if it had stopped
+        by then; ``ok`` if it was still moving down).
 
     Returns
     -------
@@ -305,6 +331,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     v0 = np.zeros(N) if initial_velocities is None else np.asarray(initial_velocities, float)
     if a0.shape != (N,) or v0.shape != (N,):
         raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
+    if not isinstance(until_separation, bool):
+        raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
+    if until_separation and not p.free_body:
+        raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
+                             "moves down at V for ever")
 
     tab = _Tables(p, s.subintervals)
     method = kn.ETD34 if s.integrator == "etd34" else kn.RK4
@@ -315,10 +346,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     T = times.size
     out_a = np.full((T, N), np.nan)
     out_adot = np.full((T, N), np.nan)
-    out_contacts = np.full(T, np.nan)
-    out_force = np.full(T, np.nan)
-    out_energy = np.full((T, 3), np.nan)
-    out_err = np.full(T, np.nan)
+    series = np.full((T, kn.N_SERIES), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
     # first step: short enough that the tension (~ t^3.5 from first touch) crossed inside it is
     # far below any yield strain of interest; later steps grow at most 10% a step from it
@@ -330,16 +358,17 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     empty = np.empty((0, kn.N_REC))
     started = _time.perf_counter()
     if s.integrator == "dop853":
-        code, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, fail = integrate_dop853(
+        code, n_out, out_a, out_adot, series, diag, fail = integrate_dop853(
             p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init,
-            s.bottoming_gap)
+            s.bottoming_gap, until_separation)
         records = {"upper": empty, "lower": empty}
         contact_record = np.empty((0, 2))
     else:
+        ctrl = kn.make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
+                               s.max_steps, s.bottoming_gap, until_separation)
         code, n_out, up, n_up, lo, n_lo, cont, n_cont = kn.integrate(
-            method, tab.modes, tab.lay, tab.cosq, tab.wq, float(t_start), float(t_end), times,
-            s.tolerance, fixed, h_init, 1e-13 * t_end, h_max, s.max_steps, s.bottoming_gap, a0, v0, levels,
-            out_a, out_adot, out_contacts, out_force, out_energy, out_err, diag, level_t, level_x)
+            method, tab.modes, tab.lay, tab.cosq, tab.wq, ctrl, times, a0, v0, levels, out_a, out_adot,
+            series, diag, level_t, level_x)
         # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
         records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
         contact_record = cont[:n_cont].copy()
@@ -348,6 +377,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
 
     status = kn.STATUS_NAMES[code]
     t_reached = float(diag[kn.D_T_REACHED])
+    out_err = series[:, kn.S_ERR]
+    body_s = series[:, kn.S_BODY_POSITION]
     valid = np.arange(T) < n_out
     field_values = {}
     if fields:
@@ -359,11 +390,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             elif name == "strain":
                 field_values[name] = (out_a * tab.strain_coef) @ cosx.T
             elif name == "compression":
-                field_values[name] = (w + p.V * times[:, None] - x**2 / (2 * p.R)) / p.he
+                field_values[name] = (w + body_s[:, None] - x**2 / (2 * p.R)) / p.he
             elif name == "layer_pressure":
                 pres = np.full((T, x.size), np.nan)
                 for k in np.flatnonzero(valid):
-                    pres[k] = _layer_pressure(p, tab, out_a[k], times[k], x)
+                    pres[k] = _layer_pressure(p, tab, out_a[k], body_s[k], x)
                 field_values[name] = pres
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     companion = None
@@ -371,7 +402,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     if s.error_estimate and s.integrator == "etd34" and s.fixed_step == 0 and n_out > 0:
         looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
         other = solve(p, looser, times=times[valid], fields=(), t_end=t_end, t_start=t_start,
-                      initial_amplitudes=a0, initial_velocities=v0)
+                      initial_amplitudes=a0, initial_velocities=v0, until_separation=until_separation)
         companion = other.amplitudes
         extra["error_estimate_wall_time"] = other.wall_time
     if s.error_estimate:                  # dop853 gives no local estimates: its time part is NaN
@@ -385,6 +416,14 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     t_sc = p.time_scale
     if status == "ok":
         message = ""
+    elif status == "separated":
+        message = (f"the body left the ice at t = {diagnostics['separation_time']:.6g} s moving up at "
+                   f"{diagnostics['separation_speed']:.4g} m/s (it had stopped at "
+                   f"{diagnostics['stop_time']:.6g} s, {diagnostics['max_penetration']:.4g} m deep)")
+    elif status == "stopped":
+        message = (f"the body stopped at t = {diagnostics['stop_time']:.6g} s, "
+                   f"{diagnostics['max_penetration']:.4g} m deep, and had not left the ice by "
+                   f"t = {t_reached:.6g} s")
     else:
         t_fail = float(diag[kn.D_FAIL_T])
         where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
@@ -429,13 +468,15 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         extra["located_crack_onset"] = {"upper": (level_t[0], level_x[0]), "lower": (level_t[1], level_x[1])}
     return Result(
         parameters=p, settings=s, times=times, x=x, fields=field_values,
-        amplitudes=out_a, velocities=out_adot, contact_intervals=out_contacts, force=out_force,
-        plate_energy=out_energy[:, 0], layer_energy=out_energy[:, 1], work=out_energy[:, 2],
+        amplitudes=out_a, velocities=out_adot, contact_intervals=series[:, kn.S_CONTACTS],
+        force=series[:, kn.S_FORCE], plate_energy=series[:, kn.S_E_PLATE],
+        layer_energy=series[:, kn.S_E_LAYER], work=series[:, kn.S_WORK],
         valid=valid, diagnostics=diagnostics, status=status, message=message,
         time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
         forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),
         largest_step=float(diag[kn.D_H_MAX]), wall_time=wall, tension_record=records,
-        contact_record=contact_record, extra=extra)
+        contact_record=contact_record, extra=extra, body_position=body_s,
+        body_speed=series[:, kn.S_BODY_SPEED])
 
 
 def compile_kernels() -> None:

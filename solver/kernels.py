@@ -71,7 +71,10 @@ LAYER_BOTTOMED_OUT = 1
 NONFINITE = 2
 STEP_LIMIT = 3
 ENERGY_VIOLATION = 4
-STATUS_NAMES = ("ok", "layer_bottomed_out", "nonfinite", "step_limit", "energy_violation")
+SEPARATED = 5               # a free body left the ice, moving up (run asked to end there)
+STOPPED = 6                 # a free body stopped and had not separated at the end of the window
+STATUS_NAMES = ("ok", "layer_bottomed_out", "nonfinite", "step_limit", "energy_violation",
+                "separated", "stopped")
 
 # integrator codes
 ETD34 = 0
@@ -86,7 +89,7 @@ D_ENERGY_JUMPS = 12        # steps rejected because the energy identity jumped
 D_MAX_CONTACTS = 13        # max number of contact intervals (events inside steps counted)
 D_MAX_FORCE, D_MAX_FORCE_T = 14, 15
 D_MAX_DELTA, D_MAX_DELTA_T = 16, 17
-D_ENERGY_RESIDUAL = 18     # max_t |E_plate + E_layer - W| / W(t_reached)
+D_ENERGY_RESIDUAL = 18     # max_t |E_plate + E_layer - W| / max_t W (= W(t_reached) for the paper's body)
 D_WORK = 19                # W(t_reached) [J m-1]
 D_T_REACHED = 20
 D_STEPS = 21               # accepted steps
@@ -96,7 +99,13 @@ D_H_MAX = 24               # largest accepted step [s]
 D_RHS = 25                 # forcing evaluations
 D_FAIL_T = 26              # time of the step that failed (NaN if none)
 D_FAIL_KIND = 27           # why the run stopped early: one of the FAIL_* codes
-N_DIAG = 28
+# a body of finite mass (NaN for the prescribed motion)
+D_STOP_T = 28              # first time the body's speed reached zero
+D_MAX_PENETRATION = 29     # largest penetration s of the body [m] (at a zero of its speed)
+D_SEPARATION_T = 30        # time the body left the ice moving up (after it had stopped)
+D_SEPARATION_SPEED = 31    # the body's upward speed then [m s-1]
+D_BODY_RESIDUAL = 32       # max_t |M (U^2 - V^2)/2 - M g_b s + W| / max_t W
+N_DIAG = 33
 
 FAIL_NONE = 0
 FAIL_MAX_STEPS = 1         # max_steps attempted
@@ -156,9 +165,31 @@ ENERGY_BOUND = 1e-3
 R_T, R_VALUE, R_RATE, R_X, R_JOIN = 0, 1, 2, 3, 4
 N_REC = 5
 
-# rows of the packed per-mode table ``modes`` and entries of the layer vector ``lay``
+# rows of the packed per-mode table ``modes`` (plate and water: the per-mode linear part)
 M_OMEGA, M_COEF, M_STRAIN, M_LM = 0, 1, 2, 3
-L_LAM1, L_DX, L_V, L_R, L_HE, L_K = 0, 1, 2, 3, 4, 5
+# entries of ``lay``: quadrature (lambda_1, dx), body (V, R, 1/M, g_b), layer law (he, K)
+L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G = 0, 1, 2, 3, 4, 5, 6, 7
+N_LAY = 8
+# entries of the run control vector ``ctrl`` of integrate
+(C_T_START, C_T_END, C_TOLERANCE, C_FIXED_STEP, C_H_INIT, C_H_MIN, C_H_MAX, C_MAX_STEPS,
+ C_BOTTOM_GAP, C_UNTIL_SEPARATION) = range(10)
+N_CTRL = 10
+# columns of integrate's per-output-time series ``out_series``
+(S_CONTACTS, S_FORCE, S_E_PLATE, S_E_LAYER, S_WORK, S_ERR, S_BODY_POSITION, S_BODY_SPEED) = range(8)
+N_SERIES = 8
+# the body's state: deficits against the prescribed motion, d = V t - s and u = V - U
+B_D, B_U = 0, 1
+
+
+def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
+                 until_separation=False):
+    """The ``ctrl`` vector of :func:`integrate` (plain Python: built once per run)."""
+    ctrl = np.zeros(N_CTRL)
+    ctrl[C_T_START], ctrl[C_T_END], ctrl[C_TOLERANCE], ctrl[C_FIXED_STEP] = t_start, t_end, tolerance, fixed_step
+    ctrl[C_H_INIT], ctrl[C_H_MIN], ctrl[C_H_MAX], ctrl[C_MAX_STEPS] = h_init, h_min, h_max, max_steps
+    ctrl[C_BOTTOM_GAP] = bottom_gap
+    ctrl[C_UNTIL_SEPARATION] = 1.0 if until_separation else 0.0
+    return ctrl
 
 
 # ---------------------------------------------------------------------------------------
@@ -352,7 +383,14 @@ def modal_projection(f, cosq, P, jmax):
 
 @njit(cache=True, nogil=True)
 def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
-    """Modal forcing P_n(t, a) and body force F(t) from the layer reaction.
+    """layer_forcing_at for the body at the paper's constant speed: penetration s = V t."""
+    return layer_forcing_at(V * t, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P)
+
+
+@njit(cache=True, nogil=True)
+def layer_forcing_at(s, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P):
+    """Modal forcing P_n(s, a) and body force F from the layer reaction, the body's lowest point
+    at y = he - s (penetration s: V t for the paper's body).
 
     P_n = (2 K / (L M_n)) int_0^L -f(delta) cos(lambda_n x) dx on the hat functions of the
     nodes: int hat_j cos(lambda_n x) dx = w_j dx sinc^2(lambda_n dx / 2) cos(lambda_n x_j),
@@ -361,10 +399,10 @@ def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
 
     Parameters
     ----------
-    t : time [s].  a : modal amplitudes a_n [m].  lam1 : lambda_1 [m-1].
+    s : penetration of the body [m].  a : modal amplitudes a_n [m].  lam1 : lambda_1 [m-1].
     coef : -2 K / (L M_n) divided by K, i.e. -2 / (L M_n) [m kg-1 ... per Pa].
     cosq : cos(lambda_n x_j), shape (N, J).  wq : mode weights dx sinc^2(lambda_n dx / 2),
-    shape (N,) [m].  dx : subinterval width [m].  V, R, he, K : see Parameters.
+    shape (N,) [m].  dx : subinterval width [m].  R, he, K : see Parameters.
     delta, fvals : work arrays (J,) receiving delta and f at the nodes j < jmax.
     P : output (N,), the forcing P_n [m s-2].
 
@@ -380,13 +418,13 @@ def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
         for n in range(N):
             P[n] = 0.0
         return 0, 0.0, 0
-    jmax = contact_bound(t, a, V, R, dx, J)
+    jmax = contact_bound(s, a, R, dx, J)
     modal_sum(a, cosq, delta, jmax)
-    return layer_reaction(t, lam1, coef, cosq, wq, dx, V, R, he, K, jmax, delta, fvals, P)
+    return layer_reaction(s, lam1, coef, cosq, wq, dx, R, he, K, jmax, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def layer_forcing_strain(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P, strain_coef, eps):
+def layer_forcing_strain(s, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P, strain_coef, eps):
     """layer_forcing, and the strain at every node into eps (strain_nodes), from one pass over
     the table where both are needed."""
     N = a.shape[0]
@@ -396,36 +434,35 @@ def layer_forcing_strain(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fva
         for n in range(N):
             P[n] = 0.0
         return 0, 0.0, 0
-    jmax = contact_bound(t, a, V, R, dx, J)
+    jmax = contact_bound(s, a, R, dx, J)
     modal_sum_strain(a, strain_coef, cosq, delta, eps, jmax)
-    return layer_reaction(t, lam1, coef, cosq, wq, dx, V, R, he, K, jmax, delta, fvals, P)
+    return layer_reaction(s, lam1, coef, cosq, wq, dx, R, he, K, jmax, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def contact_bound(t, a, V, R, dx, J):
-    """Nodes j >= jmax cannot touch: there x_j^2 / 2R > V t + sum |a_n| >= V t + w(x)."""
+def contact_bound(s, a, R, dx, J):
+    """Nodes j >= jmax cannot touch: there x_j^2 / 2R > s + sum |a_n| >= s + w(x)."""
     bound = 0.0
     for n in range(a.shape[0]):
         bound += abs(a[n])
-    s = V * t + bound
-    if s <= 0.0:
+    reach = s + bound
+    if reach <= 0.0:
         return 1
-    return min(J, int(math.sqrt(2.0 * R * s) / dx) + 2)
+    return min(J, int(math.sqrt(2.0 * R * reach) / dx) + 2)
 
 
 @njit(cache=True, nogil=True)
-def layer_reaction(t, lam1, coef, cosq, wq, dx, V, R, he, K, jmax, delta, fvals, P):
+def layer_reaction(s, lam1, coef, cosq, wq, dx, R, he, K, jmax, delta, fvals, P):
     """The rest of layer_forcing, given the deflection sum_n a_n cos(lambda_n x_j) in delta
     (j < jmax): delta and f at the nodes, then P and F (see layer_forcing)."""
     N = P.shape[0]
     J = delta.shape[0]
     inv2R = 0.5 / R
-    Vt = V * t
     force = 0.0
     jc = 0                           # nodes j >= jc are not compressed
     for j in range(jmax):
         x = j * dx
-        d = (delta[j] + Vt - x * x * inv2R) / he
+        d = (delta[j] + s - x * x * inv2R) / he
         delta[j] = d
         f = 0.0
         if d > 0.0:
@@ -826,27 +863,102 @@ def etd_coefficients(omega, h, C):
         C[8, n] = h * (4.0 * p3 - p2)
 
 
+# ---------------------------------------------------------------------------------------
+# body motion: the paper's constant speed, or a free body of mass M
+# ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _stage(t, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, P):
+def body_coefficients(h, Cb):
+    """The rows of etd_coefficients in the limit omega -> 0, for the body (Cb (9, 2)).
+
+    The body is one more degree of freedom, M s'' = M g_b - F, with no linear part. Its state
+    is kept as deficits against the prescribed motion, d = V t - s and u = V - U, so that
+    u' = G = F / M - g_b and d' = u: a "mode" with omega = 0. A scheme row C(zeta), zeta = i
+    omega h, then acts on u as C(0) and on d as h C'(0) (the limit of Im(C z) / omega), with
+    phi_k(0) = 1/k!, phi_k'(0) = 1/(k+1)!. Column 0 holds C(0), column 1 h C'(0); rows 0 and 1
+    (e^zeta, e^{zeta/2}) are d + h u and d + h u / 2, applied directly. The update is then RK4's
+    for u and its Nystrom form for d: d+ = d + h u + h^2 (G1 + G2 + G3) / 6.
+    """
+    h2 = h * h
+    Cb[0, 0] = 1.0
+    Cb[0, 1] = h
+    Cb[1, 0] = 1.0
+    Cb[1, 1] = 0.5 * h
+    Cb[2, 0] = 0.5 * h             # (h/2) phi1(zeta/2)
+    Cb[2, 1] = h2 / 8.0
+    Cb[3, 0] = 0.5 * h             # h phi2(zeta/2)
+    Cb[3, 1] = h2 / 12.0
+    Cb[4, 0] = h                   # h phi1
+    Cb[4, 1] = 0.5 * h2
+    Cb[5, 0] = h                   # 2 h phi2
+    Cb[5, 1] = h2 / 3.0
+    Cb[6, 0] = h / 6.0             # h (phi1 - 3 phi2 + 4 phi3)
+    Cb[6, 1] = h2 / 6.0
+    Cb[7, 0] = h / 3.0             # h (2 phi2 - 4 phi3)
+    Cb[7, 1] = h2 / 6.0
+    Cb[8, 0] = h / 6.0             # h (4 phi3 - phi2)
+    Cb[8, 1] = 0.0
+
+
+@njit(cache=True, nogil=True)
+def body_accel(lay, F):
+    """G = u' = F / M - g_b: the body's deceleration (0 for the paper's prescribed body)."""
+    return lay[L_INV_MASS] * F - lay[L_BODY_G]
+
+
+@njit(cache=True, nogil=True)
+def body_position(lay, t, yb):
+    """Penetration s = V t - d of the body [m] (exactly V t for the prescribed body)."""
+    return lay[L_V] * t - yb[B_D]
+
+
+@njit(cache=True, nogil=True)
+def body_speed(lay, yb):
+    """Downward speed U = V - u of the body [m s-1]."""
+    return lay[L_V] - yb[B_U]
+
+
+@njit(cache=True, nogil=True)
+def body_residual(lay, t, yb, work):
+    """M (U^2 - V^2) / 2 - M g_b s + W: zero along an exact motion (0 for the prescribed body)."""
+    im = lay[L_INV_MASS]
+    if im == 0.0:
+        return 0.0
+    u = yb[B_U]
+    return (0.5 * u * u - lay[L_V] * u - lay[L_BODY_G] * body_position(lay, t, yb)) / im + work
+
+
+# ---------------------------------------------------------------------------------------
+# the step: its stages, the body alongside the modes
+# ---------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def _stage(s, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, P):
     for n in range(zs.shape[0]):
         a_work[n] = zs[n].imag / omega[n]
-    return layer_forcing(t, a_work, lay[L_LAM1], coef, cosq, wq, lay[L_DX], lay[L_V], lay[L_R],
-                         lay[L_HE], lay[L_K], delta, fvals, P)
+    return layer_forcing_at(s, a_work, lay[L_LAM1], coef, cosq, wq, lay[L_DX], lay[L_R],
+                            lay[L_HE], lay[L_K], delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def _last_stage(t, zs, modes, a_work, lay, cosq, wq, delta, fvals, P, eps):
+def _last_stage(s, zs, modes, a_work, lay, cosq, wq, delta, fvals, P, eps):
     """_stage at the step's end, with the strain at every node into eps."""
     omega = modes[M_OMEGA]
     for n in range(zs.shape[0]):
         a_work[n] = zs[n].imag / omega[n]
-    return layer_forcing_strain(t, a_work, lay[L_LAM1], modes[M_COEF], cosq, wq, lay[L_DX], lay[L_V],
+    return layer_forcing_strain(s, a_work, lay[L_LAM1], modes[M_COEF], cosq, wq, lay[L_DX],
                                 lay[L_R], lay[L_HE], lay[L_K], delta, fvals, P, modes[M_STRAIN], eps)
 
 
 @njit(cache=True, nogil=True)
+def _step_work(lay, h, work, F1, F2, F3, F4, U1, U2, U3, U4):
+    """W(t + h) = W + int F U dt by the step's weights (1, 2, 2, 1)/6 over its stages."""
+    if lay[L_INV_MASS] == 0.0:
+        return work + h * lay[L_V] * (F1 / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
+    return work + h * (F1 * U1 / 6.0 + (F2 * U2 + F3 * U3) / 3.0 + F4 * U4 / 6.0)
+
+
+@njit(cache=True, nogil=True)
 def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cosq, wq, cw, rw,
-              fvals, delta, z_out, N_out, err, eps_out):
+              fvals, delta, z_out, N_out, err, eps_out, yb, Cb, yb_out, errb):
     """One step from (t, z) to t_new = t + h with N1 = P(t, z), F1 = F(t), W(t) = work.
 
     C holds etd_coefficients(omega, h) (RK4 uses them for its error estimate); cw (2, N)
@@ -855,6 +967,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     jmax(t_new), W(t_new), event): status 1 if a stage reached delta >= 1 (outputs then
     meaningless); event if the number of contact intervals changed among the stages.
     eps_out receives the strain at every node at t_new (strain_nodes) from the last stage's pass.
+    The body: yb = (d, u) at t, Cb = body_coefficients(h); yb_out and errb receive its state at
+    t_new and its error estimate (the prescribed body stays at d = u = 0 exactly).
     """
     omega = modes[M_OMEGA]
     coef = modes[M_COEF]
@@ -865,31 +979,83 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     N3 = rw[2]
     N4 = rw[3]
     N = z.shape[0]
+    V = lay[L_V]
     th = t + 0.5 * h
     event = False
     F2 = F3 = F4 = F5 = 0.0
     jm = 0
+    # the body's stages (the same for both methods, see body_coefficients)
+    d = yb[B_D]
+    u = yb[B_U]
+    G1 = body_accel(lay, F1)
+    d2 = d + Cb[1, 1] * u + Cb[2, 1] * G1
+    u2 = u + Cb[2, 0] * G1
+    d3 = u3 = d4 = u4 = 0.0
+    G2 = G3 = G4 = 0.0
     if method == ETD34:
         for n in range(N):
             zs[n] = C[1, n] * z[n] + C[2, n] * N1[n]
-        st, F2, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        st, F2, jm = _stage(V * th - d2, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        G2 = body_accel(lay, F2)
         event = st == 0 and count_contacts(delta, jm) != contacts
         if st == 0:
             for n in range(N):
                 zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
-            st, F3, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            d3 = d2 + Cb[3, 1] * (G2 - G1)
+            u3 = u2 + Cb[3, 0] * (G2 - G1)
+            st, F3, jm = _stage(V * th - d3, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            G3 = body_accel(lay, F3)
             event = event or (st == 0 and count_contacts(delta, jm) != contacts)
         if st == 0:
             for n in range(N):
                 zs[n] = C[0, n] * z[n] + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
-            st, F4, jm = _stage(t_new, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
+            u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
+            st, F4, jm = _stage(V * t_new - d4, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            G4 = body_accel(lay, F4)
             event = event or (st == 0 and count_contacts(delta, jm) != contacts)
+    else:
+        # classical RK4 on z' = i w z + P
+        for n in range(N):
+            k1 = 1j * omega[n] * z[n] + N1[n]
+            incr[n] = k1                     # accumulates k1 + 2 k2 + 2 k3
+            zs[n] = z[n] + 0.5 * h * k1
+        st, F2, jm = _stage(V * th - d2, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        G2 = body_accel(lay, F2)
         if st == 0:
             for n in range(N):
+                k2 = 1j * omega[n] * zs[n] + N2[n]
+                incr[n] += 2.0 * k2
+                zs[n] = z[n] + 0.5 * h * k2
+            d3 = d2 + Cb[3, 1] * (G2 - G1)
+            u3 = u2 + Cb[3, 0] * (G2 - G1)
+            st, F3, jm = _stage(V * th - d3, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            G3 = body_accel(lay, F3)
+        if st == 0:
+            for n in range(N):
+                k3 = 1j * omega[n] * zs[n] + N3[n]
+                incr[n] += 2.0 * k3
+                zs[n] = z[n] + h * k3
+            d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
+            u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
+            st, F4, jm = _stage(V * t_new - d4, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            G4 = body_accel(lay, F4)
+    if st == 0:
+        yb_out[B_D] = d + Cb[0, 1] * u + Cb[6, 1] * G1 + Cb[7, 1] * (G2 + G3) + Cb[8, 1] * G4
+        yb_out[B_U] = u + Cb[6, 0] * G1 + Cb[7, 0] * (G2 + G3) + Cb[8, 0] * G4
+        if method == ETD34:
+            for n in range(N):
                 z_out[n] = C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n]) + C[8, n] * N4[n]
-            st, F5, jm = _last_stage(t_new, z_out, modes, a_work, lay, cosq, wq, delta, fvals, N_out, eps_out)
-        if st != 0:
-            return 1, 0.0, jm, work, event
+        else:
+            for n in range(N):
+                k4 = 1j * omega[n] * zs[n] + N4[n]
+                z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
+        st, F5, jm = _last_stage(V * t_new - yb_out[B_D], z_out, modes, a_work, lay, cosq, wq, delta,
+                                 fvals, N_out, eps_out)
+    if st != 0:
+        return 1, 0.0, jm, work, event
+    G5 = body_accel(lay, F5)
+    if method == ETD34:
         event = event or count_contacts(delta, jm) != contacts
         if event:
             # z+ minus the exponential trapezoid e^{zeta} z + h(phi1 - phi2) N1 + h phi2 N5: the
@@ -897,42 +1063,23 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             for n in range(N):
                 err[n] = z_out[n] - (C[0, n] * z[n] + (C[4, n] - 0.5 * C[5, n]) * N1[n]
                                      + 0.5 * C[5, n] * N_out[n])
+            errb[B_D] = yb_out[B_D] - (d + Cb[0, 1] * u + (Cb[4, 1] - 0.5 * Cb[5, 1]) * G1 + 0.5 * Cb[5, 1] * G5)
+            errb[B_U] = yb_out[B_U] - (u + (Cb[4, 0] - 0.5 * Cb[5, 0]) * G1 + 0.5 * Cb[5, 0] * G5)
         else:
             for n in range(N):
                 err[n] = C[8, n] * (N4[n] - N_out[n])
+            errb[B_D] = Cb[8, 1] * (G4 - G5)
+            errb[B_U] = Cb[8, 0] * (G4 - G5)
     else:
-        # classical RK4 on z' = i w z + P
-        for n in range(N):
-            k1 = 1j * omega[n] * z[n] + N1[n]
-            incr[n] = k1                     # accumulates k1 + 2 k2 + 2 k3
-            zs[n] = z[n] + 0.5 * h * k1
-        st, F2, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
-        if st == 0:
-            for n in range(N):
-                k2 = 1j * omega[n] * zs[n] + N2[n]
-                incr[n] += 2.0 * k2
-                zs[n] = z[n] + 0.5 * h * k2
-            st, F3, jm = _stage(th, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
-        if st == 0:
-            for n in range(N):
-                k3 = 1j * omega[n] * zs[n] + N3[n]
-                incr[n] += 2.0 * k3
-                zs[n] = z[n] + h * k3
-            st, F4, jm = _stage(t_new, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
-        if st == 0:
-            for n in range(N):
-                k4 = 1j * omega[n] * zs[n] + N4[n]
-                z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
-            st, F5, jm = _last_stage(t_new, z_out, modes, a_work, lay, cosq, wq, delta, fvals, N_out, eps_out)
-        if st != 0:
-            return 1, 0.0, jm, work, event
         event = count_contacts(delta, jm) != contacts
         # error estimate: RK4 against the exponential (Krogstad) update from the same stage
         # values; RK4's Taylor approximation of e^{i w h} dominates its error
         for n in range(N):
             err[n] = z_out[n] - (C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n])
                                  + C[8, n] * N4[n])
-    w_new = work + h * lay[L_V] * (F1 / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
+        errb[B_D] = 0.0                      # the body's update is the same in both
+        errb[B_U] = 0.0
+    w_new = _step_work(lay, h, work, F1, F2, F3, F4, V - u, V - u2, V - u3, V - u4)
     return 0, F5, jm, w_new, event
 
 
@@ -1171,48 +1318,52 @@ def observe_tension(sign, t0, h, eps0, eps1, a0, a1, adot0, adot1, dz, A, AD, de
 
 
 @njit(cache=True, nogil=True)
-def node_delta(a, cosq, j, t, lay):
-    """delta at node j from the amplitudes a at time t."""
+def node_delta(a, cosq, j, s, lay):
+    """delta at node j from the amplitudes a, the body's penetration s."""
     w = 0.0
     for n in range(a.shape[0]):
         w += a[n] * cosq[n, j]
     x = j * lay[L_DX]
-    return (w + lay[L_V] * t - x * x / (2.0 * lay[L_R])) / lay[L_HE]
+    return (w + s - x * x / (2.0 * lay[L_R])) / lay[L_HE]
 
 
 @njit(cache=True, nogil=True)
-def _node_rate(adot, cosq, j, lay):
+def _node_rate(adot, cosq, j, U, lay):
     w = 0.0
     for n in range(adot.shape[0]):
         w += adot[n] * cosq[n, j]
-    return (w + lay[L_V]) / lay[L_HE]
+    return (w + U) / lay[L_HE]
 
 
 @njit(cache=True, nogil=True)
-def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, cosq, lay, sgn,
-                     ev_th, ev_j, contacts, rec, n):
+def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, body0, body1, cosq, lay,
+                     sgn, ev_th, ev_j, contacts, rec, n):
     """Changes of the number of contact intervals inside the step [t0, t0 + h].
 
     delta at a node near the contact boundary is interpolated by the cubic Hermite of its
     end values and rates; every sign change is an event, applied in time order to the sign
     pattern, which is recounted. A node whose interval opens and closes within the step is
-    seen too. Rows of rec: (t, count after the change). Returns (contacts at t1, rec, n,
-    largest count in the step).
+    seen too. Rows of rec: (t, count after the change). body0, body1: the body's (s, U) at
+    t0 and t1. Returns (contacts at t1, rec, n, largest count in the step).
     """
     he = lay[L_HE]
-    V = lay[L_V]
+    U0 = body0[1]
+    U1 = body1[1]
+    Ub = max(abs(U0), abs(U1))
+    if lay[L_INV_MASS] > 0.0:
+        Ub *= 2.0                       # a free body's speed may swing between the step's ends
     jm = max(jm0, jm1)
     for j in range(jm0, jm):            # nodes outside the computed range: certainly < 0
-        delta0[j] = node_delta(a0, cosq, j, t0, lay)
+        delta0[j] = node_delta(a0, cosq, j, body0[0], lay)
     for j in range(jm1, jm):
-        delta1[j] = node_delta(a1, cosq, j, t0 + h, lay)
+        delta1[j] = node_delta(a1, cosq, j, body1[0], lay)
     speed = 0.0
     s0 = 0.0
     s1 = 0.0
     for k in range(adot0.shape[0]):
         s0 += abs(adot0[k])
         s1 += abs(adot1[k])
-    speed = (2.0 * max(s0, s1) + V) / he    # a bound on |d delta / dt| within the step
+    speed = (2.0 * max(s0, s1) + Ub) / he   # a bound on |d delta / dt| within the step
     n_ev = 0
     roots = np.empty(3)
     for j in range(jm):
@@ -1225,8 +1376,8 @@ def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, cosq
                 continue
             if not d0 > 0.0 and mid + 0.5 * speed * h <= 0.0:
                 continue
-        c0, c1, c2, c3 = hermite(d0, d1, _node_rate(adot0, cosq, j, lay),
-                                 _node_rate(adot1, cosq, j, lay), h)
+        c0, c1, c2, c3 = hermite(d0, d1, _node_rate(adot0, cosq, j, U0, lay),
+                                 _node_rate(adot1, cosq, j, U1, lay), h)
         k = cubic_sign_changes(c0, c1, c2, c3, roots)
         for i in range(k):
             if n_ev < ev_th.shape[0]:
@@ -1265,8 +1416,9 @@ def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, cosq
 
 
 @njit(cache=True, nogil=True)
-def gap_peak(t, delta, jm, a, adot, ones, lay, out):
-    """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x).
+def gap_peak(s, U, delta, jm, a, adot, ones, lay, out):
+    """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x), the
+    body at penetration s moving down at U.
 
     delta holds the nodes j < jm (beyond them delta < 0); the peak is refined on the modes.
     """
@@ -1277,21 +1429,22 @@ def gap_peak(t, delta, jm, a, adot, ones, lay, out):
         v, x = delta[j], j * lay[L_DX]     # the next node is outside the computed range
     else:
         v, x = continuous_peak(delta, 1.0, j, n, lay[L_DX], ones, a, lay[L_LAM1], 1.0 / he,
-                               -0.5 / (lay[L_R] * he), lay[L_V] * t / he)
+                               -0.5 / (lay[L_R] * he), s / he)
     out[0] = v
-    out[1] = (mode_sum(ones, adot, lay[L_LAM1], x) + lay[L_V]) / he
+    out[1] = (mode_sum(ones, adot, lay[L_LAM1], x) + U) / he
     out[2] = x
 
 
 @njit(cache=True, nogil=True)
 def substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals,
-            delta, z_out, N_out, err, a_out, adot_out, eps):
-    """A step of length s from (t, z) into the given buffers, its own coefficients in Cs;
-    a_out, adot_out receive a_n and a_n' at t + s, eps the strain at the nodes. Returns
-    take_step's tuple."""
+            delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs, yb_out, errb):
+    """A step of length s from (t, z) (the body at yb) into the given buffers, its own
+    coefficients in Cs and Cbs; a_out, adot_out receive a_n and a_n' at t + s, eps the strain at
+    the nodes, yb_out the body. Returns take_step's tuple."""
     etd_coefficients(modes[M_OMEGA], s, Cs)
+    body_coefficients(s, Cbs)
     res = take_step(method, t, t + s, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw,
-                    rw, fvals, delta, z_out, N_out, err, eps)
+                    rw, fvals, delta, z_out, N_out, err, eps, yb, Cbs, yb_out, errb)
     omega = modes[M_OMEGA]
     for k in range(z.shape[0]):
         a_out[k] = z_out[k].imag / omega[k]
@@ -1300,11 +1453,11 @@ def substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, c
 
 
 @njit(cache=True, nogil=True)
-def event_value(kind, t, jm, delta, a, adot, modes, lay, cosq, eps, ones, out):
+def event_value(kind, t, jm, delta, a, adot, yb, modes, lay, cosq, eps, ones, out):
     """The quantity an event is defined on, at a state: kind 0, the largest delta on the plate
     (gap_peak); kind +1 / -1, the peak of +eps / -eps over x. out[:] = (value, rate, x)."""
     if kind == 0:
-        gap_peak(t, delta, jm, a, adot, ones, lay, out)
+        gap_peak(body_position(lay, t, yb), body_speed(lay, yb), delta, jm, a, adot, ones, lay, out)
         return out[0]
     sign = float(kind)
     strain_nodes(a, modes[M_STRAIN], cosq, eps)
@@ -1316,14 +1469,16 @@ def event_value(kind, t, jm, delta, a, adot, modes, lay, cosq, eps, ones, out):
 
 @njit(cache=True, nogil=True)
 def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, Cs, modes, lay,
-                 cosq, wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, ones, out):
+                 cosq, wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, ones, out,
+                 yb, Cbs, yb_out, errb):
     """First time in the accepted step [t, t + h] at which event_value(kind) reaches level,
     found on true sub-steps of the integrator from (t, z): Illinois regula falsi, bisection
     where a sub-step fails (a stage with delta >= 1 counts as past the level). p0, p1:
     (value, rate) at the two ends (p1 unused: the step is scanned at SCAN points first).
 
     On return the buffers hold the state at t + s_lo, the last sub-step still below the level
-    (so a located bottoming ends on a state with delta < 1 everywhere), out its event value.
+    (so a located bottoming ends on a state with delta < 1 everywhere), out its event value;
+    yb is the body at t, yb_out receives it at t + s_lo.
     Returns (s_lo, s_hi, F, jmax, W, found).
     """
     # the first crossing: scan the step forward on sub-steps to the first point past the level
@@ -1333,8 +1488,9 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
     for k in range(1, SCAN + 1):
         sk = h * k / SCAN
         st, F, jm, w, ev = substep(method, t, sk, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
-                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps)
-        f = np.inf if st != 0 else event_value(kind, t + sk, jm, delta, a_out, adot_out, modes, lay,
+                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
+                                   yb_out, errb)
+        f = np.inf if st != 0 else event_value(kind, t + sk, jm, delta, a_out, adot_out, yb_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
             hi, f_hi = sk, f
@@ -1346,8 +1502,9 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
     side = 0
     for _ in range(100):
         st, F, jm, w, ev = substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
-                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps)
-        f = np.inf if st != 0 else event_value(kind, t + s, jm, delta, a_out, adot_out, modes, lay,
+                                   wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
+                                   yb_out, errb)
+        f = np.inf if st != 0 else event_value(kind, t + s, jm, delta, a_out, adot_out, yb_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
             hi, f_hi = s, f
@@ -1368,61 +1525,17 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
         if not (lo < s < hi):
             s = 0.5 * (lo + hi)
     st, F, jm, w, ev = substep(method, t, lo, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq,
-                               cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps)
-    event_value(kind, t + lo, jm, delta, a_out, adot_out, modes, lay, cosq, eps, ones, out)
+                               cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
+                               yb_out, errb)
+    event_value(kind, t + lo, jm, delta, a_out, adot_out, yb_out, modes, lay, cosq, eps, ones, out)
     return lo, hi, F, jm, w, True
 
 
 # ---------------------------------------------------------------------------------------
-# main loop
+# main loop and its pieces: outputs, step size, error control, energy guard, observers
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fixed_step, h_init,
-              h_min, h_max, max_steps, bottom_gap, a0, adot0, levels, out_a, out_adot,
-              out_contacts, out_force, out_energy, out_err, diag, level_t, level_x):
-    """Integrate the mode equations from t_start to t_end, landing on every t_out.
-
-    Parameters
-    ----------
-    method : ETD34 or RK4.
-    modes : (4, N) rows omega_n [s-1], -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].
-    lay : (6,) lambda_1 [m-1], dx [m], V [m s-1], R [m], he [m], K [Pa] (see L_* indices).
-    cosq (N, J), wq (N,) : quadrature nodes and mode weights, see :func:`layer_forcing`.
-    t_start, t_end : start and end of the run [s] (the body is at y = x^2/2R + he - V t).
-    t_out : sorted output times in [t_start, t_end] [s].
-    tolerance : relative error per step in the energy norm (ETD34 adaptive).
-    fixed_step : > 0 for a fixed step [s] (RK4 always; ETD34 without error control).
-    h_init, h_min, h_max : first trial, smallest and largest step [s] (adaptive). h_max must
-        resolve the contact oscillation: in free flight the forcing and hence the error
-        estimate vanish, and only h_max stops a step from jumping deep into a new contact.
-    max_steps : attempted steps before STEP_LIMIT.
-    bottom_gap : the layer bottoms out when its gap closes to this fraction of he.
-    a0, adot0 : a_n [m] and a_n' [m s-1] at t_start.
-    levels : tension levels to locate exactly on sub-steps (verification; usually empty).
-    out_a, out_adot (T, N), out_contacts (T,), out_force (T,), out_energy (T, 3), out_err (T,):
-        filled at each output time reached: a, a', contact intervals, F, (E_plate, E_layer, W),
-        and the sum over accepted steps of the local error estimate in strain amplitude.
-    diag : (N_DIAG,) diagnostics, see the D_* indices.
-    level_t, level_x : (2, len(levels)) NaN on entry; the located time [s] and place [m] at
-        which the upper (row 0) and lower (row 1) tension first reaches each level.
-
-    Returns
-    -------
-    (status, n_out, upper, n_upper, lower, n_lower, contacts, n_contacts): status OK,
-    LAYER_BOTTOMED_OUT, NONFINITE, STEP_LIMIT or ENERGY_VIOLATION; the number of output
-    times filled; the tension records of both surfaces (rows R_T..R_JOIN, first n valid) and
-    the contact record (rows (t, count)).
-    """
-    omega = modes[M_OMEGA]
-    strain_coef = modes[M_STRAIN]
-    LM = modes[M_LM]
-    lam1 = lay[L_LAM1]
-    dx = lay[L_DX]
-    K = lay[L_K]
-    he = lay[L_HE]
-    N = omega.shape[0]
-    J = cosq.shape[1]
-    T = t_out.shape[0]
+def _start_diagnostics(diag, t_start):
     for i in range(N_DIAG):
         diag[i] = np.nan
     diag[D_MAX_CONTACTS] = 0.0
@@ -1433,6 +1546,275 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     diag[D_FAIL_KIND] = FAIL_NONE
     diag[D_ENERGY_JUMPS] = 0.0
 
+
+@njit(cache=True, nogil=True)
+def _plus_plate_energy(e, LM, z):
+    """e + E_plate, E_plate = sum_n L M_n |z_n|^2 / 2 [J m-1] (added term by term to e)."""
+    for n in range(z.shape[0]):
+        e += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+    return e
+
+
+@njit(cache=True, nogil=True)
+def _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, LM, lay, out_a, out_adot,
+                   out_series):
+    """Row k of the outputs: the state at t (an output time the steps have landed on)."""
+    e_plate = 0.0
+    for n in range(z.shape[0]):
+        out_a[k, n] = a[n]
+        out_adot[k, n] = adot[n]
+        e_plate += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+    out_series[k, S_CONTACTS] = count_contacts(delta, jmax)
+    out_series[k, S_FORCE] = force
+    out_series[k, S_E_PLATE] = e_plate
+    out_series[k, S_E_LAYER] = layer_energy(delta, jmax, lay[L_DX], lay[L_K], lay[L_HE])
+    out_series[k, S_WORK] = work
+    out_series[k, S_ERR] = err_sum
+    out_series[k, S_BODY_POSITION] = body_position(lay, t, yb)
+    out_series[k, S_BODY_SPEED] = body_speed(lay, yb)
+
+
+@njit(cache=True, nogil=True)
+def _error_ratio(err, errb, z, znew, yb, yb_new, modes, lay, tolerance, gap, bottom_gap, ones, scratch):
+    """Local error over tolerance in the energy norm (the body's kinetic energy included when
+    it is free); near bottoming also the error of delta at the gap against the gap itself."""
+    LM = modes[M_LM]
+    omega = modes[M_OMEGA]
+    num = 0.0
+    den_old = 0.0
+    den_new = 0.0
+    for n in range(z.shape[0]):
+        num += LM[n] * (err[n].real ** 2 + err[n].imag ** 2)
+        den_old += LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+        den_new += LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
+    im = lay[L_INV_MASS]
+    if im > 0.0:
+        num += errb[B_U] ** 2 / im
+        den_old += body_speed(lay, yb) ** 2 / im
+        den_new += body_speed(lay, yb_new) ** 2 / im
+    floor = lay[L_V] * math.sqrt(LM[0])
+    ratio = math.sqrt(num) / (tolerance * max(math.sqrt(max(den_old, den_new)), floor))
+    he = lay[L_HE]
+    if lay[L_K] > 0.0 and gap[0] > 1.0 - max(GAP_WATCH, 10.0 * bottom_gap):
+        # near bottoming the local error of delta at the gap must be small against the
+        # gap itself, or a grazing approach crosses the threshold in one run and not in
+        # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
+        for n in range(z.shape[0]):
+            scratch[n] = err[n].imag / omega[n]
+        e_delta = abs(mode_sum(ones, scratch, lay[L_LAM1], gap[2]) - errb[B_D]) / he
+        ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap[0])))
+    if not math.isfinite(ratio):
+        ratio = 1e10
+    return ratio
+
+
+@njit(cache=True, nogil=True)
+def _energy_allowance(delta_new, jm5, e_new, w_new, e0, work):
+    """How much one step may change the residual E_plate + E_layer - W (see ENERGY_JUMP)."""
+    compressed = 0
+    for j in range(jm5):
+        if delta_new[j] > 0.0:
+            compressed += 1
+    under = min(1.0, (RESOLVED_NODES / max(compressed, 1)) ** 2)
+    return ENERGY_JUMP * max(e_new, w_new, e0) + under * abs(w_new - work)
+
+
+@njit(cache=True, nogil=True)
+def _next_step(t, t_start, target, h, h_init, fixed_step, fixed):
+    """The step to try from t towards the next output time: (h_step, t_new, landing).
+    fixed = [target the fixed step was chosen for, that step] (updated)."""
+    remaining = target - t
+    if fixed_step > 0.0:
+        # one step size per output interval, fixed for the whole interval (the ETD
+        # coefficients are then computed once per interval); the last step lands on target
+        if target != fixed[0]:
+            fixed[0] = target
+            n_sub = math.ceil(remaining / fixed_step * (1.0 - 1e-12))
+            fixed[1] = remaining / max(n_sub, 1)
+        landing = remaining <= 1.5 * fixed[1]
+        h_step = remaining if landing else fixed[1]
+    else:
+        h_step = min(h, max(h_init, GROWTH * (t - t_start)))
+        if h_step >= remaining * (1.0 - 1e-12) or remaining - h_step < 0.01 * h_step:
+            h_step = remaining
+        landing = h_step >= remaining * (1.0 - 1e-12)
+    t_new = target if landing else t + h_step
+    return h_step, t_new, landing
+
+
+@njit(cache=True, nogil=True)
+def _finite_state(st, w_new, znew, yb_new):
+    if not (st == 0 and math.isfinite(w_new)):
+        return False
+    for n in range(znew.shape[0]):
+        if not (math.isfinite(znew[n].real) and math.isfinite(znew[n].imag)):
+            return False
+    return math.isfinite(yb_new[B_D]) and math.isfinite(yb_new[B_U])
+
+
+@njit(cache=True, nogil=True)
+def observe_body(t, h, yb0, yb1, F0, F1, contacts, rec_c, n_c, lay, diag):
+    """A free body's ends within the step [t, t + h]: the zeros of its speed U (it stops; the
+    deepest penetration is taken there) from the cubic Hermite of U (U' = g_b - F / M at the
+    ends), and its separation: no contact at t + h while moving up after having stopped, at
+    the last time the contact record went to 0 (located by observe_contacts). Returns True
+    at the first separation."""
+    if lay[L_INV_MASS] == 0.0:
+        return False
+    U0 = body_speed(lay, yb0)
+    U1 = body_speed(lay, yb1)
+    r0 = -body_accel(lay, F0)
+    r1 = -body_accel(lay, F1)
+    s0 = body_position(lay, t, yb0)
+    s1 = body_position(lay, t + h, yb1)
+    roots = np.empty(3)
+    c0, c1, c2, c3 = hermite(U0, U1, r0, r1, h)
+    k = cubic_sign_changes(c0, c1, c2, c3, roots)
+    for i in range(k):
+        th = roots[i]
+        if cubic(c0, c1, c2, c3, th + 1e-9) > 0.0:
+            continue                                    # U rising through 0: not a stop
+        q0, q1, q2, q3 = hermite(s0, s1, U0, U1, h)
+        depth = cubic(q0, q1, q2, q3, th)
+        if math.isnan(diag[D_STOP_T]):
+            diag[D_STOP_T] = t + th * h
+        if not depth <= diag[D_MAX_PENETRATION]:        # also when NaN (the first stop)
+            diag[D_MAX_PENETRATION] = depth
+    if math.isnan(diag[D_STOP_T]) or not math.isnan(diag[D_SEPARATION_T]):
+        return False
+    if contacts != 0 or not U1 < 0.0:
+        return False
+    t_sep = t + h
+    if n_c > 0 and rec_c[n_c - 1, 1] == 0.0:
+        t_sep = max(rec_c[n_c - 1, 0], diag[D_STOP_T])
+    th = min(max((t_sep - t) / h, 0.0), 1.0)
+    diag[D_SEPARATION_T] = t_sep
+    diag[D_SEPARATION_SPEED] = -cubic(c0, c1, c2, c3, th)
+    return True
+
+
+@njit(cache=True, nogil=True)
+def _observe_tensions(t, h_eff, eps, eps_new, a, a_new, adot, adot_new, dz, A, AD, dense, modes, lay,
+                      L, tension, scratch, samples, rec_up, n_up, rec_lo, n_lo, joinable, run_max, best,
+                      A2, AD2, eps_sub, cosq, samples2, diag):
+    """The tension records of both surfaces over the accepted step (observe_tension)."""
+    strain_coef = modes[M_STRAIN]
+    lam1 = lay[L_LAM1]
+    dx = lay[L_DX]
+    for s in range(2):
+        sign = 1.0 - 2.0 * s
+        if s == 0:
+            rec_up, n_up, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
+                                                  dz, A, AD, dense, strain_coef, lam1, dx, L, tension[0], scratch,
+                                                  samples, rec_up, n_up, joinable[0], run_max[0], best,
+                                                  A2, AD2, eps_sub, cosq, samples2)
+        else:
+            rec_lo, n_lo, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
+                                                  dz, A, AD, dense, strain_coef, lam1, dx, L, tension[1], scratch,
+                                                  samples, rec_lo, n_lo, joinable[1], run_max[1], best,
+                                                  A2, AD2, eps_sub, cosq, samples2)
+        joinable[s] = jn
+        run_max[s] = rm
+        if best[0] > diag[D_MAX_UPPER + 3 * s]:
+            diag[D_MAX_UPPER + 3 * s] = best[0]
+            diag[D_MAX_UPPER_T + 3 * s] = best[1]
+            diag[D_MAX_UPPER_X + 3 * s] = best[2]
+    return rec_up, n_up, rec_lo, n_lo
+
+
+@njit(cache=True, nogil=True)
+def _finish_diagnostics(diag, status, t, work, peak_work, max_residual, max_body_residual, gap, he, steps,
+                        rejected, rhs_count):
+    """The run's summary diagnostics at its end; returns the final status. The residuals are
+    relative to the largest work over the run: the final work for the paper's body (W only
+    grows), the work at the deepest point for a body that rebounds and takes its energy back."""
+    if status == LAYER_BOTTOMED_OUT and math.isnan(diag[D_BOTTOM_T]):
+        diag[D_BOTTOM_T] = t                # not located: the last state the steps reached
+        diag[D_BOTTOM_X] = gap[2]
+        diag[D_BOTTOM_SPEED] = he * gap[1]
+    diag[D_T_REACHED] = t
+    diag[D_WORK] = work
+    diag[D_ENERGY_RESIDUAL] = max_residual / peak_work if peak_work > 0.0 else 0.0
+    if not math.isnan(diag[D_BODY_RESIDUAL]):
+        diag[D_BODY_RESIDUAL] = max_body_residual / peak_work if peak_work > 0.0 else 0.0
+    ended_well = status == OK or status == LAYER_BOTTOMED_OUT or status == SEPARATED or status == STOPPED
+    if ended_well and max(diag[D_ENERGY_RESIDUAL], diag[D_BODY_RESIDUAL] if not math.isnan(
+            diag[D_BODY_RESIDUAL]) else 0.0) > ENERGY_BOUND:
+        status = ENERGY_VIOLATION
+        diag[D_FAIL_T] = t
+        diag[D_FAIL_KIND] = FAIL_ENERGY_BOUND
+    up, lo = diag[D_MAX_UPPER], diag[D_MAX_LOWER]
+    diag[D_MAX_ABS] = max(up, lo)
+    diag[D_MAX_ABS_X] = diag[D_MAX_UPPER_X] if up >= lo else diag[D_MAX_LOWER_X]
+    diag[D_MAX_ABS_T] = diag[D_MAX_UPPER_T] if up >= lo else diag[D_MAX_LOWER_T]
+    diag[D_STEPS] = steps
+    diag[D_REJECTED] = rejected
+    diag[D_RHS] = rhs_count
+    return status
+
+
+@njit(cache=True, nogil=True)
+def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_a, out_adot, out_series,
+              diag, level_t, level_x):
+    """Integrate the mode equations (and a free body's motion) from t_start to t_end, landing on
+    every t_out.
+
+    Parameters
+    ----------
+    method : ETD34 or RK4.
+    modes : (4, N) rows omega_n [s-1], -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].
+    lay : (N_LAY,) lambda_1 [m-1], dx [m], V [m s-1], R [m], he [m], K [Pa], 1/M [m kg-1]
+        (0: the body moves at V, the paper's), g_b [m s-2] (0 with 1/M = 0); see L_*.
+    cosq (N, J), wq (N,) : quadrature nodes and mode weights, see :func:`layer_forcing`.
+    ctrl : (N_CTRL,) the run's control, see C_*: t_start, t_end [s] (the body's lowest point at
+        he - s, s = V t for the paper's body); tolerance (relative error per step in the energy
+        norm, ETD34 adaptive); fixed_step [s] (> 0: RK4 always, ETD34 without error control);
+        h_init, h_min, h_max [s] (first trial, smallest and largest step; h_max must resolve
+        the contact oscillation: in free flight the forcing and hence the error estimate
+        vanish, and only h_max stops a step from jumping deep into a new contact); max_steps
+        (attempted steps before STEP_LIMIT); bottom_gap (the layer bottoms out when its gap
+        closes to this fraction of he); until_separation (1: a free body's run ends when it
+        separates).
+    t_out : sorted output times in [t_start, t_end] [s].
+    a0, adot0 : a_n [m] and a_n' [m s-1] at t_start (the body at s = V t_start, speed V).
+    levels : tension levels to locate exactly on sub-steps (verification; usually empty).
+    out_a, out_adot (T, N), out_series (T, N_SERIES): filled at each output time reached: a,
+        a', and (S_*) contact intervals, F, E_plate, E_layer, W, the sum over accepted steps of
+        the local error estimate in strain amplitude, the body's penetration s and speed U.
+    diag : (N_DIAG,) diagnostics, see the D_* indices.
+    level_t, level_x : (2, len(levels)) NaN on entry; the located time [s] and place [m] at
+        which the upper (row 0) and lower (row 1) tension first reaches each level.
+
+    Returns
+    -------
+    (status, n_out, upper, n_upper, lower, n_lower, contacts, n_contacts): status (see
+    STATUS_NAMES); the number of output times filled; the tension records of both surfaces
+    (rows R_T..R_JOIN, first n valid) and the contact record (rows (t, count)).
+    """
+    omega = modes[M_OMEGA]
+    strain_coef = modes[M_STRAIN]
+    LM = modes[M_LM]
+    lam1 = lay[L_LAM1]
+    dx = lay[L_DX]
+    K = lay[L_K]
+    he = lay[L_HE]
+    t_start = ctrl[C_T_START]
+    t_end = ctrl[C_T_END]
+    tolerance = ctrl[C_TOLERANCE]
+    fixed_step = ctrl[C_FIXED_STEP]
+    h_init = ctrl[C_H_INIT]
+    h_min = ctrl[C_H_MIN]
+    h_max = ctrl[C_H_MAX]
+    max_steps = ctrl[C_MAX_STEPS]
+    bottom_gap = ctrl[C_BOTTOM_GAP]
+    until_separation = ctrl[C_UNTIL_SEPARATION] > 0.0
+    free_body = lay[L_INV_MASS] > 0.0
+    N = omega.shape[0]
+    J = cosq.shape[1]
+    T = t_out.shape[0]
+    _start_diagnostics(diag, t_start)
+
+    # ----- work space: the state at t, the step's result, a sub-step's, and observer scratch
     z = np.empty(N, np.complex128)
     znew = np.empty(N, np.complex128)
     zsub = np.empty(N, np.complex128)
@@ -1442,6 +1824,15 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     rw = np.empty((4, N))
     C = np.empty((9, N), np.complex128)
     Cs = np.empty((9, N), np.complex128)
+    Cb = np.empty((9, 2))
+    Cbs = np.empty((9, 2))
+    yb = np.zeros(2)                          # the body: (d, u), see B_D, B_U
+    yb_new = np.zeros(2)
+    yb_sub = np.zeros(2)
+    errb = np.zeros(2)
+    errb_sub = np.zeros(2)
+    body0 = np.empty(2)                       # (s, U) at the step's ends, for the observers
+    body1 = np.empty(2)
     N1 = np.empty(N)
     N5 = np.empty(N)
     Nsub = np.empty(N)
@@ -1485,8 +1876,10 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     out3 = np.empty(3)
     joinable = np.zeros(2, np.bool_)
     run_max = np.empty(2)
+    fixed = np.array([-1.0, 0.0])
     bottom_level = 1.0 - bottom_gap
 
+    # ----- the initial state and its observers
     for n in range(N):
         z[n] = complex(adot0[n], omega[n] * a0[n])
         a[n] = a0[n]
@@ -1495,8 +1888,8 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     work = 0.0
     err_sum = 0.0
     rhs_count = 1
-    st, force, jmax = layer_forcing(t, a, lam1, modes[M_COEF], cosq, wq, dx, lay[L_V], lay[L_R],
-                                    he, K, delta, fvals, N1)
+    st, force, jmax = layer_forcing_at(body_position(lay, t, yb), a, lam1, modes[M_COEF], cosq, wq, dx,
+                                       lay[L_R], he, K, delta, fvals, N1)
     if st != 0:
         diag[D_T_REACHED] = t
         diag[D_FAIL_T] = t
@@ -1513,15 +1906,17 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         diag[D_MAX_UPPER + 3 * s] = tension[s, 0]
         diag[D_MAX_UPPER_X + 3 * s] = tension[s, 2]
         diag[D_MAX_UPPER_T + 3 * s] = t
-    gap_peak(t, delta, jmax, a, adot, ones, lay, gap0)
+    gap_peak(body_position(lay, t, yb), body_speed(lay, yb), delta, jmax, a, adot, ones, lay, gap0)
     diag[D_MAX_DELTA] = gap0[0]
     diag[D_MAX_DELTA_T] = t
-    e0 = layer_energy(delta, jmax, dx, K, he)
-    for n in range(N):
-        e0 += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+    e0 = _plus_plate_energy(layer_energy(delta, jmax, dx, K, he), LM, z)
     resid = 0.0                 # E_plate + E_layer - W - E(t_start)
     max_residual = 0.0
-    energy_norm_floor = lay[L_V] * math.sqrt(LM[0])
+    body_resid0 = body_residual(lay, t, yb, work)
+    max_body_residual = 0.0
+    peak_work = work
+    if free_body:
+        diag[D_BODY_RESIDUAL] = 0.0
 
     k = 0
     status = OK
@@ -1529,27 +1924,18 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
     rejected = 0
     h = min(h_init, h_max)
     h_coeffs = -1.0
-    fixed_target = -1.0
-    fixed_h = 0.0
     prev_ratio = 1.0
     bottomed = False
+    separated = False
     eps_ready = False
+    adaptive = method == ETD34 and fixed_step <= 0.0
     while True:
         # ----- record outputs due at the current time
         while k < T and t_out[k] <= t:
-            e_plate = 0.0
-            for n in range(N):
-                out_a[k, n] = a[n]
-                out_adot[k, n] = adot[n]
-                e_plate += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
-            out_contacts[k] = count_contacts(delta, jmax)
-            out_force[k] = force
-            out_energy[k, 0] = e_plate
-            out_energy[k, 1] = layer_energy(delta, jmax, dx, K, he)
-            out_energy[k, 2] = work
-            out_err[k] = err_sum
+            _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, LM, lay, out_a,
+                           out_adot, out_series)
             k += 1
-        if bottomed or t >= t_end:
+        if bottomed or separated or t >= t_end:
             break
         if steps + rejected >= max_steps:
             status = STEP_LIMIT
@@ -1558,40 +1944,19 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
             break
         target = t_out[k] if k < T else t_end
         # ----- choose the step
-        remaining = target - t
-        if fixed_step > 0.0:
-            # one step size per output interval, fixed for the whole interval (the ETD
-            # coefficients are then computed once per interval); the last step lands on target
-            if target != fixed_target:
-                fixed_target = target
-                n_sub = math.ceil(remaining / fixed_step * (1.0 - 1e-12))
-                fixed_h = remaining / max(n_sub, 1)
-            landing = remaining <= 1.5 * fixed_h
-            h_step = remaining if landing else fixed_h
-        else:
-            h_step = min(h, max(h_init, GROWTH * (t - t_start)))
-            if h_step >= remaining * (1.0 - 1e-12) or remaining - h_step < 0.01 * h_step:
-                h_step = remaining
-            landing = h_step >= remaining * (1.0 - 1e-12)
-        t_new = target if landing else t + h_step
+        h_step, t_new, landing = _next_step(t, t_start, target, h, h_init, fixed_step, fixed)
         if h_step != h_coeffs:
             etd_coefficients(omega, h_step, C)
+            body_coefficients(h_step, Cb)
             h_coeffs = h_step
 
         # ----- one step
         st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work, contacts,
                                               C, modes, lay, cosq, wq, cw, rw, fvals, delta_new,
-                                              znew, N5, err, eps_new)
+                                              znew, N5, err, eps_new, yb, Cb, yb_new, errb)
         eps_ready = True                     # eps_new: the strain at the nodes at t_new
         rhs_count += 4
-        finite = st == 0 and math.isfinite(w_new)
-        if finite:
-            for n in range(N):
-                if not (math.isfinite(znew[n].real) and math.isfinite(znew[n].imag)):
-                    finite = False
-                    break
-        adaptive = method == ETD34 and fixed_step <= 0.0
-        if not finite:
+        if not _finite_state(st, w_new, znew, yb_new):
             if not adaptive:
                 diag[D_FAIL_T] = t
                 diag[D_FAIL_KIND] = FAIL_FIXED_STEP
@@ -1612,24 +1977,8 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         ratio = 0.0
         expo = 1.0 / 3.0 if event else 0.25
         if adaptive:
-            num = 0.0
-            den_old = 0.0
-            den_new = 0.0
-            for n in range(N):
-                num += LM[n] * (err[n].real ** 2 + err[n].imag ** 2)
-                den_old += LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
-                den_new += LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
-            ratio = math.sqrt(num) / (tolerance * max(math.sqrt(max(den_old, den_new)), energy_norm_floor))
-            if K > 0.0 and gap0[0] > 1.0 - max(GAP_WATCH, 10.0 * bottom_gap):
-                # near bottoming the local error of delta at the gap must be small against the
-                # gap itself, or a grazing approach crosses the threshold in one run and not in
-                # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
-                for n in range(N):
-                    rw[0, n] = err[n].imag / omega[n]
-                e_delta = abs(mode_sum(ones, rw[0], lam1, gap0[2])) / he
-                ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap0[0])))
-            if not math.isfinite(ratio):
-                ratio = 1e10
+            ratio = _error_ratio(err, errb, z, znew, yb, yb_new, modes, lay, tolerance, gap0, bottom_gap,
+                                 ones, rw[0])
             if ratio > 1.0:
                 rejected += 1
                 h = h_step * max(0.2, 0.9 * ratio ** -expo)
@@ -1645,17 +1994,9 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 continue
 
         # ----- the energy identity may not jump (a step that breaks it is rejected)
-        e_new = layer_energy(delta_new, jm5, dx, K, he)
-        for n in range(N):
-            e_new += 0.5 * LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
+        e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), LM, znew)
         resid_new = e_new - w_new - e0
-        compressed = 0
-        for j in range(jm5):
-            if delta_new[j] > 0.0:
-                compressed += 1
-        under = min(1.0, (RESOLVED_NODES / max(compressed, 1)) ** 2)
-        allowed = ENERGY_JUMP * max(e_new, w_new, e0) + under * abs(w_new - work)
-        if not abs(resid_new - resid) <= allowed:
+        if not abs(resid_new - resid) <= _energy_allowance(delta_new, jm5, e_new, w_new, e0, work):
             diag[D_ENERGY_JUMPS] += 1.0
             rejected += 1
             h = 0.25 * h_step
@@ -1670,34 +2011,35 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         for n in range(N):
             a_new[n] = znew[n].imag / omega[n]
             adot_new[n] = znew[n].real
-        gap_peak(t_new, delta_new, jm5, a_new, adot_new, ones, lay, gap1)
+        gap_peak(body_position(lay, t_new, yb_new), body_speed(lay, yb_new), delta_new, jm5, a_new,
+                 adot_new, ones, lay, gap1)
         h_eff = h_step
         c0, c1, c2, c3 = hermite(gap0[0], gap1[0], gap0[1], gap1[1], h_step)
         if K > 0.0 and (gap1[0] >= bottom_level or cubic_max(c0, c1, c2, c3)[0] >= bottom_level):
             s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(
                 0, bottom_level, method, t, h_step, gap0, gap1, z, N1, force, work, contacts, Cs,
                 modes, lay, cosq, wq, cw, rw, fvals, delta_new, znew, N5, err, a_new, adot_new,
-                eps_sub, ones, gap1)
+                eps_sub, ones, gap1, yb, Cbs, yb_new, errb)
             if found:
                 bottomed = True
                 eps_ready = False            # the state is the search's last sub-step
                 h_eff = s_lo
                 t_new = t + s_lo
                 F5, jm5, w_new = F_b, jm_b, w_b
-                e_new = layer_energy(delta_new, jm5, dx, K, he)
-                for n in range(N):
-                    e_new += 0.5 * LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
+                e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), LM, znew)
                 resid_new = e_new - w_new - e0
             else:
                 # the interpolant's crossing was not real: the search overwrote the step's
                 # buffers, so take the accepted step again (same size and coefficients, same result)
                 st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work,
                                                       contacts, C, modes, lay, cosq, wq, cw, rw, fvals,
-                                                      delta_new, znew, N5, err, eps_new)
+                                                      delta_new, znew, N5, err, eps_new, yb, Cb, yb_new,
+                                                      errb)
                 for n in range(N):
                     a_new[n] = znew[n].imag / omega[n]
                     adot_new[n] = znew[n].real
-                gap_peak(t_new, delta_new, jm5, a_new, adot_new, ones, lay, gap1)
+                gap_peak(body_position(lay, t_new, yb_new), body_speed(lay, yb_new), delta_new, jm5,
+                         a_new, adot_new, ones, lay, gap1)
 
         # ----- accepted: observers on [t, t_new], then shift the state
         steps += 1
@@ -1713,24 +2055,10 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         tension0[:, :] = tension
         dense[0] = not h_eff > 0.0           # computed on demand by the tension observer
         dz = (z, N1, rw[2], N5, omega)
-        for s in range(2):
-            sign = 1.0 - 2.0 * s
-            if s == 0:
-                rec_up, n_up, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
-                                                      dz, A, AD, dense, strain_coef, lam1, dx, L, tension[0], scratch, samples,
-                                                      rec_up, n_up, joinable[0], run_max[0], best,
-                                                      A2, AD2, eps_sub, cosq, samples2)
-            else:
-                rec_lo, n_lo, jn, rm = observe_tension(sign, t, h_eff, eps, eps_new, a, a_new, adot, adot_new,
-                                                      dz, A, AD, dense, strain_coef, lam1, dx, L, tension[1], scratch, samples,
-                                                      rec_lo, n_lo, joinable[1], run_max[1], best,
-                                                      A2, AD2, eps_sub, cosq, samples2)
-            joinable[s] = jn
-            run_max[s] = rm
-            if best[0] > diag[D_MAX_UPPER + 3 * s]:
-                diag[D_MAX_UPPER + 3 * s] = best[0]
-                diag[D_MAX_UPPER_T + 3 * s] = best[1]
-                diag[D_MAX_UPPER_X + 3 * s] = best[2]
+        rec_up, n_up, rec_lo, n_lo = _observe_tensions(
+            t, h_eff, eps, eps_new, a, a_new, adot, adot_new, dz, A, AD, dense, modes, lay, L, tension,
+            scratch, samples, rec_up, n_up, rec_lo, n_lo, joinable, run_max, best, A2, AD2, eps_sub, cosq,
+            samples2, diag)
         # exact crossings, for verification: after both surfaces are observed (the search's
         # sub-steps overwrite the scratch the dense output reads)
         for s in range(2):
@@ -1741,20 +2069,29 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                     lo_, hi_, _, _, _, found = locate_event(
                         int(sign), levels[i], method, t, h_eff, tension0[s], tension[s], z, N1,
                         force, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals, delta_sub,
-                        zsub, Nsub, errsub, a_sub, adot_sub, eps_sub, ones, out3)
+                        zsub, Nsub, errsub, a_sub, adot_sub, eps_sub, ones, out3, yb, Cbs, yb_sub,
+                        errb_sub)
                     if found:
                         level_t[s, i] = t + 0.5 * (lo_ + hi_)
                         level_x[s, i] = out3[2]
+        # (t + h_eff, not t_new: the same time in every sense but its last bit on a landing step)
+        body0[0] = body_position(lay, t, yb)
+        body0[1] = body_speed(lay, yb)
+        body1[0] = body_position(lay, t + h_eff, yb_new)
+        body1[1] = body_speed(lay, yb_new)
         contacts, rec_c, n_c, largest = observe_contacts(t, h_eff, delta, jmax, delta_new, jm5, a,
-                                                         adot, a_new, adot_new, cosq, lay, sgn, ev_th,
-                                                         ev_j, contacts, rec_c, n_c)
+                                                         adot, a_new, adot_new, body0, body1, cosq, lay,
+                                                         sgn, ev_th, ev_j, contacts, rec_c, n_c)
         if largest > diag[D_MAX_CONTACTS]:
             diag[D_MAX_CONTACTS] = largest
+        if observe_body(t, h_eff, yb, yb_new, force, F5, contacts, rec_c, n_c, lay, diag) and until_separation:
+            separated = True
         for n in range(N):
             z[n] = znew[n]
             N1[n] = N5[n]
             a[n] = a_new[n]
             adot[n] = adot_new[n]
+        yb[:] = yb_new
         delta, delta_new = delta_new, delta
         eps, eps_new = eps_new, eps
         gap0[:] = gap1
@@ -1764,6 +2101,9 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
         jmax = jm5
         resid = resid_new
         max_residual = max(max_residual, abs(resid))
+        peak_work = max(peak_work, work)
+        if free_body:
+            max_body_residual = max(max_body_residual, abs(body_residual(lay, t, yb, work) - body_resid0))
         if force > diag[D_MAX_FORCE]:
             diag[D_MAX_FORCE] = force
             diag[D_MAX_FORCE_T] = t
@@ -1780,6 +2120,9 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
             diag[D_MAX_FORCE] = np.inf      # K f(delta) is unbounded as the gap closes
             diag[D_MAX_FORCE_T] = t
             continue
+        if separated:
+            status = SEPARATED
+            continue
 
         # ----- next step size
         if adaptive:
@@ -1793,22 +2136,8 @@ def integrate(method, modes, lay, cosq, wq, t_start, t_end, t_out, tolerance, fi
                 h_next = max(h_next, h)   # a step shortened to land keeps the old proposal
             h = min(h_next, h_max)
 
-    if status == LAYER_BOTTOMED_OUT and math.isnan(diag[D_BOTTOM_T]):
-        diag[D_BOTTOM_T] = t                # not located: the last state the steps reached
-        diag[D_BOTTOM_X] = gap0[2]
-        diag[D_BOTTOM_SPEED] = he * gap0[1]
-    diag[D_T_REACHED] = t
-    diag[D_WORK] = work
-    diag[D_ENERGY_RESIDUAL] = max_residual / work if work > 0.0 else 0.0
-    if (status == OK or status == LAYER_BOTTOMED_OUT) and diag[D_ENERGY_RESIDUAL] > ENERGY_BOUND:
-        status = ENERGY_VIOLATION
-        diag[D_FAIL_T] = t
-        diag[D_FAIL_KIND] = FAIL_ENERGY_BOUND
-    up, lo = diag[D_MAX_UPPER], diag[D_MAX_LOWER]
-    diag[D_MAX_ABS] = max(up, lo)
-    diag[D_MAX_ABS_X] = diag[D_MAX_UPPER_X] if up >= lo else diag[D_MAX_LOWER_X]
-    diag[D_MAX_ABS_T] = diag[D_MAX_UPPER_T] if up >= lo else diag[D_MAX_LOWER_T]
-    diag[D_STEPS] = steps
-    diag[D_REJECTED] = rejected
-    diag[D_RHS] = rhs_count
+    if status == OK and free_body and until_separation and not math.isnan(diag[D_STOP_T]):
+        status = STOPPED                     # stopped, and still on the ice at the window's end
+    status = _finish_diagnostics(diag, status, t, work, peak_work, max_residual, max_body_residual, gap0, he,
+                                 steps, rejected, rhs_count)
     return status, k, rec_up, n_up, rec_lo, n_lo, rec_c, n_c

@@ -38,11 +38,15 @@ PARAMETER_INFO = {
     "rho_w": ("water density", "kg m-3"),
     "g": ("gravitational acceleration", "m s-2"),
     "H": ("water depth under the ice (inf: deep water, the paper's model)", "m"),
+    "body_mass": ("mass of the body per unit width (inf: driven at the constant speed V, the paper's "
+                  "model)", "kg m-1"),
+    "body_g": ("downward acceleration of a free body besides the ice's reaction (gravity; 0 for a body "
+               "whose weight is carried)", "m s-2"),
 }
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
-PAPER_DEFAULTS = {"H": math.inf}
+PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -51,7 +55,8 @@ PAPER_DEFAULTS = {"H": math.inf}
 PHYSICAL_RANGES = {
     "K": (1e3, 1e12), "he": (1e-5, 1.0), "R": (1e-2, 1e4), "V": (1e-3, 1e3), "hi": (1e-3, 100.0),
     "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
-    "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5),
+    "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
+    "body_g": (0.0, 1e3),
 }
 
 
@@ -60,7 +65,7 @@ def outside_physical_range(values: dict) -> str | None:
     for key, value in values.items():
         lo, hi = PHYSICAL_RANGES.get(key, (None, None))
         if key in PAPER_DEFAULTS and float(value) == PAPER_DEFAULTS[key]:
-            continue                                       # H = inf: deep water
+            continue                                       # H = inf: deep water; M = inf
         if lo is not None and not lo <= float(value) <= hi:
             unit = PARAMETER_INFO[key][1]
             return (f"{key} = {value!r} lies outside the range the model is meant for, {lo:g}..{hi:g} "
@@ -148,6 +153,11 @@ class Parameters:
     rho_i, rho_w : ice and water density [kg/m^3].  g : gravity [m/s^2].
     H : water depth under the ice [m]; inf (the default) is the paper's deep water
         (docs/model.md, "Finite water depth").
+    body_mass : mass M of the body per unit width [kg/m]; inf (the default) drives it at the
+        constant speed V, the paper's model. Finite: it starts at V and obeys M s'' = M body_g - F
+        (docs/model.md, "A body of finite mass").
+    body_g : downward acceleration of a free body besides the ice's reaction [m/s^2]: gravity
+        (the default 9.81), or 0 for a body whose weight is carried; unused when body_mass = inf.
     """
 
     K: float = 8e6
@@ -163,14 +173,23 @@ class Parameters:
     rho_w: float = 1000.0
     g: float = 9.81
     H: float = math.inf
+    body_mass: float = math.inf
+    body_g: float = 9.81
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
+            number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
             if f.name == "H":
-                if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-                        or math.isnan(float(value)) or float(value) <= 0.0:
+                if not number or math.isnan(float(value)) or float(value) <= 0.0:
                     raise ParameterError(f"H must be > 0 (inf: deep water), got {value!r}")
+            elif f.name == "body_mass":
+                if not number or math.isnan(float(value)) or float(value) <= 0.0:
+                    raise ParameterError(f"body_mass must be > 0 (inf: the paper's body at constant "
+                                         f"speed), got {value!r}")
+            elif f.name == "body_g":
+                if not number or not math.isfinite(float(value)) or float(value) < 0.0:
+                    raise ParameterError(f"body_g must be finite and >= 0, got {value!r}")
             elif f.name == "nu":
                 if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                         or not math.isfinite(float(value)) or not 0.0 <= float(value) < 0.5:
@@ -220,6 +239,11 @@ class Parameters:
     def deflection_scale(self) -> float:
         """w_sc = K / (omega_1^2 M_1) [m]."""
         return self.K / (self.frequencies[0] ** 2 * self.added_masses[0])
+
+    @property
+    def free_body(self) -> bool:
+        """True for a body of finite mass (its speed is then part of the solution)."""
+        return math.isfinite(self.body_mass)
 
     @property
     def stage_duration(self) -> float:

@@ -1,7 +1,8 @@
 """scipy's DOP853 on the same right-hand side: the outside reference users would reach for.
 
 Same equations and forcing kernel as :mod:`solver.kernels`, written as a first-order system
-y = (a_n, da_n/dt, W) and stepped with :class:`scipy.integrate.DOP853` at rtol = tolerance,
+y = (a_n, da_n/dt, W), and a free body's penetration s and speed U (for the paper's body s = V t)
+and stepped with :class:`scipy.integrate.DOP853` at rtol = tolerance,
 atol = tolerance * 1e-3, first step that of etd34 (scipy's own guess can jump from first
 touch straight into delta >= 1). Outputs come from its 7th-order dense output. Bottoming out is a
 located event, as in the kernels: the first time the largest delta on the continuous plate
@@ -11,6 +12,8 @@ and so does a step failure, with scipy's own reason. It has no in-loop diagnosti
 strain and the tension and contact records stay empty. scipy is imported here only.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -22,10 +25,11 @@ class _StageDeltaOne(Exception):
 
 
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
-                     bottom_gap=kn.BOTTOM_GAP):
-    """Returns (status, n_out, out_a, out_adot, out_contacts, out_force, out_energy, out_err,
-    diag, failure) with the meaning of :func:`solver.kernels.integrate` (out_err all NaN:
-    DOP853 gives no local error estimates back); failure names what stopped it, or ""."""
+                     bottom_gap=kn.BOTTOM_GAP, until_separation=False):
+    """Returns (status, n_out, out_a, out_adot, out_series, diag, failure) with the meaning of
+    :func:`solver.kernels.integrate` (the error column all NaN: DOP853 gives no local error
+    estimates back); failure names what stopped it, or "". A free body's run that asks to end
+    at separation ends at the first step after which it is off the ice, moving up."""
     try:
         from scipy.integrate import DOP853
         from scipy.optimize import brentq
@@ -41,43 +45,57 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     nfev = [0]
     level = 1.0 - bottom_gap
 
-    def forcing(t, a):
-        return kn.layer_forcing(t, np.ascontiguousarray(a), tab.lam[0], tab.coef, tab.cosq, tab.wq,
-                                tab.dx, p.V, p.R, p.he, p.K, delta, fvals, P)
+    free = p.free_body
+
+    def position(t, y):
+        return y[2 * N + 1] if free else p.V * t
+
+    def speed(y):
+        return y[2 * N + 2] if free else p.V
+
+    def forcing(t, y):
+        return kn.layer_forcing_at(position(t, y), np.ascontiguousarray(y[:N]), tab.lam[0], tab.coef,
+                                   tab.cosq, tab.wq, tab.dx, p.R, p.he, p.K, delta, fvals, P)
 
     def rhs(t, y):
         nfev[0] += 1
-        st, F, _ = forcing(t, y[:N])
+        st, F, _ = forcing(t, y)
         if st != 0:
             raise _StageDeltaOne(t)
+        if free:
+            U = y[2 * N + 2]
+            return np.concatenate([y[N:2 * N], -om2 * y[:N] + P, [F * U, U, p.body_g - F / p.body_mass]])
         return np.concatenate([y[N:2 * N], -om2 * y[:N] + P, [p.V * F]])
 
     def largest_delta(t, y):
-        st, _, jmax = forcing(t, y[:N])
+        st, _, jmax = forcing(t, y)
         if st != 0:
             return np.inf
-        kn.gap_peak(t, delta, jmax, np.ascontiguousarray(y[:N]), np.ascontiguousarray(y[N:2 * N]), ones,
-                    tab.lay, gap)
+        kn.gap_peak(position(t, y), speed(y), delta, jmax, np.ascontiguousarray(y[:N]),
+                    np.ascontiguousarray(y[N:2 * N]), ones, tab.lay, gap)
         return gap[0]
 
     T = times.size
     out_a, out_v = np.full((T, N), np.nan), np.full((T, N), np.nan)
-    out_c, out_f, out_e = np.full(T, np.nan), np.full(T, np.nan), np.full((T, 3), np.nan)
+    series = np.full((T, kn.N_SERIES), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
     diag[kn.D_FAIL_KIND] = kn.FAIL_NONE
     status, reason, failure = kn.OK, kn.FAIL_NONE, ""
-    y0 = np.concatenate([a0, v0, [0.0]])
+    y0 = np.concatenate([a0, v0, [0.0, p.V * t_start, p.V] if free else [0.0]])
     k = 0
 
     def record(t, y):
         nonlocal k
         a, v, work = y[:N], y[N:2 * N], y[2 * N]
-        st, F, jmax = forcing(t, a)
+        st, F, jmax = forcing(t, y)
         out_a[k], out_v[k] = a, v
-        out_c[k] = kn.count_contacts(delta, jmax)
-        out_f[k] = F
-        out_e[k] = (0.5 * np.sum(tab.LM * (v**2 + om2 * a**2)),
-                    kn.layer_energy(delta, jmax, tab.dx, p.K, p.he), work)
+        series[k, kn.S_CONTACTS] = kn.count_contacts(delta, jmax)
+        series[k, kn.S_FORCE] = F
+        series[k, kn.S_E_PLATE] = 0.5 * np.sum(tab.LM * (v**2 + om2 * a**2))
+        series[k, kn.S_E_LAYER] = kn.layer_energy(delta, jmax, tab.dx, p.K, p.he)
+        series[k, kn.S_WORK] = work
+        series[k, kn.S_BODY_POSITION] = position(t, y)
+        series[k, kn.S_BODY_SPEED] = speed(y)
         k += 1
 
     while k < T and times[k] <= t_start:
@@ -118,6 +136,18 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
                 break
             below = tp
         t_stop = solver.t if t_bottom is None else t_bottom
+        if until_separation and t_bottom is None and free and solver.y[2 * N + 2] < 0.0:
+            if math.isnan(diag[kn.D_STOP_T]):
+                diag[kn.D_STOP_T] = t_old          # bracketed to the step only
+            st, F, jmax = forcing(solver.t, solver.y)
+            if kn.count_contacts(delta, jmax) == 0:
+                while k < T and times[k] <= t_stop:
+                    record(times[k], dense(times[k]))
+                t_reached = t_stop
+                status, reason = kn.SEPARATED, kn.FAIL_NONE
+                diag[kn.D_SEPARATION_T] = solver.t
+                diag[kn.D_SEPARATION_SPEED] = -solver.y[2 * N + 2]
+                break
         while k < T and times[k] <= t_stop:
             record(times[k], dense(times[k]))
         t_reached = t_stop
@@ -128,17 +158,20 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
             diag[kn.D_BOTTOM_T], diag[kn.D_BOTTOM_X], diag[kn.D_BOTTOM_SPEED] = t_bottom, gap[2], p.he * gap[1]
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = np.inf, t_bottom
             break
-    if status != kn.OK:
+    if status not in (kn.OK, kn.SEPARATED):
         diag[kn.D_FAIL_T] = t_reached
         diag[kn.D_FAIL_KIND] = reason
     diag[kn.D_T_REACHED] = t_reached
     n_out = k
     if n_out:
-        work = out_e[n_out - 1, 2]
+        e = series[:n_out]
+        work = e[-1, kn.S_WORK]
+        peak = e[:, kn.S_WORK].max()
         diag[kn.D_WORK] = work
-        residual = np.abs(out_e[:n_out, 0] + out_e[:n_out, 1] - out_e[:n_out, 2] - out_e[0, 0] - out_e[0, 1])
-        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / work if work > 0 else 0.0
+        residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] - e[:, kn.S_WORK] - e[0, kn.S_E_PLATE]
+                          - e[0, kn.S_E_LAYER])
+        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / peak if peak > 0 else 0.0
     diag[kn.D_RHS] = nfev[0]
     diag[kn.D_STEPS] = steps
     diag[kn.D_REJECTED] = 0
-    return status, n_out, out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag, failure
+    return status, n_out, out_a, out_v, series, diag, failure

@@ -59,7 +59,7 @@ def test_forcing_matches_brute_force_integral(t_tilde):
                                        p.V, p.R, p.he, p.K, delta, fvals, P)
     assert st == 0
     x = np.linspace(0, p.L, 600_001)
-    pressure = _layer_pressure(p, tab, a, t, x)          # K f on the half plate, numpy
+    pressure = _layer_pressure(p, tab, a, p.V * t, x)    # K f on the half plate, numpy
     brute = np.array([np.trapezoid(pressure * np.cos(lam * x), x) for lam in tab.lam])
     brute *= 2.0 / (p.L * p.added_masses) * -1.0
     np.testing.assert_allclose(P, brute, rtol=1e-6, atol=1e-9 * np.max(np.abs(brute)))

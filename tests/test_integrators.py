@@ -95,19 +95,18 @@ def _free_oscillation(method, fraction, times, t_end, p, tab, n):
     a0[n] = 1.0
     T = times.size
     out_a, out_v = np.full((T, p.Nmod), np.nan), np.full((T, p.Nmod), np.nan)
-    out_c, out_f, out_e = np.full(T, np.nan), np.full(T, np.nan), np.full((T, 3), np.nan)
+    series = np.full((T, kn.N_SERIES), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
     fixed = 0.0 if method == kn.ETD34 else fraction * 2 * np.pi / tab.omega[-1]
     lay = tab.lay.copy()
     lay[kn.L_K] = 0.0                                   # the layer switched off
     no_levels = np.empty(0)
-    status, n_out, *_ = kn.integrate(method, tab.modes, lay, tab.cosq, tab.wq, 0.0, t_end, times, 1e-8,
-                                     fixed, 1e-6, 1e-15, 1.0, 10**7, kn.BOTTOM_GAP, a0, np.zeros(p.Nmod),
-                                     no_levels,
-                                     out_a, out_v, out_c, out_f, out_e, np.full(T, np.nan), diag,
+    ctrl = kn.make_control(0.0, t_end, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, kn.BOTTOM_GAP)
+    status, n_out, *_ = kn.integrate(method, tab.modes, lay, tab.cosq, tab.wq, ctrl, times, a0,
+                                     np.zeros(p.Nmod), no_levels, out_a, out_v, series, diag,
                                      np.empty((2, 0)), np.empty((2, 0)))
     assert status == kn.OK and n_out == T
-    return out_a, out_v, out_e, fixed
+    return out_a, out_v, series[:, kn.S_E_PLATE:kn.S_WORK + 1], fixed
 
 
 @pytest.mark.parametrize("method", [kn.ETD34, kn.RK4])

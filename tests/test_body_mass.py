@@ -1,0 +1,198 @@
+"""A body of finite mass (docs/model.md, "Beyond the paper: a body of finite mass"): opt-in, the
+paper's body bit for bit at body_mass = inf, the approach to it as 1/M, free flight in closed
+form, the extended energy identity, DOP853 on the same equations, a light body's elastic bounce,
+the ends (separated, stopped) and a study that sweeps the mass."""
+import math
+
+import numpy as np
+import pytest
+
+from pipeline.study import load_study_text
+from solver import ParameterError, Parameters, Settings, solve
+from solver import kernels as kn
+from solver.core import _Tables
+from test_pipeline import pipeline
+
+TIGHT = Settings(tolerance=1e-10, error_estimate=False)
+
+
+def test_infinite_mass_is_the_papers_body_bit_for_bit():
+    p = Parameters(Nmod=20)
+    assert p.body_mass == math.inf and not p.free_body
+    a = solve(p, Settings(error_estimate=False), fields=("strain",))
+    b = solve(p.replace(body_mass=math.inf, body_g=3.0), Settings(error_estimate=False), fields=("strain",))
+    assert np.array_equal(a.fields["strain"], b.fields["strain"])
+    assert a.diagnostics["max_strain"] == b.diagnostics["max_strain"] and a.steps == b.steps
+    assert np.array_equal(a.body_position, p.V * a.times)           # s = V t exactly
+    assert np.all(a.body_speed == p.V)
+    assert math.isnan(a.diagnostics["body_energy_residual"]) and math.isnan(a.diagnostics["stop_time"])
+
+
+def test_heavy_body_approaches_the_papers_body_as_one_over_M():
+    """Weightless (body_g = 0), the body's speed falls by W/(M V) to first order: every result
+    departs from the prescribed motion in proportion to 1/M."""
+    p = Parameters(Nmod=20)
+    ref = solve(p, TIGHT, fields=()).diagnostics["max_strain"]
+    masses = np.array([1e9, 1e10, 1e11])
+    dev = np.array([abs(solve(p.replace(body_mass=M, body_g=0.0), TIGHT, fields=()).diagnostics["max_strain"] - ref)
+                    for M in masses]) / ref
+    slope = np.polyfit(np.log(masses), np.log(dev), 1)[0]
+    assert abs(slope + 1.0) < 0.05, f"max strain departs as M^{slope:.3f}, expected M^-1 ({dev})"
+    assert dev[-1] < 1e-4
+
+
+def test_free_flight_is_exact():
+    """Kernel level, the layer off: s = V t + g t^2 / 2 and U = V + g t, to round-off (the
+    body's update integrates a constant acceleration exactly), the plate at rest."""
+    p = Parameters(Nmod=6, body_mass=10.0, body_g=9.81)
+    tab = _Tables(p, 32)
+    lay = tab.lay.copy()
+    lay[kn.L_K] = 0.0
+    t_end = 0.5
+    times = np.linspace(0.0, t_end, 11)
+    series = np.full((times.size, kn.N_SERIES), np.nan)
+    out_a, out_v = np.full((times.size, 6), np.nan), np.full((times.size, 6), np.nan)
+    ctrl = kn.make_control(0.0, t_end, 1e-8, 0.0, 1e-6, 1e-15, 0.01, 10**6, kn.BOTTOM_GAP)
+    status, n_out, *_ = kn.integrate(kn.ETD34, tab.modes, lay, tab.cosq, tab.wq, ctrl, times, np.zeros(6),
+                                     np.zeros(6), np.empty(0), out_a, out_v, series, np.full(kn.N_DIAG, np.nan),
+                                     np.empty((2, 0)), np.empty((2, 0)))
+    assert status == kn.OK and n_out == times.size
+    np.testing.assert_allclose(series[:, kn.S_BODY_POSITION], p.V * times + 0.5 * 9.81 * times**2, rtol=1e-13,
+                               atol=1e-15)
+    np.testing.assert_allclose(series[:, kn.S_BODY_SPEED], p.V + 9.81 * times, rtol=1e-13)
+    assert np.all(out_a == 0.0)
+
+
+def test_extended_energy_identity_holds_and_falls_with_the_tolerance():
+    """E_plate + E_layer + M U^2/2 - M g s = M V^2/2: the ice's part (E_plate + E_layer = W) is
+    held as for the paper's body; the body's part falls with the tolerance."""
+    p = Parameters(Nmod=30, body_mass=2000.0)
+    t_end = 3 * p.stage_duration / 10
+    body = []
+    for tol in (1e-6, 1e-8, 1e-10):
+        r = solve(p, Settings(tolerance=tol, error_estimate=False), fields=(), t_end=t_end)
+        assert r.status == "ok", r.message
+        body.append(r.diagnostics["body_energy_residual"])
+        if tol == 1e-8:
+            paper = solve(Parameters(Nmod=30), Settings(error_estimate=False), fields=()).diagnostics
+            assert r.diagnostics["energy_residual"] <= max(2 * paper["energy_residual"], 1e-4)
+            total = (r.plate_energy + r.layer_energy + 0.5 * p.body_mass * (r.body_speed**2 - p.V**2)
+                     - p.body_mass * p.body_g * r.body_position)
+            assert np.max(np.abs(total)) <= 1e-4 * r.diagnostics["work"]
+    assert body[0] > body[1] > body[2] and body[2] < 1e-8, body
+
+
+def test_agrees_with_dop853_where_the_mass_matters():
+    """M = 2000 kg/m: the body stops and rebounds (U from 5 to -1.2 m/s within the window)."""
+    p = Parameters(Nmod=20, body_mass=2000.0)
+    t_end = 0.006
+    times = np.linspace(0.0, t_end, 13)
+    kw = dict(times=times, t_end=t_end, fields=("strain",))
+    a = solve(p, Settings(tolerance=1e-11, error_estimate=False), **kw)
+    b = solve(p, Settings(integrator="dop853", tolerance=1e-11, error_estimate=False), **kw)
+    assert a.status == b.status == "ok"
+    assert a.body_speed[-1] < -1.0                      # it matters: the body turned round
+    scale = np.abs(b.fields["strain"]).max()
+    assert np.abs(a.fields["strain"] - b.fields["strain"]).max() <= 1e-6 * scale
+    np.testing.assert_allclose(a.body_speed, b.body_speed, atol=1e-7 * p.V)
+    np.testing.assert_allclose(a.body_position, b.body_position, atol=1e-9)
+
+
+def test_light_body_bounces_off_thick_ice_keeping_its_energy():
+    """A light weightless body on a stiff layer over 5 m ice: an almost elastic bounce. After it
+    has left, the plate's energy and the body's kinetic energy add up to M V^2 / 2 within the
+    run's own residuals (the quadrature's O(dx^2) mismatch of E_layer and W on a contact patch
+    of a few nodes)."""
+    p = Parameters(Nmod=30, body_mass=50.0, body_g=0.0, hi=5.0, K=1e7, V=2.0)
+    t_end = 0.01
+    r = solve(p, Settings(tolerance=1e-10, error_estimate=False), times=np.linspace(0, t_end, 21), t_end=t_end,
+              fields=())
+    d = r.diagnostics
+    assert r.status == "ok" and math.isfinite(d["separation_time"]) and d["separation_time"] < 0.5 * t_end
+    U_end = r.body_speed[-1]
+    assert U_end == pytest.approx(-d["separation_speed"], rel=1e-6)
+    restitution = -U_end / p.V
+    assert 0.99 < restitution < 1.0
+    initial = 0.5 * p.body_mass * p.V**2
+    kinetic = 0.5 * p.body_mass * U_end**2
+    assert r.layer_energy[-1] == 0.0 and r.contact_intervals[-1] == 0
+    closure = abs(kinetic + r.plate_energy[-1] - initial)
+    assert closure <= (d["energy_residual"] + d["body_energy_residual"]) * initial * 1.01
+    assert closure <= 1e-3 * initial and d["body_energy_residual"] < 1e-6
+    assert d["stop_time"] < d["separation_time"]
+
+
+def test_ends_separated_stopped_and_ok():
+    light = Parameters(Nmod=20, body_mass=200.0)
+    r = solve(light, Settings(error_estimate=False), fields=(), t_end=0.02, times=np.linspace(0, 0.02, 21),
+              until_separation=True)
+    d = r.diagnostics
+    assert r.status == "separated" and "left the ice" in r.message
+    assert d["stop_time"] < d["separation_time"] <= r.time_reached < 0.02 and d["separation_speed"] > 0
+    assert np.isnan(r.force[r.times > r.time_reached]).all() and not r.valid[-1]
+    heavy = Parameters(Nmod=20, body_mass=2e5)
+    r = solve(heavy, Settings(error_estimate=False), fields=(), t_end=0.128, until_separation=True)
+    assert r.status == "stopped" and r.diagnostics["stop_time"] < 0.128 and "stopped" in r.message
+    assert r.diagnostics["max_penetration"] > 0
+    r = solve(heavy, Settings(error_estimate=False), fields=(), t_end=0.05, until_separation=True)
+    assert r.status == "ok" and np.isnan(r.diagnostics["stop_time"])
+    with pytest.raises(ParameterError, match="until_separation needs a free body"):
+        solve(Parameters(Nmod=4), until_separation=True)
+
+
+@pytest.mark.parametrize("key, bad, message", [("body_mass", 0.0, "body_mass must be > 0"),
+                                               ("body_mass", float("nan"), "body_mass must be > 0"),
+                                               ("body_g", -1.0, "body_g must be finite and >= 0"),
+                                               ("body_g", float("inf"), "body_g must be finite and >= 0")])
+def test_bad_body_values_are_refused(key, bad, message):
+    with pytest.raises(ParameterError, match=message):
+        Parameters(**{key: bad})
+
+
+STUDY = """
+description = "masses"
+[base]
+Nmod = 12
+{base}
+[grid]
+body_mass = {masses}
+[output]
+times = {{ unit = "t_sc", step = 0.5, stop = 6.0 }}
+fields = []
+end = "{end}"
+"""
+
+
+def test_case_ids_hold_for_the_papers_body():
+    def grid_v(base):
+        return STUDY.format(base=base, masses="[1000.0]", end="stage").replace("body_mass = [1000.0]", "V = [5.0]")
+    before = load_study_text(grid_v(""), "s")
+    paper = load_study_text(grid_v("body_mass = inf"), "s")
+    assert before.case_ids == paper.case_ids == [c.case_id for c in paper.cases]
+    swept = load_study_text(STUDY.format(base="", masses="[1000.0, inf]", end="stage"), "s")
+    assert swept.case_ids == [c.case_id for c in swept.cases] and swept.case_ids[1] == before.case_ids[0]
+    assert swept.output["body"] and not before.output["body"]
+
+
+def test_separation_end_needs_a_free_body(tmp_path):
+    path = tmp_path / "no_mass.toml"
+    path.write_text(STUDY.format(base="", masses="[1000.0, inf]", end="separation"))
+    code, _, err = pipeline("run", path, "--out", tmp_path / "o")
+    assert code == 2 and err.count("\n") == 1 and 'end = "separation" needs a free body' in err, err
+
+
+def test_drop_study_stores_the_body_and_its_ends(tmp_path):
+    import xarray as xr
+    path = tmp_path / "drops.toml"
+    path.write_text(STUDY.format(base="", masses="[200.0, 2000.0]", end="separation"))
+    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    assert code == 0, err
+    with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
+        assert list(ds["status"].values) == ["separated", "separated"]
+        assert ds["body_speed"].attrs["units"] == "m s-1" and ds["body_position"].attrs["units"] == "m"
+        assert ds["body_speed"].isel(t=0).values.tolist() == [5.0, 5.0]
+        assert (ds["separation_time"] > ds["stop_time"]).all()
+        # the lighter body leaves sooner and faster
+        assert ds["separation_time"].sel(body_mass=200.0) < ds["separation_time"].sel(body_mass=2000.0)
+        assert ds["separation_speed"].sel(body_mass=200.0) > ds["separation_speed"].sel(body_mass=2000.0)
+        assert ds.attrs["cases_ok"] == 2 and ds.attrs["cases_failed"] == 0
