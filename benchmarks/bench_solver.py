@@ -39,8 +39,7 @@ def dop853_run(p, times, x, rtol):
     om2 = tab.omega**2
 
     def rhs(t, y):
-        kn.layer_forcing(t, y[:N], tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx,
-                         p.V, p.R, p.he, p.K, delta, fvals, P)
+        kn.layer_forcing(t, y[:N], tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
         return np.concatenate([y[N:], -om2 * y[:N] + P])
 
     start = time.perf_counter()
@@ -58,7 +57,7 @@ def profile_step(p, repeats=2000):
     a, t = r.amplitudes[0], r.times[0]
     J = tab.xq.size
     delta, fvals, P, eps = np.empty(J), np.empty(J), np.empty(p.Nmod), np.empty(J)
-    args = (t, a, tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx, p.V, p.R, p.he, p.K, delta, fvals, P)
+    args = (t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
     _, _, jmax = kn.layer_forcing(*args)
     out = {}
     for name, fn in [("forcing (one stage)", lambda: kn.layer_forcing(*args)),

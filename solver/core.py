@@ -178,8 +178,10 @@ class _Tables:
         self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
         self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM]))
         free = p.free_body
-        self.lay = np.array([lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
-                             p.body_g if free else 0.0])
+        body = xq * xq * (0.5 / p.R) if p.parabola else p.body_profile(xq)          # b(x_j)
+        self.lay = np.concatenate([[lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
+                                    p.body_g if free else 0.0, p.body_p, p.flat_width, p.tan_deadrise], body])
+        assert self.lay.size == kn.N_LAY + xq.size
 
 
 #: largest etd34 step as a fraction of the contact period 2 pi / contact_frequency
@@ -216,7 +218,7 @@ def _layer_pressure(p, tables, a, s, x):
 
     This is exactly the reaction the modes feel (the forcing integrates the same function).
     """
-    delta = (a @ tables.cosq + s - tables.xq**2 / (2 * p.R)) / p.he       # (J,)
+    delta = (a @ tables.cosq + s - p.body_profile(tables.xq)) / p.he       # (J,)
     f = np.where(delta > 0, delta / (1 - np.where(delta > 0, delta, 0.0)), 0.0)
     ax = np.abs(x)
     j = np.minimum((ax / tables.dx).astype(int), delta.size - 2)
@@ -390,7 +392,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             elif name == "strain":
                 field_values[name] = (out_a * tab.strain_coef) @ cosx.T
             elif name == "compression":
-                field_values[name] = (w + body_s[:, None] - x**2 / (2 * p.R)) / p.he
+                field_values[name] = (w + body_s[:, None] - p.body_profile(x)) / p.he
             elif name == "layer_pressure":
                 pres = np.full((T, x.size), np.nan)
                 for k in np.flatnonzero(valid):

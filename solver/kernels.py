@@ -167,9 +167,11 @@ N_REC = 5
 
 # rows of the packed per-mode table ``modes`` (plate and water: the per-mode linear part)
 M_OMEGA, M_COEF, M_STRAIN, M_LM = 0, 1, 2, 3
-# entries of ``lay``: quadrature (lambda_1, dx), body (V, R, 1/M, g_b), layer law (he, K)
-L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G = 0, 1, 2, 3, 4, 5, 6, 7
-N_LAY = 8
+# entries of ``lay``: quadrature (lambda_1, dx), body motion (V, 1/M, g_b), body shape (R, p,
+# flat half-width c, tan of the deadrise), layer law (he, K); then lay[N_LAY + j] is the body's
+# profile b(x_j) at the J quadrature nodes (computed once per run, see body_profile)
+L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G, L_BODY_P, L_FLAT, L_TANB = range(11)
+N_LAY = 11
 # entries of the run control vector ``ctrl`` of integrate
 (C_T_START, C_T_END, C_TOLERANCE, C_FIXED_STEP, C_H_INIT, C_H_MIN, C_H_MAX, C_MAX_STEPS,
  C_BOTTOM_GAP, C_UNTIL_SEPARATION) = range(10)
@@ -381,16 +383,68 @@ def modal_projection(f, cosq, P, jmax):
         n += 1
 
 
+# ---------------------------------------------------------------------------------------
+# body shape: b(x) >= 0, b(0) = 0, even, non-decreasing in |x|; the body is y = b(x) + he - s
+# ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def layer_forcing(t, a, lam1, coef, cosq, wq, dx, V, R, he, K, delta, fvals, P):
+def is_parabola(lay):
+    return lay[L_BODY_P] == 2.0 and lay[L_FLAT] == 0.0 and lay[L_TANB] == 0.0
+
+
+@njit(cache=True, nogil=True)
+def body_profile(x, lay):
+    """b(x) [m]: with u = max(|x| - c, 0) (c: half-width of a flat bottom), u tan(beta) for a
+    wedge of deadrise beta, else the power law u^p / (p R^(p-1)) (p = 2: the paper's parabola
+    u^2 / 2R, exactly x * x * (0.5 / R) at c = 0)."""
+    u = max(abs(x) - lay[L_FLAT], 0.0)
+    if lay[L_TANB] > 0.0:
+        return u * lay[L_TANB]
+    p = lay[L_BODY_P]
+    R = lay[L_R]
+    if p == 2.0:
+        return u * u * (0.5 / R)
+    return u ** p / (p * R ** (p - 1.0))
+
+
+@njit(cache=True, nogil=True)
+def body_slope_curvature(x, lay):
+    """(b'(x), b''(x)) for x >= 0 (at a wedge's or a flat bottom's corner: the right-hand
+    values)."""
+    u = x - lay[L_FLAT]
+    if u <= 0.0:
+        return 0.0, 0.0
+    if lay[L_TANB] > 0.0:
+        return lay[L_TANB], 0.0
+    p = lay[L_BODY_P]
+    R = lay[L_R]
+    return u ** (p - 1.0) / R ** (p - 1.0), (p - 1.0) * u ** (p - 2.0) / R ** (p - 1.0)
+
+
+@njit(cache=True, nogil=True)
+def body_extent(reach, lay):
+    """The largest x >= 0 with b(x) <= reach (reach > 0): b's inverse."""
+    if lay[L_TANB] > 0.0:
+        return lay[L_FLAT] + reach / lay[L_TANB]
+    p = lay[L_BODY_P]
+    R = lay[L_R]
+    if p == 2.0:
+        return lay[L_FLAT] + math.sqrt(2.0 * R * reach)
+    return lay[L_FLAT] + (p * R ** (p - 1.0) * reach) ** (1.0 / p)
+
+
+# ---------------------------------------------------------------------------------------
+# layer law: the reaction K f(delta) and what it does to the modes and the body
+# ---------------------------------------------------------------------------------------
+@njit(cache=True, nogil=True)
+def layer_forcing(t, a, coef, cosq, wq, lay, delta, fvals, P):
     """layer_forcing_at for the body at the paper's constant speed: penetration s = V t."""
-    return layer_forcing_at(V * t, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P)
+    return layer_forcing_at(lay[L_V] * t, a, coef, cosq, wq, lay, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def layer_forcing_at(s, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P):
+def layer_forcing_at(s, a, coef, cosq, wq, lay, delta, fvals, P):
     """Modal forcing P_n(s, a) and body force F from the layer reaction, the body's lowest point
-    at y = he - s (penetration s: V t for the paper's body).
+    at y = he - s (penetration s: V t for the paper's body), its profile b(x_j) in lay[N_LAY:].
 
     P_n = (2 K / (L M_n)) int_0^L -f(delta) cos(lambda_n x) dx on the hat functions of the
     nodes: int hat_j cos(lambda_n x) dx = w_j dx sinc^2(lambda_n dx / 2) cos(lambda_n x_j),
@@ -399,10 +453,10 @@ def layer_forcing_at(s, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P):
 
     Parameters
     ----------
-    s : penetration of the body [m].  a : modal amplitudes a_n [m].  lam1 : lambda_1 [m-1].
+    s : penetration of the body [m].  a : modal amplitudes a_n [m].
     coef : -2 K / (L M_n) divided by K, i.e. -2 / (L M_n) [m kg-1 ... per Pa].
     cosq : cos(lambda_n x_j), shape (N, J).  wq : mode weights dx sinc^2(lambda_n dx / 2),
-    shape (N,) [m].  dx : subinterval width [m].  R, he, K : see Parameters.
+    shape (N,) [m].  lay : see L_* (lambda_1, dx, he, K, the body's shape and profile).
     delta, fvals : work arrays (J,) receiving delta and f at the nodes j < jmax.
     P : output (N,), the forcing P_n [m s-2].
 
@@ -414,55 +468,57 @@ def layer_forcing_at(s, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P):
     """
     N = a.shape[0]
     J = delta.shape[0]
-    if K == 0.0:                     # layer switched off (kernel-level tests): no contact at all
+    if lay[L_K] == 0.0:              # layer switched off (kernel-level tests): no contact at all
         for n in range(N):
             P[n] = 0.0
         return 0, 0.0, 0
-    jmax = contact_bound(s, a, R, dx, J)
+    jmax = contact_bound(s, a, lay, J)
     modal_sum(a, cosq, delta, jmax)
-    return layer_reaction(s, lam1, coef, cosq, wq, dx, R, he, K, jmax, delta, fvals, P)
+    return layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def layer_forcing_strain(s, a, lam1, coef, cosq, wq, dx, R, he, K, delta, fvals, P, strain_coef, eps):
+def layer_forcing_strain(s, a, coef, cosq, wq, lay, delta, fvals, P, strain_coef, eps):
     """layer_forcing, and the strain at every node into eps (strain_nodes), from one pass over
     the table where both are needed."""
     N = a.shape[0]
     J = delta.shape[0]
-    if K == 0.0:
+    if lay[L_K] == 0.0:
         strain_nodes(a, strain_coef, cosq, eps)
         for n in range(N):
             P[n] = 0.0
         return 0, 0.0, 0
-    jmax = contact_bound(s, a, R, dx, J)
+    jmax = contact_bound(s, a, lay, J)
     modal_sum_strain(a, strain_coef, cosq, delta, eps, jmax)
-    return layer_reaction(s, lam1, coef, cosq, wq, dx, R, he, K, jmax, delta, fvals, P)
+    return layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def contact_bound(s, a, R, dx, J):
-    """Nodes j >= jmax cannot touch: there x_j^2 / 2R > s + sum |a_n| >= s + w(x)."""
+def contact_bound(s, a, lay, J):
+    """Nodes j >= jmax cannot touch: there b(x_j) > s + sum |a_n| >= s + w(x)."""
     bound = 0.0
     for n in range(a.shape[0]):
         bound += abs(a[n])
     reach = s + bound
     if reach <= 0.0:
         return 1
-    return min(J, int(math.sqrt(2.0 * R * reach) / dx) + 2)
+    return min(J, int(body_extent(reach, lay) / lay[L_DX]) + 2)
 
 
 @njit(cache=True, nogil=True)
-def layer_reaction(s, lam1, coef, cosq, wq, dx, R, he, K, jmax, delta, fvals, P):
+def layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P):
     """The rest of layer_forcing, given the deflection sum_n a_n cos(lambda_n x_j) in delta
     (j < jmax): delta and f at the nodes, then P and F (see layer_forcing)."""
     N = P.shape[0]
     J = delta.shape[0]
-    inv2R = 0.5 / R
+    lam1 = lay[L_LAM1]
+    dx = lay[L_DX]
+    he = lay[L_HE]
+    K = lay[L_K]
     force = 0.0
     jc = 0                           # nodes j >= jc are not compressed
     for j in range(jmax):
-        x = j * dx
-        d = (delta[j] + s - x * x * inv2R) / he
+        d = (delta[j] + s - lay[N_LAY + j]) / he
         delta[j] = d
         f = 0.0
         if d > 0.0:
@@ -934,8 +990,7 @@ def body_residual(lay, t, yb, work):
 def _stage(s, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, P):
     for n in range(zs.shape[0]):
         a_work[n] = zs[n].imag / omega[n]
-    return layer_forcing_at(s, a_work, lay[L_LAM1], coef, cosq, wq, lay[L_DX], lay[L_R],
-                            lay[L_HE], lay[L_K], delta, fvals, P)
+    return layer_forcing_at(s, a_work, coef, cosq, wq, lay, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
@@ -944,8 +999,7 @@ def _last_stage(s, zs, modes, a_work, lay, cosq, wq, delta, fvals, P, eps):
     omega = modes[M_OMEGA]
     for n in range(zs.shape[0]):
         a_work[n] = zs[n].imag / omega[n]
-    return layer_forcing_strain(s, a_work, lay[L_LAM1], modes[M_COEF], cosq, wq, lay[L_DX],
-                                lay[L_R], lay[L_HE], lay[L_K], delta, fvals, P, modes[M_STRAIN], eps)
+    return layer_forcing_strain(s, a_work, modes[M_COEF], cosq, wq, lay, delta, fvals, P, modes[M_STRAIN], eps)
 
 
 @njit(cache=True, nogil=True)
@@ -1323,8 +1377,7 @@ def node_delta(a, cosq, j, s, lay):
     w = 0.0
     for n in range(a.shape[0]):
         w += a[n] * cosq[n, j]
-    x = j * lay[L_DX]
-    return (w + s - x * x / (2.0 * lay[L_R])) / lay[L_HE]
+    return (w + s - lay[N_LAY + j]) / lay[L_HE]
 
 
 @njit(cache=True, nogil=True)
@@ -1416,6 +1469,36 @@ def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, body
 
 
 @njit(cache=True, nogil=True)
+def shape_peak(delta, j, n, a, ones, s, lay):
+    """continuous_peak of delta = (w + s - b(x)) / he for any body shape: Newton on delta'
+    with b', b'' from body_slope_curvature, kept within [x_{j-1}, x_{j+1}]. Returns (value, x)."""
+    dx = lay[L_DX]
+    he = lay[L_HE]
+    if j == 0 or j == n - 1:
+        return delta[j], j * dx
+    v, x = refine(delta, 1.0, j, n, dx)
+    xlo = (j - 1) * dx
+    xhi = (j + 1) * dx
+    for _ in range(8):
+        s0, s1, s2 = mode_sums(ones, a, lay[L_LAM1], x)
+        b1, b2 = body_slope_curvature(x, lay)
+        d1 = s1 - b1
+        d2 = s2 - b2
+        if not d2 < 0.0:
+            break
+        xn = min(max(x - d1 / d2, xlo), xhi)
+        done = abs(xn - x) <= NEWTON_STOP * dx
+        x = xn
+        if done:
+            break
+    s0, s1, s2 = mode_sums(ones, a, lay[L_LAM1], x)
+    value = (s0 + s - body_profile(x, lay)) / he
+    if value < delta[j]:                 # a corner the iteration could not settle on: the node
+        return delta[j], j * dx
+    return value, x
+
+
+@njit(cache=True, nogil=True)
 def gap_peak(s, U, delta, jm, a, adot, ones, lay, out):
     """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x), the
     body at penetration s moving down at U.
@@ -1427,9 +1510,11 @@ def gap_peak(s, U, delta, jm, a, adot, ones, lay, out):
     j = argmax_node(delta, 1.0, n)
     if j == n - 1 and n < delta.shape[0]:
         v, x = delta[j], j * lay[L_DX]     # the next node is outside the computed range
-    else:
+    elif is_parabola(lay):
         v, x = continuous_peak(delta, 1.0, j, n, lay[L_DX], ones, a, lay[L_LAM1], 1.0 / he,
                                -0.5 / (lay[L_R] * he), s / he)
+    else:
+        v, x = shape_peak(delta, j, n, a, ones, s, lay)
     out[0] = v
     out[1] = (mode_sum(ones, adot, lay[L_LAM1], x) + U) / he
     out[2] = x
@@ -1763,8 +1848,10 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     ----------
     method : ETD34 or RK4.
     modes : (4, N) rows omega_n [s-1], -2/(L M_n), (hi/2) lambda_n^2 [m-1], L M_n [kg m-1].
-    lay : (N_LAY,) lambda_1 [m-1], dx [m], V [m s-1], R [m], he [m], K [Pa], 1/M [m kg-1]
-        (0: the body moves at V, the paper's), g_b [m s-2] (0 with 1/M = 0); see L_*.
+    lay : (N_LAY + J,) lambda_1 [m-1], dx [m], V [m s-1], R [m], he [m], K [Pa], 1/M [m kg-1]
+        (0: the body moves at V, the paper's), g_b [m s-2] (0 with 1/M = 0), the shape's p,
+        c [m] and tan(deadrise) (see body_profile), then the profile b(x_j) [m] at the J
+        nodes; see L_*.
     cosq (N, J), wq (N,) : quadrature nodes and mode weights, see :func:`layer_forcing`.
     ctrl : (N_CTRL,) the run's control, see C_*: t_start, t_end [s] (the body's lowest point at
         he - s, s = V t for the paper's body); tolerance (relative error per step in the energy
@@ -1888,8 +1975,8 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     work = 0.0
     err_sum = 0.0
     rhs_count = 1
-    st, force, jmax = layer_forcing_at(body_position(lay, t, yb), a, lam1, modes[M_COEF], cosq, wq, dx,
-                                       lay[L_R], he, K, delta, fvals, N1)
+    st, force, jmax = layer_forcing_at(body_position(lay, t, yb), a, modes[M_COEF], cosq, wq, lay, delta,
+                                       fvals, N1)
     if st != 0:
         diag[D_T_REACHED] = t
         diag[D_FAIL_T] = t

@@ -42,11 +42,18 @@ PARAMETER_INFO = {
                   "model)", "kg m-1"),
     "body_g": ("downward acceleration of a free body besides the ice's reaction (gravity; 0 for a body "
                "whose weight is carried)", "m s-2"),
+    "body_p": ("exponent p of the body's power-law profile (|x| - flat_width)^p / (p R^(p-1)) "
+               "(2: the paper's parabola)", "1"),
+    "flat_width": ("half-width of the body's flat bottom; its corners follow the profile beyond "
+                   "(0: the paper's parabola)", "m"),
+    "deadrise": ("deadrise angle of a wedge-shaped body, (|x| - flat_width) tan(deadrise) (0: not a "
+                 "wedge; R and body_p are then unused)", "degree"),
 }
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
-PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81}
+PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
+                  "deadrise": 0.0}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -56,7 +63,7 @@ PHYSICAL_RANGES = {
     "K": (1e3, 1e12), "he": (1e-5, 1.0), "R": (1e-2, 1e4), "V": (1e-3, 1e3), "hi": (1e-3, 100.0),
     "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
     "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
-    "body_g": (0.0, 1e3),
+    "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
 }
 
 
@@ -158,6 +165,10 @@ class Parameters:
         (docs/model.md, "A body of finite mass").
     body_g : downward acceleration of a free body besides the ice's reaction [m/s^2]: gravity
         (the default 9.81), or 0 for a body whose weight is carried; unused when body_mass = inf.
+    body_p, flat_width, deadrise : the body's shape (docs/model.md, "Body shapes"): with
+        u = max(|x| - flat_width, 0), the profile is u tan(deadrise) for a wedge (deadrise > 0
+        [degree]), else u^body_p / (body_p R^(body_p - 1)); the defaults (2, 0 m, 0) are the
+        paper's parabola x^2 / 2R.
     """
 
     K: float = 8e6
@@ -175,6 +186,9 @@ class Parameters:
     H: float = math.inf
     body_mass: float = math.inf
     body_g: float = 9.81
+    body_p: float = 2.0
+    flat_width: float = 0.0
+    deadrise: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -190,6 +204,15 @@ class Parameters:
             elif f.name == "body_g":
                 if not number or not math.isfinite(float(value)) or float(value) < 0.0:
                     raise ParameterError(f"body_g must be finite and >= 0, got {value!r}")
+            elif f.name == "body_p":
+                if not number or not math.isfinite(float(value)) or float(value) < 1.0:
+                    raise ParameterError(f"body_p must be finite and >= 1 (a convex body), got {value!r}")
+            elif f.name == "flat_width":
+                if not number or not math.isfinite(float(value)) or float(value) < 0.0:
+                    raise ParameterError(f"flat_width must be finite and >= 0, got {value!r}")
+            elif f.name == "deadrise":
+                if not number or not 0.0 <= float(value) < 90.0:
+                    raise ParameterError(f"deadrise must be in [0, 90) degrees (0: not a wedge), got {value!r}")
             elif f.name == "nu":
                 if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                         or not math.isfinite(float(value)) or not 0.0 <= float(value) < 0.5:
@@ -241,14 +264,47 @@ class Parameters:
         return self.K / (self.frequencies[0] ** 2 * self.added_masses[0])
 
     @property
+    def parabola(self) -> bool:
+        """True for the paper's body shape x^2 / 2R."""
+        return self.body_p == 2.0 and self.flat_width == 0.0 and self.deadrise == 0.0
+
+    @property
+    def tan_deadrise(self) -> float:
+        return math.tan(math.radians(self.deadrise)) if self.deadrise > 0.0 else 0.0
+
+    def body_profile(self, x):
+        """b(x) [m]: the body is y = b(x) + he - s (s = V t for the paper's body); x^2 / (2R) for
+        the paper's parabola (the same expression as before shapes existed)."""
+        x = np.asarray(x, dtype=float)
+        if self.parabola:
+            return x**2 / (2 * self.R)
+        u = np.maximum(np.abs(x) - self.flat_width, 0.0)
+        if self.deadrise > 0.0:
+            return u * self.tan_deadrise
+        return u**self.body_p / (self.body_p * self.R ** (self.body_p - 1.0))
+
+    def profile_mean(self) -> float:
+        """b_mean = (1/L) int_0^L b(x) dx [m], the mean height of the body's profile over the
+        plate. The modes keep int w dx = 0 (mass conservation), so the mean compression of the
+        layer is (s - b_mean) / he: it bottoms out before the penetration s reaches b_mean + he."""
+        c = min(self.flat_width, self.L)
+        if self.deadrise > 0.0:
+            return (self.L - c) ** 2 * self.tan_deadrise / (2.0 * self.L)
+        p = self.body_p
+        return (self.L - c) ** (p + 1.0) / ((p + 1.0) * p * self.R ** (p - 1.0) * self.L)
+
+    @property
     def free_body(self) -> bool:
         """True for a body of finite mass (its speed is then part of the solution)."""
         return math.isfinite(self.body_mass)
 
     @property
     def stage_duration(self) -> float:
-        """T = L^2 / (6 R V), the impact stage computed [s]."""
-        return self.L**2 / (6.0 * self.R * self.V)
+        """T = L^2 / (6 R V), the impact stage computed [s]; for any body shape T = b_mean / V,
+        b_mean = (1/L) int_0^L b dx (docs/model.md, "Body shapes")."""
+        if self.parabola:
+            return self.L**2 / (6.0 * self.R * self.V)
+        return self.profile_mean() / self.V
 
     @property
     def d1(self) -> float:

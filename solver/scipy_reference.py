@@ -54,8 +54,8 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         return y[2 * N + 2] if free else p.V
 
     def forcing(t, y):
-        return kn.layer_forcing_at(position(t, y), np.ascontiguousarray(y[:N]), tab.lam[0], tab.coef,
-                                   tab.cosq, tab.wq, tab.dx, p.R, p.he, p.K, delta, fvals, P)
+        return kn.layer_forcing_at(position(t, y), np.ascontiguousarray(y[:N]), tab.coef, tab.cosq, tab.wq,
+                                   tab.lay, delta, fvals, P)
 
     def rhs(t, y):
         nfev[0] += 1

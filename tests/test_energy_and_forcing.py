@@ -55,8 +55,7 @@ def test_forcing_matches_brute_force_integral(t_tilde):
     tab = _Tables(p, 1000)
     a, t = _state(p, t_tilde)
     delta, fvals, P = np.empty(1001), np.empty(1001), np.empty(20)
-    st, force, jmax = kn.layer_forcing(t, a, tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx,
-                                       p.V, p.R, p.he, p.K, delta, fvals, P)
+    st, force, jmax = kn.layer_forcing(t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
     assert st == 0
     x = np.linspace(0, p.L, 600_001)
     pressure = _layer_pressure(p, tab, a, p.V * t, x)    # K f on the half plate, numpy
@@ -77,8 +76,7 @@ def test_forcing_is_C1_when_contact_boundaries_cross_nodes():
     def sweep(n):
         values, in_contact = [], []
         for t in t0 + np.linspace(0, span, n + 1):
-            st, _, jmax = kn.layer_forcing(t, a, tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx,
-                                           p.V, p.R, p.he, p.K, delta, fvals, P)
+            st, _, jmax = kn.layer_forcing(t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
             assert st == 0
             values.append(P.copy())
             in_contact.append(int(np.sum(delta[:jmax] > 0)))

@@ -21,8 +21,7 @@ def _dop853_strain(p, times, x, rtol):
     delta, fvals, P = np.empty(1001), np.empty(1001), np.empty(N)
 
     def rhs(t, y):
-        kn.layer_forcing(t, y[:N], tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx,
-                         p.V, p.R, p.he, p.K, delta, fvals, P)
+        kn.layer_forcing(t, y[:N], tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
         return np.concatenate([y[N:], -tab.omega**2 * y[:N] + P])
 
     sol = solve_ivp(rhs, (0, p.stage_duration), np.zeros(2 * N), method="DOP853",

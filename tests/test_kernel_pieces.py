@@ -100,8 +100,7 @@ def test_forcing_projection_equals_hat_weight_matrix(t_tilde):
     a, t = r.amplitudes[0], r.times[0]
     J = tab.xq.size
     delta, fvals, P = np.empty(J), np.empty(J), np.empty(60)
-    st, force, jmax = kn.layer_forcing(t, a, tab.lam[0], tab.coef, tab.cosq, tab.wq, tab.dx, p.V, p.R, p.he,
-                                       p.K, delta, fvals, P)
+    st, force, jmax = kn.layer_forcing(t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
     assert st == 0 and np.any(fvals[:jmax] > 0)
     ends = np.ones(J)
     ends[0] = ends[-1] = 0.5
