@@ -217,7 +217,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     styles = _line_styles(len(combos))
     all_x = ds[first].values
     on_axis = np.isfinite(all_x) if all_x.dtype.kind == "f" else np.ones(all_x.size, bool)
-    xvals = all_x[on_axis]               # an infinite key value (H, body_mass): a dashed line
+    if all_x.dtype.kind == "f" and np.any(all_x == 0) and _log_spaced(all_x[on_axis & (all_x > 0)]):
+        on_axis &= all_x > 0             # a sweep over decades and its neutral 0 (tau = 0)
+    xvals = all_x[on_axis]               # an infinite key value (H, body_mass), or that 0: a dashed line
     log_x = _log_spaced(xvals)
     for ax, (name, title) in zip(axes.flat, DIAGNOSTICS):
         unbounded = []

@@ -25,7 +25,7 @@ STATUS_INFO = {
     "nonfinite": "a fixed-step run met delta >= 1 or a non-finite state, or the adaptive step "
                  "could not avoid one",
     "step_limit": "max_steps attempted, or error control drove the step below its floor",
-    "energy_violation": "the energy identity E_plate + E_layer = W was broken: a step made it jump "
+    "energy_violation": "the energy identity E_plate + E_layer + D = W (D: dissipated, 0 for elastic ice) was broken: a step made it jump "
                         "and no smaller step mended it, or the residual ended above 1e-3 of the work "
                         "(for a free body, also its own balance M (U^2 - V^2)/2 - M body_g s + W = 0)",
     "separated": "a free body (finite body_mass) left the ice moving up at separation_time, and the run "
@@ -68,9 +68,11 @@ DIAGNOSTIC_INFO = {
     "bottoming_closing_speed": ("speed at which the gap was closing at bottoming, he d(delta)/dt",
                                 "m s-1", kn.D_BOTTOM_SPEED),
     "energy_rejections": ("steps rejected because the energy identity jumped", "1", kn.D_ENERGY_JUMPS),
-    "energy_residual": ("max over time of |E_plate + E_layer - W| divided by the largest work W over the run "
+    "energy_residual": ("max over time of |E_plate + E_layer + D - W| divided by the largest work W over the run "
                         "(the final work for the paper's body)", "1", kn.D_ENERGY_RESIDUAL),
     "work": ("work done by the body on the ice up to the time reached, int F U dt", "J m-1", kn.D_WORK),
+    "dissipated_energy": ("energy dissipated in the viscoelastic ice up to the time reached (0: elastic "
+                          "ice)", "J m-1", kn.D_DISSIPATED),
     "stop_time": ("first time a free body's speed reached zero (NaN: never, or the paper's body at "
                   "constant speed)", "s", kn.D_STOP_T),
     "max_penetration": ("deepest penetration s of a free body, at a zero of its speed", "m",
@@ -114,6 +116,7 @@ class Result:
     plate_energy: np.ndarray           # (T,) [J m-1]
     layer_energy: np.ndarray           # (T,) [J m-1]
     work: np.ndarray                   # (T,) int F U dt [J m-1]
+    dissipated_energy: np.ndarray      # (T,) energy dissipated in viscoelastic ice [J m-1] (0: elastic)
     valid: np.ndarray                  # (T,) bool
     diagnostics: dict                  # name -> float, see DIAGNOSTIC_INFO
     status: str                        # see STATUS_INFO
@@ -176,7 +179,17 @@ class _Tables:
         self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, xq)))            # (N, J)
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
         self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
-        self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM]))
+        half_c = 0.5 * p.damping                     # Kelvin-Voigt: 0 for the paper's elastic ice
+        over = half_c > self.omega                   # overdamped modes: two real decay rates
+        wd = np.sqrt(np.abs(self.omega - half_c) * (self.omega + half_c))
+        # a mode within 1e-12 of critical damping is taken as underdamped with omega_d = 1e-6
+        # omega (its rates move by 1e-12; a from z loses at most 1e-10 to the small omega_d)
+        near = (half_c > 0) & (wd < CRITICAL_GAP * self.omega)
+        over = over & ~near
+        wd = np.where(half_c == 0.0, self.omega, np.where(near, CRITICAL_GAP * self.omega, wd))
+        self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM, half_c, wd,
+                                                    over.astype(float)]))
+        assert self.modes.shape[0] == kn.N_MODE_ROWS
         free = p.free_body
         body = xq * xq * (0.5 / p.R) if p.parabola else p.body_profile(xq)          # b(x_j)
         self.lay = np.concatenate([[lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
@@ -184,6 +197,8 @@ class _Tables:
         assert self.lay.size == kn.N_LAY + xq.size
 
 
+#: a damped mode is kept at least this far (omega_d or kappa over omega) from critical damping
+CRITICAL_GAP = 1e-6
 #: largest etd34 step as a fraction of the contact period 2 pi / contact_frequency
 HMAX_FRACTION = 0.1
 
@@ -335,6 +350,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
     if not isinstance(until_separation, bool):
         raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
+    if p.tau > 0 and s.integrator == "rk4":
+        raise ParameterError("rk4 integrates the paper's elastic plate; viscoelastic ice (tau > 0) needs "
+                             "etd34 (its damped modes are exact) or dop853")
     if until_separation and not p.free_body:
         raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
                              "moves down at V for ever")
@@ -453,11 +471,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             message = (f"error control drove the step below {floor} {where}; "
                        f"largest delta reached {max_delta:.6g}")
         elif kind == kn.FAIL_ENERGY_JUMP:
-            message = (f"energy identity broken {where}: a step changed E_plate + E_layer - W by more "
+            message = (f"energy identity broken {where}: a step changed E_plate + E_layer + D - W by more "
                        f"than {kn.ENERGY_JUMP:g} of the energy in play, and " +
                        ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
         elif kind == kn.FAIL_ENERGY_BOUND:
-            message = (f"energy identity broken: the residual |E_plate + E_layer - W| reached "
+            message = (f"energy identity broken: the residual |E_plate + E_layer + D - W| reached "
                        f"{diagnostics['energy_residual']:.2e} of the work (bound {kn.ENERGY_BOUND:g}; more "
                        f"subintervals or a tighter tolerance may mend it); the run reached t = "
                        f"{t_reached:.6g} s ({t_reached / t_sc:.4g} t_sc)")
@@ -473,6 +491,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         amplitudes=out_a, velocities=out_adot, contact_intervals=series[:, kn.S_CONTACTS],
         force=series[:, kn.S_FORCE], plate_energy=series[:, kn.S_E_PLATE],
         layer_energy=series[:, kn.S_E_LAYER], work=series[:, kn.S_WORK],
+        dissipated_energy=series[:, kn.S_DISSIPATED],
         valid=valid, diagnostics=diagnostics, status=status, message=message,
         time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
         forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),

@@ -2,13 +2,24 @@ r"""Numba kernels of the normal-mode impact model (docs/model.md, "Equations" an
 
 Only scalars and float/int arrays cross the kernel boundary; kernels return status codes and
 never raise. :mod:`solver.core` is the one Python adapter that prepares their inputs. The
-module is split by what the model is made of: the layer forcing (``layer_forcing``,
-``layer_energy``, ``count_contacts``), one integrator step (``etd_coefficients``,
-``take_step``), the in-loop observers of events (``observe_tension``, ``observe_contacts``,
-``gap_peak``, and ``locate_event`` on true sub-steps) and the loop that drives them
-(``integrate``).
+module is split by what the model is made of, each piece readable and changeable alone:
 
-Model, SI units, symmetric half plate 0 <= x <= L::
+- plate and water, the per-mode linear part: the ``modes`` table (omega_n, 1/(L M_n), the strain
+  factor, L M_n, and the Kelvin-Voigt damping), ``mode_a``/``mode_z``/``emul`` and the phi
+  functions (``phi_from``, ``phi_complex``, ``mode_phis``);
+- body shape: ``body_profile`` (tabulated at the nodes in ``lay``), ``body_extent``,
+  ``body_slope_curvature``;
+- body motion: ``body_coefficients``, ``body_accel``, ``body_position``/``body_speed`` (the
+  paper's body is the free body's d = u = 0);
+- layer law: ``layer_forcing_at``, ``layer_reaction``, ``layer_energy``, ``count_contacts``;
+- the integrator step: ``etd_coefficients``, ``take_step``, ``dense_states``;
+- observers (diagnostics and events): ``observe_tension``, ``observe_contacts``,
+  ``observe_body``, ``gap_peak``, and ``locate_event`` on true sub-steps;
+- the loop: ``integrate`` and its named pieces (``_record_output``, ``_next_step``,
+  ``_error_ratio``, ``_energy_allowance``, ``_observe_tensions``, ``_finish_diagnostics``).
+
+Model, SI units, symmetric half plate 0 <= x <= L (the paper's body, elastic ice; the
+additions beyond the paper are in docs/model.md and at their functions)::
 
     w(x, t)   = sum_n a_n(t) cos(lambda_n x),        lambda_n = pi n / L
     delta     = (w + V t - x^2 / (2 R)) / he           relative compression of the layer
@@ -60,6 +71,7 @@ and time derivative are both known exactly at the two ends of an accepted step:
 Analytic benchmark used by the tests: with K = 0 (layer off) and z_n(0) = i omega_n
 (a_n(0) = 1), both integrators must return a_n(t) = cos(omega_n t); ETD34 to round-off.
 """
+import cmath
 import math
 
 import numpy as np
@@ -105,7 +117,8 @@ D_MAX_PENETRATION = 29     # largest penetration s of the body [m] (at a zero of
 D_SEPARATION_T = 30        # time the body left the ice moving up (after it had stopped)
 D_SEPARATION_SPEED = 31    # the body's upward speed then [m s-1]
 D_BODY_RESIDUAL = 32       # max_t |M (U^2 - V^2)/2 - M g_b s + W| / max_t W
-N_DIAG = 33
+D_DISSIPATED = 33          # energy dissipated in the viscoelastic ice up to the time reached [J m-1]
+N_DIAG = 34
 
 FAIL_NONE = 0
 FAIL_MAX_STEPS = 1         # max_steps attempted
@@ -165,8 +178,12 @@ ENERGY_BOUND = 1e-3
 R_T, R_VALUE, R_RATE, R_X, R_JOIN = 0, 1, 2, 3, 4
 N_REC = 5
 
-# rows of the packed per-mode table ``modes`` (plate and water: the per-mode linear part)
-M_OMEGA, M_COEF, M_STRAIN, M_LM = 0, 1, 2, 3
+# rows of the packed per-mode table ``modes`` (plate and water: the per-mode linear part):
+# omega_n, -2/(L M_n), (hi/2) lambda_n^2, L M_n, then the Kelvin-Voigt damping: c_n / 2, and
+# omega_d = sqrt(omega^2 - c^2/4) of an oscillating mode (kind 0; omega itself when c = 0) or
+# kappa = sqrt(c^2/4 - omega^2) of an overdamped one (kind 1), see mode_a and mode_z
+M_OMEGA, M_COEF, M_STRAIN, M_LM, M_HALF_C, M_WD, M_KIND = range(7)
+N_MODE_ROWS = 7
 # entries of ``lay``: quadrature (lambda_1, dx), body motion (V, 1/M, g_b), body shape (R, p,
 # flat half-width c, tan of the deadrise), layer law (he, K); then lay[N_LAY + j] is the body's
 # profile b(x_j) at the J quadrature nodes (computed once per run, see body_profile)
@@ -177,8 +194,9 @@ N_LAY = 11
  C_BOTTOM_GAP, C_UNTIL_SEPARATION) = range(10)
 N_CTRL = 10
 # columns of integrate's per-output-time series ``out_series``
-(S_CONTACTS, S_FORCE, S_E_PLATE, S_E_LAYER, S_WORK, S_ERR, S_BODY_POSITION, S_BODY_SPEED) = range(8)
-N_SERIES = 8
+(S_CONTACTS, S_FORCE, S_E_PLATE, S_E_LAYER, S_WORK, S_ERR, S_BODY_POSITION, S_BODY_SPEED,
+ S_DISSIPATED) = range(9)
+N_SERIES = 9
 # the body's state: deficits against the prescribed motion, d = V t - s and u = V - U
 B_D, B_U = 0, 1
 
@@ -237,6 +255,88 @@ def phi_from(y, e):
 def phi_functions(y):
     """phi_1, phi_2, phi_3 of zeta = i y (see phi_from)."""
     return phi_from(y, complex(math.cos(y), math.sin(y)))
+
+
+#: Taylor coefficients 1/(m + 3)! of phi_3(zeta), m = 0..17 (|zeta| < 1: the first omitted term
+#: is below 1e-19)
+PHI3_SERIES = np.array([1.0 / math.factorial(m + 3) for m in range(18)])
+
+
+@njit(cache=True, nogil=True)
+def phi_complex(zeta):
+    """e^zeta, phi_1, phi_2, phi_3 of any complex zeta (a damped mode: Re zeta < 0).
+
+    |zeta| >= 1: closed forms. |zeta| < 1: phi_3 by its Taylor series (Horner), then the exact
+    recurrences phi_2 = zeta phi_3 + 1/2, phi_1 = zeta phi_2 + 1, e^zeta = zeta phi_1 + 1.
+    """
+    if abs(zeta) >= 1.0:
+        e = cmath.exp(zeta)
+        inv = 1.0 / zeta
+        p1 = (e - 1.0) * inv
+        p2 = (e - 1.0 - zeta) * inv * inv
+        p3 = (e - 1.0 - zeta - 0.5 * zeta * zeta) * inv * inv * inv
+        return e, p1, p2, p3
+    p3 = complex(PHI3_SERIES[17], 0.0)
+    for m in range(16, -1, -1):
+        p3 = p3 * zeta + PHI3_SERIES[m]
+    p2 = zeta * p3 + 0.5
+    p1 = zeta * p2 + 1.0
+    return zeta * p1 + 1.0, p1, p2, p3
+
+
+@njit(cache=True, nogil=True)
+def mode_phis(modes, n, d):
+    """(e, phi_1, phi_2, phi_3) of the damped mode n over a time d, packed as complex numbers
+    that act on its z as emul does: an oscillating mode's of zeta = mu_+ d, mu_+ = -c/2 + i
+    omega_d; an overdamped mode's of its two real rates mu_+- = -c/2 +- kappa, as (value at
+    mu_+) + i (value at mu_-)."""
+    hc = modes[M_HALF_C, n]
+    wd = modes[M_WD, n]
+    if modes[M_KIND, n] == 0.0:
+        return phi_complex(complex(-hc * d, wd * d))
+    ep, p1p, p2p, p3p = phi_complex(complex((-hc + wd) * d, 0.0))
+    em, p1m, p2m, p3m = phi_complex(complex((-hc - wd) * d, 0.0))
+    return (complex(ep.real, em.real), complex(p1p.real, p1m.real), complex(p2p.real, p2m.real),
+            complex(p3p.real, p3m.real))
+
+
+@njit(cache=True, nogil=True)
+def emul(e, z, kind):
+    """e^{zeta} z for a mode's z: a complex product (kind 0), or component by component for an
+    overdamped mode (kind 1: z = y_+ + i y_-, two real decaying components)."""
+    if kind == 0.0:
+        return e * z
+    return complex(e.real * z.real, e.imag * z.imag)
+
+
+@njit(cache=True, nogil=True)
+def mode_a(z, n, modes):
+    """a_n from z_n. With mu_+- the roots of mu^2 + c mu + omega^2 = 0, z = a' - mu_- a obeys
+    z' = mu_+ z + P: for c = 0, z = a' + i omega a. Oscillating: z = a' + (c/2) a + i omega_d a;
+    overdamped: z = y_+ + i y_-, y_+- = a' - mu_-+ a."""
+    if modes[M_KIND, n] == 0.0:
+        return z.imag / modes[M_WD, n]
+    return (z.real - z.imag) / (2.0 * modes[M_WD, n])
+
+
+@njit(cache=True, nogil=True)
+def mode_adot(z, a, n, modes):
+    """a_n' from z_n and a_n (see mode_a)."""
+    if modes[M_KIND, n] == 0.0:
+        return z.real - modes[M_HALF_C, n] * a
+    return z.real - (modes[M_HALF_C, n] + modes[M_WD, n]) * a
+
+
+@njit(cache=True, nogil=True)
+def mode_z(a, adot, n, modes):
+    """z_n from a_n and a_n' (see mode_a); exactly a' + i omega a for an undamped mode."""
+    hc = modes[M_HALF_C, n]
+    wd = modes[M_WD, n]
+    if modes[M_KIND, n] == 0.0:
+        if hc == 0.0:
+            return complex(adot, wd * a)
+        return complex(adot + hc * a, wd * a)
+    return complex(adot + (hc + wd) * a, adot + (hc - wd) * a)
 
 
 # ---------------------------------------------------------------------------------------
@@ -899,15 +999,21 @@ def cubic_sign_changes(c0, c1, c2, c3, out):
 # one step of the integrator
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def etd_coefficients(omega, h, C):
+def etd_coefficients(modes, h, C):
     """ETD34 coefficients of a step h for every mode, rows of C (9, N): e^{zeta}, e^{zeta/2},
-    then the stage and update weights of the scheme in the module docstring."""
+    then the stage and update weights of the scheme in the module docstring (a damped mode's
+    packed as mode_phis packs them)."""
+    omega = modes[M_OMEGA]
     for n in range(omega.shape[0]):
-        y = omega[n] * h
-        e2 = complex(math.cos(0.5 * y), math.sin(0.5 * y))
-        e = e2 * e2                              # one sin/cos for both
-        p1, p2, p3 = phi_from(y, e)
-        q1, q2, q3 = phi_from(0.5 * y, e2)
+        if modes[M_HALF_C, n] == 0.0:
+            y = omega[n] * h
+            e2 = complex(math.cos(0.5 * y), math.sin(0.5 * y))
+            e = e2 * e2                          # one sin/cos for both
+            p1, p2, p3 = phi_from(y, e)
+            q1, q2, q3 = phi_from(0.5 * y, e2)
+        else:
+            e, p1, p2, p3 = mode_phis(modes, n, h)
+            e2, q1, q2, q3 = mode_phis(modes, n, 0.5 * h)
         C[0, n] = e
         C[1, n] = e2
         C[2, n] = 0.5 * h * q1
@@ -987,18 +1093,17 @@ def body_residual(lay, t, yb, work):
 # the step: its stages, the body alongside the modes
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _stage(s, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, P):
+def _stage(s, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, P):
     for n in range(zs.shape[0]):
-        a_work[n] = zs[n].imag / omega[n]
+        a_work[n] = mode_a(zs[n], n, modes)
     return layer_forcing_at(s, a_work, coef, cosq, wq, lay, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
 def _last_stage(s, zs, modes, a_work, lay, cosq, wq, delta, fvals, P, eps):
     """_stage at the step's end, with the strain at every node into eps."""
-    omega = modes[M_OMEGA]
     for n in range(zs.shape[0]):
-        a_work[n] = zs[n].imag / omega[n]
+        a_work[n] = mode_a(zs[n], n, modes)
     return layer_forcing_strain(s, a_work, modes[M_COEF], cosq, wq, lay, delta, fvals, P, modes[M_STRAIN], eps)
 
 
@@ -1011,8 +1116,21 @@ def _step_work(lay, h, work, F1, F2, F3, F4, U1, U2, U3, U4):
 
 
 @njit(cache=True, nogil=True)
+def dissipation_rate(z, modes):
+    """sum_n L M_n c_n a_n'^2 [W m-1]: the power the Kelvin-Voigt damping takes from the plate."""
+    r = 0.0
+    for n in range(z.shape[0]):
+        hc = modes[M_HALF_C, n]
+        if hc > 0.0:
+            a = mode_a(z[n], n, modes)
+            v = mode_adot(z[n], a, n, modes)
+            r += 2.0 * hc * modes[M_LM, n] * v * v
+    return r
+
+
+@njit(cache=True, nogil=True)
 def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cosq, wq, cw, rw,
-              fvals, delta, z_out, N_out, err, eps_out, yb, Cb, yb_out, errb):
+              fvals, delta, z_out, N_out, err, eps_out, yb, Cb, yb_out, errb, diss, acc):
     """One step from (t, z) to t_new = t + h with N1 = P(t, z), F1 = F(t), W(t) = work.
 
     C holds etd_coefficients(omega, h) (RK4 uses them for its error estimate); cw (2, N)
@@ -1022,10 +1140,15 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     meaningless); event if the number of contact intervals changed among the stages.
     eps_out receives the strain at every node at t_new (strain_nodes) from the last stage's pass.
     The body: yb = (d, u) at t, Cb = body_coefficients(h); yb_out and errb receive its state at
-    t_new and its error estimate (the prescribed body stays at d = u = 0 exactly).
+    t_new and its error estimate (the prescribed body stays at d = u = 0 exactly). acc[0]
+    receives the energy the damped plate has dissipated by t_new, given diss at t (the step's
+    weights on dissipation_rate at its stages; 0 for the paper's elastic ice).
     """
     omega = modes[M_OMEGA]
     coef = modes[M_COEF]
+    kind = modes[M_KIND]
+    damped = modes[M_HALF_C, z.shape[0] - 1] > 0.0
+    D1 = D2 = D3 = D4 = 0.0
     zs = cw[0]
     incr = cw[1]
     a_work = rw[0]
@@ -1046,10 +1169,14 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     u2 = u + Cb[2, 0] * G1
     d3 = u3 = d4 = u4 = 0.0
     G2 = G3 = G4 = 0.0
+    if damped:
+        D1 = dissipation_rate(z, modes)
     if method == ETD34:
         for n in range(N):
-            zs[n] = C[1, n] * z[n] + C[2, n] * N1[n]
-        st, F2, jm = _stage(V * th - d2, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+            zs[n] = emul(C[1, n], z[n], kind[n]) + C[2, n] * N1[n]
+        if damped:
+            D2 = dissipation_rate(zs, modes)
+        st, F2, jm = _stage(V * th - d2, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N2)
         G2 = body_accel(lay, F2)
         event = st == 0 and count_contacts(delta, jm) != contacts
         if st == 0:
@@ -1057,15 +1184,19 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
             d3 = d2 + Cb[3, 1] * (G2 - G1)
             u3 = u2 + Cb[3, 0] * (G2 - G1)
-            st, F3, jm = _stage(V * th - d3, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            if damped:
+                D3 = dissipation_rate(zs, modes)
+            st, F3, jm = _stage(V * th - d3, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N3)
             G3 = body_accel(lay, F3)
             event = event or (st == 0 and count_contacts(delta, jm) != contacts)
         if st == 0:
             for n in range(N):
-                zs[n] = C[0, n] * z[n] + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
+                zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
+            if damped:
+                D4 = dissipation_rate(zs, modes)
             d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
             u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
-            st, F4, jm = _stage(V * t_new - d4, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            st, F4, jm = _stage(V * t_new - d4, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N4)
             G4 = body_accel(lay, F4)
             event = event or (st == 0 and count_contacts(delta, jm) != contacts)
     else:
@@ -1074,7 +1205,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             k1 = 1j * omega[n] * z[n] + N1[n]
             incr[n] = k1                     # accumulates k1 + 2 k2 + 2 k3
             zs[n] = z[n] + 0.5 * h * k1
-        st, F2, jm = _stage(V * th - d2, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        st, F2, jm = _stage(V * th - d2, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N2)
         G2 = body_accel(lay, F2)
         if st == 0:
             for n in range(N):
@@ -1083,7 +1214,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = z[n] + 0.5 * h * k2
             d3 = d2 + Cb[3, 1] * (G2 - G1)
             u3 = u2 + Cb[3, 0] * (G2 - G1)
-            st, F3, jm = _stage(V * th - d3, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            st, F3, jm = _stage(V * th - d3, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N3)
             G3 = body_accel(lay, F3)
         if st == 0:
             for n in range(N):
@@ -1092,14 +1223,15 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = z[n] + h * k3
             d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
             u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
-            st, F4, jm = _stage(V * t_new - d4, zs, omega, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            st, F4, jm = _stage(V * t_new - d4, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N4)
             G4 = body_accel(lay, F4)
     if st == 0:
         yb_out[B_D] = d + Cb[0, 1] * u + Cb[6, 1] * G1 + Cb[7, 1] * (G2 + G3) + Cb[8, 1] * G4
         yb_out[B_U] = u + Cb[6, 0] * G1 + Cb[7, 0] * (G2 + G3) + Cb[8, 0] * G4
         if method == ETD34:
             for n in range(N):
-                z_out[n] = C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n]) + C[8, n] * N4[n]
+                z_out[n] = (emul(C[0, n], z[n], kind[n]) + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n])
+                            + C[8, n] * N4[n])
         else:
             for n in range(N):
                 k4 = 1j * omega[n] * zs[n] + N4[n]
@@ -1115,7 +1247,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             # z+ minus the exponential trapezoid e^{zeta} z + h(phi1 - phi2) N1 + h phi2 N5: the
             # embedded estimate reads zero where the forcing is only (t - t*)^{3/2} smooth
             for n in range(N):
-                err[n] = z_out[n] - (C[0, n] * z[n] + (C[4, n] - 0.5 * C[5, n]) * N1[n]
+                err[n] = z_out[n] - (emul(C[0, n], z[n], kind[n]) + (C[4, n] - 0.5 * C[5, n]) * N1[n]
                                      + 0.5 * C[5, n] * N_out[n])
             errb[B_D] = yb_out[B_D] - (d + Cb[0, 1] * u + (Cb[4, 1] - 0.5 * Cb[5, 1]) * G1 + 0.5 * Cb[5, 1] * G5)
             errb[B_U] = yb_out[B_U] - (u + (Cb[4, 0] - 0.5 * Cb[5, 0]) * G1 + 0.5 * Cb[5, 0] * G5)
@@ -1134,11 +1266,12 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
         errb[B_D] = 0.0                      # the body's update is the same in both
         errb[B_U] = 0.0
     w_new = _step_work(lay, h, work, F1, F2, F3, F4, V - u, V - u2, V - u3, V - u4)
+    acc[0] = diss + h * (D1 / 6.0 + (D2 + D3) / 3.0 + D4 / 6.0) if damped else diss
     return 0, F5, jm, w_new, event
 
 
 @njit(cache=True, nogil=True)
-def dense_states(z0, N1, Nm, N5, omega, h, A, AD):
+def dense_states(z0, N1, Nm, N5, modes, h, A, AD):
     """a_n and a_n' at t0 + k h / K, k = 1..K-1 (K = A.shape[0] + 1), inside an accepted step.
 
     Exponential dense output: the modal oscillation exact, the forcing quadratic in time
@@ -1151,22 +1284,28 @@ def dense_states(z0, N1, Nm, N5, omega, h, A, AD):
     """
     K = A.shape[0] + 1
     d = h / K
+    omega = modes[M_OMEGA]
     for n in range(z0.shape[0]):
         w = omega[n]
         b1 = (4.0 * Nm[n] - 3.0 * N1[n] - N5[n]) / h
         b2 = 2.0 * (N1[n] - 2.0 * Nm[n] + N5[n]) / (h * h)
-        y = w * d
-        e = complex(math.cos(y), math.sin(y))
-        p1, p2, p3 = phi_from(y, e)
+        kind = modes[M_KIND, n]
+        if modes[M_HALF_C, n] == 0.0:
+            y = w * d
+            e = complex(math.cos(y), math.sin(y))
+            p1, p2, p3 = phi_from(y, e)
+        else:
+            e, p1, p2, p3 = mode_phis(modes, n, d)
         c1 = d * p1
         c2 = d * d * p2
         c3 = 2.0 * b2 * d * d * d * p3
         z = z0[n]
         for k in range(1, K):
             sk = (k - 1) * d
-            z = e * z + c1 * (N1[n] + sk * (b1 + b2 * sk)) + c2 * (b1 + 2.0 * b2 * sk) + c3
-            A[k - 1, n] = z.imag / w
-            AD[k - 1, n] = z.real
+            z = emul(e, z, kind) + c1 * (N1[n] + sk * (b1 + b2 * sk)) + c2 * (b1 + 2.0 * b2 * sk) + c3
+            a = mode_a(z, n, modes)
+            A[k - 1, n] = a
+            AD[k - 1, n] = mode_adot(z, a, n, modes)
 
 
 @njit(cache=True, nogil=True)
@@ -1272,7 +1411,7 @@ def _tension_piece(sign, t0, h, p0, p1, dz, A, AD, dense, strain_coef, lam1, dx,
     best[2] = p0[2] + th * (p1[2] - p0[2])
     if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
         return rec, n, False
-    if dz[4][dz[4].shape[0] - 1] * h <= 0.4:    # every mode resolved by the step: its ends suffice
+    if dz[4][M_OMEGA, dz[4].shape[1] - 1] * h <= 0.4:   # every mode resolved by the step: its ends suffice
         if not vmax > run_max:
             return rec, n, False
         if not joinable:
@@ -1522,18 +1661,17 @@ def gap_peak(s, U, delta, jm, a, adot, ones, lay, out):
 
 @njit(cache=True, nogil=True)
 def substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals,
-            delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs, yb_out, errb):
+            delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs, yb_out, errb, diss, acc):
     """A step of length s from (t, z) (the body at yb) into the given buffers, its own
     coefficients in Cs and Cbs; a_out, adot_out receive a_n and a_n' at t + s, eps the strain at
     the nodes, yb_out the body. Returns take_step's tuple."""
-    etd_coefficients(modes[M_OMEGA], s, Cs)
+    etd_coefficients(modes, s, Cs)
     body_coefficients(s, Cbs)
     res = take_step(method, t, t + s, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw,
-                    rw, fvals, delta, z_out, N_out, err, eps, yb, Cbs, yb_out, errb)
-    omega = modes[M_OMEGA]
+                    rw, fvals, delta, z_out, N_out, err, eps, yb, Cbs, yb_out, errb, diss, acc)
     for k in range(z.shape[0]):
-        a_out[k] = z_out[k].imag / omega[k]
-        adot_out[k] = z_out[k].real
+        a_out[k] = mode_a(z_out[k], k, modes)
+        adot_out[k] = mode_adot(z_out[k], a_out[k], k, modes)
     return res
 
 
@@ -1555,7 +1693,7 @@ def event_value(kind, t, jm, delta, a, adot, yb, modes, lay, cosq, eps, ones, ou
 @njit(cache=True, nogil=True)
 def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, Cs, modes, lay,
                  cosq, wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, ones, out,
-                 yb, Cbs, yb_out, errb):
+                 yb, Cbs, yb_out, errb, diss, acc):
     """First time in the accepted step [t, t + h] at which event_value(kind) reaches level,
     found on true sub-steps of the integrator from (t, z): Illinois regula falsi, bisection
     where a sub-step fails (a stage with delta >= 1 counts as past the level). p0, p1:
@@ -1574,7 +1712,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
         sk = h * k / SCAN
         st, F, jm, w, ev = substep(method, t, sk, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
                                    wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
-                                   yb_out, errb)
+                                   yb_out, errb, diss, acc)
         f = np.inf if st != 0 else event_value(kind, t + sk, jm, delta, a_out, adot_out, yb_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
@@ -1588,7 +1726,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
     for _ in range(100):
         st, F, jm, w, ev = substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
                                    wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
-                                   yb_out, errb)
+                                   yb_out, errb, diss, acc)
         f = np.inf if st != 0 else event_value(kind, t + s, jm, delta, a_out, adot_out, yb_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
@@ -1611,7 +1749,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
             s = 0.5 * (lo + hi)
     st, F, jm, w, ev = substep(method, t, lo, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq,
                                cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
-                               yb_out, errb)
+                               yb_out, errb, diss, acc)
     event_value(kind, t + lo, jm, delta, a_out, adot_out, yb_out, modes, lay, cosq, eps, ones, out)
     return lo, hi, F, jm, w, True
 
@@ -1633,25 +1771,33 @@ def _start_diagnostics(diag, t_start):
 
 
 @njit(cache=True, nogil=True)
-def _plus_plate_energy(e, LM, z):
-    """e + E_plate, E_plate = sum_n L M_n |z_n|^2 / 2 [J m-1] (added term by term to e)."""
+def _plus_plate_energy(e, modes, z):
+    """e + E_plate, E_plate = sum_n L M_n (a_n'^2 + omega_n^2 a_n^2) / 2 [J m-1] (added term by
+    term to e): L M_n |z_n|^2 / 2 for the undamped plate."""
+    LM = modes[M_LM]
+    if modes[M_HALF_C, z.shape[0] - 1] == 0.0:
+        for n in range(z.shape[0]):
+            e += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+        return e
+    omega = modes[M_OMEGA]
     for n in range(z.shape[0]):
-        e += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+        a = mode_a(z[n], n, modes)
+        v = mode_adot(z[n], a, n, modes)
+        e += 0.5 * LM[n] * (v * v + omega[n] ** 2 * a * a)
     return e
 
 
 @njit(cache=True, nogil=True)
-def _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, LM, lay, out_a, out_adot,
-                   out_series):
+def _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, diss, modes, lay, out_a,
+                   out_adot, out_series):
     """Row k of the outputs: the state at t (an output time the steps have landed on)."""
-    e_plate = 0.0
     for n in range(z.shape[0]):
         out_a[k, n] = a[n]
         out_adot[k, n] = adot[n]
-        e_plate += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
     out_series[k, S_CONTACTS] = count_contacts(delta, jmax)
     out_series[k, S_FORCE] = force
-    out_series[k, S_E_PLATE] = e_plate
+    out_series[k, S_E_PLATE] = _plus_plate_energy(0.0, modes, z)
+    out_series[k, S_DISSIPATED] = diss
     out_series[k, S_E_LAYER] = layer_energy(delta, jmax, lay[L_DX], lay[L_K], lay[L_HE])
     out_series[k, S_WORK] = work
     out_series[k, S_ERR] = err_sum
@@ -1664,7 +1810,6 @@ def _error_ratio(err, errb, z, znew, yb, yb_new, modes, lay, tolerance, gap, bot
     """Local error over tolerance in the energy norm (the body's kinetic energy included when
     it is free); near bottoming also the error of delta at the gap against the gap itself."""
     LM = modes[M_LM]
-    omega = modes[M_OMEGA]
     num = 0.0
     den_old = 0.0
     den_new = 0.0
@@ -1685,7 +1830,7 @@ def _error_ratio(err, errb, z, znew, yb, yb_new, modes, lay, tolerance, gap, bot
         # gap itself, or a grazing approach crosses the threshold in one run and not in
         # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
         for n in range(z.shape[0]):
-            scratch[n] = err[n].imag / omega[n]
+            scratch[n] = mode_a(err[n], n, modes)
         e_delta = abs(mode_sum(ones, scratch, lay[L_LAM1], gap[2]) - errb[B_D]) / he
         ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap[0])))
     if not math.isfinite(ratio):
@@ -1880,7 +2025,6 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     """
     omega = modes[M_OMEGA]
     strain_coef = modes[M_STRAIN]
-    LM = modes[M_LM]
     lam1 = lay[L_LAM1]
     dx = lay[L_DX]
     K = lay[L_K]
@@ -1930,6 +2074,9 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     a_sub = np.empty(N)
     adot_sub = np.empty(N)
     ones = np.ones(N)
+    acc = np.zeros(1)                         # dissipated energy at the end of a step
+    acc_sub = np.zeros(1)
+    damped = modes[M_HALF_C, N - 1] > 0.0
     delta = np.empty(J)
     delta_new = np.empty(J)
     delta_sub = np.empty(J)
@@ -1968,11 +2115,12 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
 
     # ----- the initial state and its observers
     for n in range(N):
-        z[n] = complex(adot0[n], omega[n] * a0[n])
+        z[n] = mode_z(a0[n], adot0[n], n, modes)
         a[n] = a0[n]
         adot[n] = adot0[n]
     t = t_start
     work = 0.0
+    diss = 0.0                  # energy dissipated in the damped plate
     err_sum = 0.0
     rhs_count = 1
     st, force, jmax = layer_forcing_at(body_position(lay, t, yb), a, modes[M_COEF], cosq, wq, lay, delta,
@@ -1996,8 +2144,8 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     gap_peak(body_position(lay, t, yb), body_speed(lay, yb), delta, jmax, a, adot, ones, lay, gap0)
     diag[D_MAX_DELTA] = gap0[0]
     diag[D_MAX_DELTA_T] = t
-    e0 = _plus_plate_energy(layer_energy(delta, jmax, dx, K, he), LM, z)
-    resid = 0.0                 # E_plate + E_layer - W - E(t_start)
+    e0 = _plus_plate_energy(layer_energy(delta, jmax, dx, K, he), modes, z)
+    resid = 0.0                 # E_plate + E_layer + D - W - E(t_start)
     max_residual = 0.0
     body_resid0 = body_residual(lay, t, yb, work)
     max_body_residual = 0.0
@@ -2019,7 +2167,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     while True:
         # ----- record outputs due at the current time
         while k < T and t_out[k] <= t:
-            _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, LM, lay, out_a,
+            _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, diss, modes, lay, out_a,
                            out_adot, out_series)
             k += 1
         if bottomed or separated or t >= t_end:
@@ -2033,14 +2181,14 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
         # ----- choose the step
         h_step, t_new, landing = _next_step(t, t_start, target, h, h_init, fixed_step, fixed)
         if h_step != h_coeffs:
-            etd_coefficients(omega, h_step, C)
+            etd_coefficients(modes, h_step, C)
             body_coefficients(h_step, Cb)
             h_coeffs = h_step
 
         # ----- one step
         st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work, contacts,
                                               C, modes, lay, cosq, wq, cw, rw, fvals, delta_new,
-                                              znew, N5, err, eps_new, yb, Cb, yb_new, errb)
+                                              znew, N5, err, eps_new, yb, Cb, yb_new, errb, diss, acc)
         eps_ready = True                     # eps_new: the strain at the nodes at t_new
         rhs_count += 4
         if not _finite_state(st, w_new, znew, yb_new):
@@ -2081,8 +2229,8 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
                 continue
 
         # ----- the energy identity may not jump (a step that breaks it is rejected)
-        e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), LM, znew)
-        resid_new = e_new - w_new - e0
+        e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), modes, znew)
+        resid_new = e_new + acc[0] - w_new - e0
         if not abs(resid_new - resid) <= _energy_allowance(delta_new, jm5, e_new, w_new, e0, work):
             diag[D_ENERGY_JUMPS] += 1.0
             rejected += 1
@@ -2096,8 +2244,8 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
 
         # ----- bottoming: the gap closes to bottom_gap inside the step
         for n in range(N):
-            a_new[n] = znew[n].imag / omega[n]
-            adot_new[n] = znew[n].real
+            a_new[n] = mode_a(znew[n], n, modes)
+            adot_new[n] = mode_adot(znew[n], a_new[n], n, modes)
         gap_peak(body_position(lay, t_new, yb_new), body_speed(lay, yb_new), delta_new, jm5, a_new,
                  adot_new, ones, lay, gap1)
         h_eff = h_step
@@ -2106,25 +2254,25 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
             s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(
                 0, bottom_level, method, t, h_step, gap0, gap1, z, N1, force, work, contacts, Cs,
                 modes, lay, cosq, wq, cw, rw, fvals, delta_new, znew, N5, err, a_new, adot_new,
-                eps_sub, ones, gap1, yb, Cbs, yb_new, errb)
+                eps_sub, ones, gap1, yb, Cbs, yb_new, errb, diss, acc)
             if found:
                 bottomed = True
                 eps_ready = False            # the state is the search's last sub-step
                 h_eff = s_lo
                 t_new = t + s_lo
                 F5, jm5, w_new = F_b, jm_b, w_b
-                e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), LM, znew)
-                resid_new = e_new - w_new - e0
+                e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), modes, znew)
+                resid_new = e_new + acc[0] - w_new - e0
             else:
                 # the interpolant's crossing was not real: the search overwrote the step's
                 # buffers, so take the accepted step again (same size and coefficients, same result)
                 st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work,
                                                       contacts, C, modes, lay, cosq, wq, cw, rw, fvals,
                                                       delta_new, znew, N5, err, eps_new, yb, Cb, yb_new,
-                                                      errb)
+                                                      errb, diss, acc)
                 for n in range(N):
-                    a_new[n] = znew[n].imag / omega[n]
-                    adot_new[n] = znew[n].real
+                    a_new[n] = mode_a(znew[n], n, modes)
+                    adot_new[n] = mode_adot(znew[n], a_new[n], n, modes)
                 gap_peak(body_position(lay, t_new, yb_new), body_speed(lay, yb_new), delta_new, jm5,
                          a_new, adot_new, ones, lay, gap1)
 
@@ -2132,8 +2280,14 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
         steps += 1
         if not bottomed:
             e_step = 0.0
-            for n in range(N):
-                e_step += (strain_coef[n] / omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
+            if damped:                       # the error of a and of a' / omega, in strain
+                for n in range(N):
+                    ea = mode_a(err[n], n, modes)
+                    ev = mode_adot(err[n], ea, n, modes) / omega[n]
+                    e_step += strain_coef[n] ** 2 * (ea * ea + ev * ev)
+            else:
+                for n in range(N):
+                    e_step += (strain_coef[n] / omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
             err_sum += math.sqrt(e_step)
             diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
@@ -2141,7 +2295,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
             strain_nodes(a_new, strain_coef, cosq, eps_new)
         tension0[:, :] = tension
         dense[0] = not h_eff > 0.0           # computed on demand by the tension observer
-        dz = (z, N1, rw[2], N5, omega)
+        dz = (z, N1, rw[2], N5, modes)
         rec_up, n_up, rec_lo, n_lo = _observe_tensions(
             t, h_eff, eps, eps_new, a, a_new, adot, adot_new, dz, A, AD, dense, modes, lay, L, tension,
             scratch, samples, rec_up, n_up, rec_lo, n_lo, joinable, run_max, best, A2, AD2, eps_sub, cosq,
@@ -2157,7 +2311,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
                         int(sign), levels[i], method, t, h_eff, tension0[s], tension[s], z, N1,
                         force, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals, delta_sub,
                         zsub, Nsub, errsub, a_sub, adot_sub, eps_sub, ones, out3, yb, Cbs, yb_sub,
-                        errb_sub)
+                        errb_sub, diss, acc_sub)
                     if found:
                         level_t[s, i] = t + 0.5 * (lo_ + hi_)
                         level_x[s, i] = out3[2]
@@ -2184,6 +2338,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
         gap0[:] = gap1
         t = t_new
         work = w_new
+        diss = acc[0]
         force = F5
         jmax = jm5
         resid = resid_new
@@ -2225,6 +2380,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
 
     if status == OK and free_body and until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
+    diag[D_DISSIPATED] = diss
     status = _finish_diagnostics(diag, status, t, work, peak_work, max_residual, max_body_residual, gap0, he,
                                  steps, rejected, rhs_count)
     return status, k, rec_up, n_up, rec_lo, n_lo, rec_c, n_c

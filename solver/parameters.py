@@ -48,12 +48,14 @@ PARAMETER_INFO = {
                    "(0: the paper's parabola)", "m"),
     "deadrise": ("deadrise angle of a wedge-shaped body, (|x| - flat_width) tan(deadrise) (0: not a "
                  "wedge; R and body_p are then unused)", "degree"),
+    "tau": ("retardation time of the Kelvin-Voigt viscoelastic ice, D -> D (1 + tau d/dt) (0: elastic, "
+            "the paper's)", "s"),
 }
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
-                  "deadrise": 0.0}
+                  "deadrise": 0.0, "tau": 0.0}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -64,6 +66,7 @@ PHYSICAL_RANGES = {
     "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
     "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
     "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
+    "tau": (0.0, 10.0),
 }
 
 
@@ -169,6 +172,9 @@ class Parameters:
         u = max(|x| - flat_width, 0), the profile is u tan(deadrise) for a wedge (deadrise > 0
         [degree]), else u^body_p / (body_p R^(body_p - 1)); the defaults (2, 0 m, 0) are the
         paper's parabola x^2 / 2R.
+    tau : retardation time of Kelvin-Voigt viscoelastic ice [s]: D -> D (1 + tau d/dt) damps
+        mode n at c_n = tau D lambda_n^4 / M_n (docs/model.md, "Viscoelastic ice"); 0 (the
+        default) is the paper's elastic ice.
     """
 
     K: float = 8e6
@@ -189,6 +195,7 @@ class Parameters:
     body_p: float = 2.0
     flat_width: float = 0.0
     deadrise: float = 0.0
+    tau: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -210,6 +217,9 @@ class Parameters:
             elif f.name == "flat_width":
                 if not number or not math.isfinite(float(value)) or float(value) < 0.0:
                     raise ParameterError(f"flat_width must be finite and >= 0, got {value!r}")
+            elif f.name == "tau":
+                if not number or not math.isfinite(float(value)) or float(value) < 0.0:
+                    raise ParameterError(f"tau must be finite and >= 0 (0: elastic ice), got {value!r}")
             elif f.name == "deadrise":
                 if not number or not 0.0 <= float(value) < 90.0:
                     raise ParameterError(f"deadrise must be in [0, 90) degrees (0: not a wedge), got {value!r}")
@@ -246,6 +256,11 @@ class Parameters:
         if math.isinf(self.H):
             return self.plate_mass + self.rho_w / self.wavenumbers
         return self.plate_mass + water_added_mass(self.rho_w, self.wavenumbers, self.H)
+
+    @property
+    def damping(self) -> np.ndarray:
+        """c_n = tau D lambda_n^4 / M_n [s-1]: a_n'' + c_n a_n' + omega_n^2 a_n = P_n."""
+        return self.tau * self.rigidity * self.wavenumbers**4 / self.added_masses
 
     @property
     def frequencies(self) -> np.ndarray:

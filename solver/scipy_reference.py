@@ -46,6 +46,9 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     level = 1.0 - bottom_gap
 
     free = p.free_body
+    damp = p.damping                                  # Kelvin-Voigt c_n (0: elastic ice)
+    damped = p.tau > 0
+    n_extra = 3 if free else 1
 
     def position(t, y):
         return y[2 * N + 1] if free else p.V * t
@@ -62,10 +65,13 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         st, F, _ = forcing(t, y)
         if st != 0:
             raise _StageDeltaOne(t)
+        v = y[N:2 * N]
+        accel = -om2 * y[:N] - damp * v + P if damped else -om2 * y[:N] + P
+        tail = [np.sum(tab.LM * damp * v * v)] if damped else []
         if free:
             U = y[2 * N + 2]
-            return np.concatenate([y[N:2 * N], -om2 * y[:N] + P, [F * U, U, p.body_g - F / p.body_mass]])
-        return np.concatenate([y[N:2 * N], -om2 * y[:N] + P, [p.V * F]])
+            return np.concatenate([v, accel, [F * U, U, p.body_g - F / p.body_mass], tail])
+        return np.concatenate([v, accel, [p.V * F], tail])
 
     def largest_delta(t, y):
         st, _, jmax = forcing(t, y)
@@ -81,7 +87,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     diag = np.full(kn.N_DIAG, np.nan)
     diag[kn.D_FAIL_KIND] = kn.FAIL_NONE
     status, reason, failure = kn.OK, kn.FAIL_NONE, ""
-    y0 = np.concatenate([a0, v0, [0.0, p.V * t_start, p.V] if free else [0.0]])
+    y0 = np.concatenate([a0, v0, [0.0, p.V * t_start, p.V] if free else [0.0], [0.0] if damped else []])
     k = 0
 
     def record(t, y):
@@ -96,6 +102,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         series[k, kn.S_WORK] = work
         series[k, kn.S_BODY_POSITION] = position(t, y)
         series[k, kn.S_BODY_SPEED] = speed(y)
+        series[k, kn.S_DISSIPATED] = y[2 * N + n_extra] if damped else 0.0
         k += 1
 
     while k < T and times[k] <= t_start:
@@ -168,8 +175,9 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         work = e[-1, kn.S_WORK]
         peak = e[:, kn.S_WORK].max()
         diag[kn.D_WORK] = work
-        residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] - e[:, kn.S_WORK] - e[0, kn.S_E_PLATE]
-                          - e[0, kn.S_E_LAYER])
+        residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] + e[:, kn.S_DISSIPATED] - e[:, kn.S_WORK]
+                          - e[0, kn.S_E_PLATE] - e[0, kn.S_E_LAYER])
+        diag[kn.D_DISSIPATED] = e[-1, kn.S_DISSIPATED]
         diag[kn.D_ENERGY_RESIDUAL] = residual.max() / peak if peak > 0 else 0.0
     diag[kn.D_RHS] = nfev[0]
     diag[kn.D_STEPS] = steps

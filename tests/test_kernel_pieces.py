@@ -57,7 +57,9 @@ def test_dense_output_matches_direct_formula_and_dop853():
     N1, Nm, N5 = (rng.normal(size=5) + 0j for _ in range(3))
     K = kn.TENSION_SAMPLES
     A, AD = np.empty((K - 1, 5)), np.empty((K - 1, 5))
-    kn.dense_states(z0, N1, Nm, N5, omega, h, A, AD)
+    modes = np.zeros((kn.N_MODE_ROWS, 5))                        # undamped modes
+    modes[kn.M_OMEGA] = modes[kn.M_WD] = omega
+    kn.dense_states(z0, N1, Nm, N5, modes, h, A, AD)
     direct = _dense_direct(z0, N1, Nm, N5, omega, h, K)
     scale = np.abs(direct).max(axis=0)
     assert np.all(np.abs(A - direct) <= 1e-12 * scale), np.abs(A - direct).max(axis=0) / scale
