@@ -47,7 +47,7 @@ BODY_SERIES_INFO = {
 }
 RECORD_INFO = {
     "t_sc": ("time scale 1/omega_1 of the case", "s"),
-    "stage_duration": ("impact stage L^2/(6 R V) of the case", "s"),
+    "stage_duration": ("impact stage of the case, b_mean / V (L^2/(6 R V) for the paper's parabola)", "s"),
     "time_reached": ("time the integration reached", "s"),
     "run_time": ("wall time of the solver for this case (the integration alone)", "s"),
     "error_estimate_run_time": ("wall time of the error estimate's companion run (0: none)", "s"),
@@ -150,6 +150,15 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
     return out
 
 
+def time_coordinate_attrs(unit: str) -> tuple:
+    """(long_name, units) of the t coordinate for an [output] times unit."""
+    if unit == "t_sc":
+        return "time in units of the case's t_sc", "1"
+    if unit == "s":
+        return "time since first touch", "s"
+    return "time as a fraction of the case's impact stage (stage_duration)", "1"
+
+
 def _attrs(long_name, units=None):
     return {"long_name": long_name, **({"units": units} if units is not None else {})}
 
@@ -190,12 +199,11 @@ def batch_dataset(cases: list, arrays: list) -> dict:
     rows = np.concatenate([a["contact_record"] for a in arrays] or [np.empty((0, 2))])
     for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):
         data[name] = (("contact_change",), rows[:, col], _attrs(long_name, units))
-    t_long = "time in units of the case's t_sc" if first.times_spec["unit"] == "t_sc" \
-        else "time as a fraction of the case's impact stage L^2/(6RV)"
+    t_long, t_units = time_coordinate_attrs(first.times_spec["unit"])
     coords = {"case": ("case", np.array([c.case_id for c in cases], dtype=object), _attrs("case id")),
               "surface": ("surface", np.array(SURFACES, dtype=object),
                           _attrs("ice surface: upper (tension = +strain), lower (tension = -strain)")),
-              "t": ("t", first.requested_times(), _attrs(t_long, "1")),
+              "t": ("t", first.requested_times(), _attrs(t_long, t_units)),
               "x": ("x", np.linspace(-1.0, 1.0, first.x_points),
                     _attrs("position along the plate as a fraction of the case's half-length L", "1"))}
     attrs = {"title": BATCH_TITLE, "schema_version": SCHEMA_VERSION,

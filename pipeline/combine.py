@@ -28,7 +28,8 @@ from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
 
 from . import provenance
 from .casefile import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES,
-                       TENSION_RECORD_INFO, TEXT_INFO, DamagedFile, read_batch_arrays, tension_records)
+                       TENSION_RECORD_INFO, TEXT_INFO, DamagedFile, read_batch_arrays, tension_records,
+                       time_coordinate_attrs)
 from .fracture import CRACK_INFO, onset_from_records
 from .ledger import BATCHES, write_sidecar
 from .study import SCHEMA_VERSION, Study
@@ -264,8 +265,8 @@ class StudyWriter:
         first = study.case(0)
         t = nc.createVariable("t", "f8", ("t",))
         t[:] = t_coord
-        t.setncatts({"long_name": "time in units of the case's t_sc" if study.output["times"]["unit"] == "t_sc"
-                     else "time as a fraction of the case's impact stage L^2/(6RV)", "units": "1"})
+        long_name, units = time_coordinate_attrs(study.output["times"]["unit"])
+        t.setncatts({"long_name": long_name, "units": units})
         if study.output["fields"]:
             x = nc.createVariable("x", "f8", ("x",))
             L_values = {v for v in study.grid.get("L", [])} or {c.parameters.L for c in

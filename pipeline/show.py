@@ -155,7 +155,19 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
     (ax_f, ax_c), (ax_s, ax_e) = axes
     ax_f.plot(ms[ok], r.force[ok] / 1e6, color="C0", lw=1.5, label="force")
     ax_f.set_ylabel("force on the body [MN/m]")
-    ax_f.set_title("(a) force", loc="left")
+    ax_f.set_title("(a) force" + (" and the body's speed" if p.free_body else ""), loc="left")
+    if p.free_body:                      # a free body: its speed on a second axis
+        ax_u = ax_f.twinx()
+        ax_u.plot(ms[ok], r.body_speed[ok], color="C3", lw=1.2, ls="--")
+        ax_u.axhline(0.0, color="C3", lw=0.6, ls=":")
+        ax_u.set_ylabel("downward speed of the body U [m/s] (dashed)", color="C3")
+        for name, style in (("stop_time", "v"), ("separation_time", "^")):
+            t_event = r.diagnostics[name]
+            if np.isfinite(t_event):
+                ax_u.plot([t_event * 1e3], [np.interp(t_event, times[ok], r.body_speed[ok])], style,
+                          color="C3", ms=7, label=name.replace("_", " "))
+        if ax_u.get_legend_handles_labels()[0]:
+            ax_u.legend(fontsize=8, loc="lower right")
 
     if contact is not None and len(contact):
         tc = np.append(contact[:, 0], t_reached) * 1e3

@@ -11,7 +11,7 @@ A study file ``studies/<name>.toml`` (read with :mod:`tomllib`)::
                   # group = "..." labels it, e.g. the sweep it belongs to)
     [reference]   # optional: Nmod and solver settings of a converged run; every case is also
                   # run with these overrides and stored with its error against that run
-    [output]      # times = {unit = "t_sc", step, stop} | {unit = "stage", count}
+    [output]      # times = {unit = "t_sc", step, stop} | {unit = "s", step, stop} | {unit = "stage", count}
                   # fields = [...], x_points = 241
                   # eps_Y = [...] | {min, max, count} (log range): the yield strains at which
                   # crack onset is reported (post-processing: not part of a case's identity)
@@ -83,13 +83,16 @@ class Case:
 
     @property
     def t_end(self) -> float:
-        """End of the run [s]: the impact stage, or the last output time inside it; for
-        end = "separation" the last output time (the run may end earlier, at separation)."""
+        """End of the run [s]: the impact stage, or the last output time inside it; for a free
+        body (finite body_mass) "last_output" is the last output time itself, and so is
+        "separation" (the run may end earlier, at separation). The stage bounds the paper's
+        body, which pushes on at V until the layer bottoms out; a free body has no such end."""
         stage = self.parameters.stage_duration
-        if self.end == "separation":
-            return float(self.times_seconds()[-1])
+        last = float(self.times_seconds()[-1])
+        if self.end == "separation" or (self.end == "last_output" and self.parameters.free_body):
+            return last
         if self.end == "last_output":
-            return min(stage, float(self.times_seconds()[-1]))
+            return min(stage, last)
         return stage
 
     def value(self, key):
@@ -106,7 +109,8 @@ class Case:
         """Requested times in seconds for this case (some may lie past its stage)."""
         t = coordinate_times(self.times_spec)
         p = self.parameters
-        scale = p.time_scale if self.times_spec["unit"] == "t_sc" else p.stage_duration
+        unit = self.times_spec["unit"]
+        scale = p.time_scale if unit == "t_sc" else 1.0 if unit == "s" else p.stage_duration
         return t * scale
 
     def to_dict(self) -> dict:
@@ -236,7 +240,7 @@ def _grid_label(grid: dict, idx: tuple) -> str:
 
 
 def coordinate_times(spec: dict) -> np.ndarray:
-    if spec["unit"] == "t_sc":
+    if spec["unit"] in ("t_sc", "s"):
         n = int(math.floor(spec["stop"] / spec["step"] + 1e-9))
         return np.round(np.arange(n + 1) * spec["step"], 12)
     return np.linspace(0.0, 1.0, spec["count"])
@@ -299,13 +303,13 @@ def _check_output(out) -> dict:
         raise StudyError(f"[output]: unknown key {sorted(unknown)[0]!r}; known: {', '.join(sorted(OUTPUT_KEYS))}")
     result = {**DEFAULT_OUTPUT, **out}
     spec = result["times"]
-    if not isinstance(spec, dict) or spec.get("unit") not in ("t_sc", "stage"):
-        raise StudyError("[output] times must be {unit = \"t_sc\", step = ..., stop = ...} "
+    if not isinstance(spec, dict) or spec.get("unit") not in ("t_sc", "s", "stage"):
+        raise StudyError("[output] times must be {unit = \"t_sc\" or \"s\", step = ..., stop = ...} "
                          "or {unit = \"stage\", count = ...}")
-    if spec["unit"] == "t_sc":
+    if spec["unit"] in ("t_sc", "s"):
         extra = set(spec) - {"unit", "step", "stop"}
         if extra or "step" not in spec or "stop" not in spec:
-            raise StudyError("[output] times with unit = \"t_sc\" takes exactly step and stop")
+            raise StudyError(f"[output] times with unit = \"{spec['unit']}\" takes exactly step and stop")
         for k in ("step", "stop"):
             v = _number(f"[output] times.{k}", spec[k])
             if not (math.isfinite(v) and v > 0):

@@ -196,3 +196,20 @@ def test_drop_study_stores_the_body_and_its_ends(tmp_path):
         assert ds["separation_time"].sel(body_mass=200.0) < ds["separation_time"].sel(body_mass=2000.0)
         assert ds["separation_speed"].sel(body_mass=200.0) > ds["separation_speed"].sel(body_mass=2000.0)
         assert ds.attrs["cases_ok"] == 2 and ds.attrs["cases_failed"] == 0
+
+
+def test_times_in_seconds_and_a_free_body_runs_past_the_stage(tmp_path):
+    """[output] times in seconds; end = "last_output" takes a free body to the last output time,
+    past the paper's stage (0.12 s here), and the paper's body only to its stage."""
+    import xarray as xr
+    path = tmp_path / "long.toml"
+    path.write_text(STUDY.format(base="", masses="[2e5, inf]", end="last_output").replace(
+        'times = { unit = "t_sc", step = 0.5, stop = 6.0 }', 'times = { unit = "s", step = 0.05, stop = 0.2 }'))
+    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    assert code == 0, err
+    with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
+        assert ds["t"].attrs["units"] == "s" and list(ds["t"].values) == [0.0, 0.05, 0.1, 0.15, 0.2]
+        free, paper = ds.sel(body_mass=2e5), ds.sel(body_mass=np.inf)
+        assert float(free["time_reached"]) == pytest.approx(0.2) and np.isfinite(free["force"]).all()
+        assert float(paper["time_reached"]) == pytest.approx(0.12) and np.isnan(paper["force"].values[-2:]).all()
+        assert np.isfinite(float(free["stop_time"]))
