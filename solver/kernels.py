@@ -824,6 +824,17 @@ def mode_sums(w, c, lam1, x):
 
 
 @njit(cache=True, nogil=True)
+def _newton_move(x, d1, d2, xlo, xhi, stop):
+    """One safeguarded Newton step towards a maximum, from the first and second derivative d1,
+    d2 at x, kept in [xlo, xhi]: (new x, done); done when the move is below stop, or at once
+    (x kept) when the curvature does not point to a maximum."""
+    if not d2 < 0.0:
+        return x, True
+    xn = min(max(x - d1 / d2, xlo), xhi)
+    return xn, abs(xn - x) <= stop
+
+
+@njit(cache=True, nogil=True)
 def continuous_peak(vals, sign, j, n, dx, w, c, lam1, scale, q2, q0):
     """Largest value over continuous x near node j of the field
         v(x) = sign * scale * sum_n w_n c_n cos(lambda_n x) + q2 x^2 + q0,
@@ -839,13 +850,8 @@ def continuous_peak(vals, sign, j, n, dx, w, c, lam1, scale, q2, q0):
     xhi = (j + 1) * dx
     for _ in range(8):
         s0, s1, s2 = mode_sums(w, c, lam1, x)
-        d1 = sign * scale * s1 + 2.0 * q2 * x
-        d2 = sign * scale * s2 + 2.0 * q2
-        if not d2 < 0.0:
-            break
-        xn = min(max(x - d1 / d2, xlo), xhi)
-        done = abs(xn - x) <= NEWTON_STOP * dx
-        x = xn
+        x, done = _newton_move(x, sign * scale * s1 + 2.0 * q2 * x, sign * scale * s2 + 2.0 * q2, xlo, xhi,
+                               NEWTON_STOP * dx)
         if done:
             break
     s0, s1, s2 = mode_sums(w, c, lam1, x)
@@ -1314,11 +1320,7 @@ def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
     rate sign * sum_n w_n a_n' cos(lambda_n x*): track[:3] = (value, rate, x)."""
     for _ in range(8):
         s0, s1, s2 = mode_sums(w, a, lam1, x)
-        if not sign * s2 < 0.0:
-            break
-        xn = min(max(x - s1 / s2, xlo), xhi)
-        done = abs(xn - x) <= NEWTON_STOP * (xhi - xlo)
-        x = xn
+        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
         if done:
             break
     s0, s1, s2 = mode_sums(w, a, lam1, x)
@@ -1621,13 +1623,7 @@ def shape_peak(delta, j, n, a, ones, s, lay):
     for _ in range(8):
         s0, s1, s2 = mode_sums(ones, a, lay[L_LAM1], x)
         b1, b2 = body_slope_curvature(x, lay)
-        d1 = s1 - b1
-        d2 = s2 - b2
-        if not d2 < 0.0:
-            break
-        xn = min(max(x - d1 / d2, xlo), xhi)
-        done = abs(xn - x) <= NEWTON_STOP * dx
-        x = xn
+        x, done = _newton_move(x, s1 - b1, s2 - b2, xlo, xhi, NEWTON_STOP * dx)
         if done:
             break
     s0, s1, s2 = mode_sums(ones, a, lay[L_LAM1], x)

@@ -110,6 +110,30 @@ class ParameterError(ValueError):
     """A parameter or setting with a value outside its allowed range."""
 
 
+#: the allowed values of the keys beyond the paper: key -> (lowest, lowest excluded, inf allowed,
+#: a note for the message)
+BEYOND_BOUNDS = {
+    "H": (0.0, True, True, "inf: deep water"),
+    "body_mass": (0.0, True, True, "inf: the paper's body at constant speed"),
+    "body_g": (0.0, False, False, ""),
+    "body_p": (1.0, False, False, "a convex body"),
+    "flat_width": (0.0, False, False, ""),
+    "tau": (0.0, False, False, "0: elastic ice"),
+}
+
+
+def _check_bound(name: str, value, lowest: float, strict: bool, infinite: bool, note: str) -> None:
+    """Refuse a value that is not a number, is NaN, lies below lowest (at it, when strict) or is
+    infinite where that is not allowed: one line naming the key and its range."""
+    number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+    v = float(value) if number else math.nan
+    if number and not math.isnan(v) and (v > lowest if strict else v >= lowest) and (infinite or math.isfinite(v)):
+        return
+    bound = f"{'>' if strict else '>='} {lowest:g}"
+    raise ParameterError(f"{name} must be {bound if infinite else 'finite and ' + bound}"
+                         f"{f' ({note})' if note else ''}, got {value!r}")
+
+
 def _check_positive(name: str, value, integer: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a number, got {value!r}")
@@ -201,25 +225,8 @@ class Parameters:
         for f in fields(self):
             value = getattr(self, f.name)
             number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
-            if f.name == "H":
-                if not number or math.isnan(float(value)) or float(value) <= 0.0:
-                    raise ParameterError(f"H must be > 0 (inf: deep water), got {value!r}")
-            elif f.name == "body_mass":
-                if not number or math.isnan(float(value)) or float(value) <= 0.0:
-                    raise ParameterError(f"body_mass must be > 0 (inf: the paper's body at constant "
-                                         f"speed), got {value!r}")
-            elif f.name == "body_g":
-                if not number or not math.isfinite(float(value)) or float(value) < 0.0:
-                    raise ParameterError(f"body_g must be finite and >= 0, got {value!r}")
-            elif f.name == "body_p":
-                if not number or not math.isfinite(float(value)) or float(value) < 1.0:
-                    raise ParameterError(f"body_p must be finite and >= 1 (a convex body), got {value!r}")
-            elif f.name == "flat_width":
-                if not number or not math.isfinite(float(value)) or float(value) < 0.0:
-                    raise ParameterError(f"flat_width must be finite and >= 0, got {value!r}")
-            elif f.name == "tau":
-                if not number or not math.isfinite(float(value)) or float(value) < 0.0:
-                    raise ParameterError(f"tau must be finite and >= 0 (0: elastic ice), got {value!r}")
+            if f.name in BEYOND_BOUNDS:
+                _check_bound(f.name, value, *BEYOND_BOUNDS[f.name])
             elif f.name == "deadrise":
                 if not number or not 0.0 <= float(value) < 90.0:
                     raise ParameterError(f"deadrise must be in [0, 90) degrees (0: not a wedge), got {value!r}")

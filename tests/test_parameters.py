@@ -80,3 +80,19 @@ def test_parameters_are_immutable():
     p = Parameters()
     with pytest.raises(Exception):
         p.V = 3.0
+
+
+@pytest.mark.parametrize("key, bad, message", [
+    ("body_mass", 0.0, r"body_mass must be > 0 \(inf: the paper's body at constant speed\), got 0.0"),
+    ("body_mass", float("nan"), "body_mass must be > 0"),
+    ("body_g", -1.0, "body_g must be finite and >= 0, got -1.0"),
+    ("body_g", float("inf"), "body_g must be finite and >= 0"),
+    ("body_p", 0.5, r"body_p must be finite and >= 1 \(a convex body\)"),
+    ("flat_width", -1.0, "flat_width must be finite and >= 0"),
+    ("deadrise", 90.0, "deadrise must be in"), ("deadrise", -3.0, "deadrise must be in"),
+    ("tau", -1e-3, r"tau must be finite and >= 0 \(0: elastic ice\)"), ("tau", float("inf"), "tau must be finite"),
+    ("H", -1.0, "H must be > 0"), ("body_mass", "heavy", "body_mass must be > 0"), ("tau", True, "tau must be")])
+def test_bad_values_beyond_the_paper_are_one_line(key, bad, message):
+    with pytest.raises(ParameterError, match=message) as err:
+        Parameters(**{key: bad})
+    assert "\n" not in str(err.value)
