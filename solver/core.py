@@ -71,8 +71,8 @@ DIAGNOSTIC_INFO = {
     "energy_residual": ("max over time of |E_plate + E_layer + D - W| divided by the largest work W over the run "
                         "(the final work for the paper's body)", "1", kn.D_ENERGY_RESIDUAL),
     "work": ("work done by the body on the ice up to the time reached, int F U dt", "J m-1", kn.D_WORK),
-    "dissipated_energy": ("energy dissipated in the viscoelastic ice up to the time reached (0: elastic "
-                          "ice)", "J m-1", kn.D_DISSIPATED),
+    "dissipated_energy": ("energy dissipated in the viscoelastic ice and layer up to the time reached (0: "
+                          "elastic)", "J m-1", kn.D_DISSIPATED),
     "stop_time": ("first time a free body's speed reached zero (NaN: never, or the paper's body at "
                   "constant speed)", "s", kn.D_STOP_T),
     "max_penetration": ("deepest penetration s of a free body, at a zero of its speed", "m",
@@ -193,7 +193,8 @@ class _Tables:
         free = p.free_body
         body = xq * xq * (0.5 / p.R) if p.parabola else p.body_profile(xq)          # b(x_j)
         self.lay = np.concatenate([[lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
-                                    p.body_g if free else 0.0, p.body_p, p.flat_width, p.tan_deadrise], body])
+                                    p.body_g if free else 0.0, p.body_p, p.flat_width, p.tan_deadrise,
+                                    p.layer_tau], body])
         assert self.lay.size == kn.N_LAY + xq.size
 
 
@@ -227,14 +228,19 @@ def _check_times(times, t_start, t_end):
     return np.minimum(times, t_end)
 
 
-def _layer_pressure(p, tables, a, s, x):
+def _layer_pressure(p, tables, a, s, x, adot=None, U=None):
     """K f at positions x from f at the quadrature nodes, linear between nodes, split as in the
-    kernel, the body at penetration s [m].
+    kernel, the body at penetration s [m]; a viscoelastic layer scales f by
+    max(1 + layer_tau d(delta)/dt, 0) at the compressed nodes (from adot [m/s] and the body's
+    speed U).
 
     This is exactly the reaction the modes feel (the forcing integrates the same function).
     """
     delta = (a @ tables.cosq + s - p.body_profile(tables.xq)) / p.he       # (J,)
     f = np.where(delta > 0, delta / (1 - np.where(delta > 0, delta, 0.0)), 0.0)
+    if p.layer_tau > 0:
+        rate = (adot @ tables.cosq + U) / p.he
+        f = np.where(delta > 0, f * np.maximum(1.0 + p.layer_tau * rate, 0.0), 0.0)
     ax = np.abs(x)
     j = np.minimum((ax / tables.dx).astype(int), delta.size - 2)
     theta = ax / tables.dx - j
@@ -350,9 +356,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
     if not isinstance(until_separation, bool):
         raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
-    if p.tau > 0 and s.integrator == "rk4":
-        raise ParameterError("rk4 integrates the paper's elastic plate; viscoelastic ice (tau > 0) needs "
-                             "etd34 (its damped modes are exact) or dop853")
+    if (p.tau > 0 or p.layer_tau > 0) and s.integrator == "rk4":
+        raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
+                             "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")
     if until_separation and not p.free_body:
         raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
                              "moves down at V for ever")
@@ -414,7 +420,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             elif name == "layer_pressure":
                 pres = np.full((T, x.size), np.nan)
                 for k in np.flatnonzero(valid):
-                    pres[k] = _layer_pressure(p, tab, out_a[k], body_s[k], x)
+                    pres[k] = _layer_pressure(p, tab, out_a[k], body_s[k], x, out_adot[k],
+                                              series[k, kn.S_BODY_SPEED])
                 field_values[name] = pres
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     companion = None

@@ -187,8 +187,8 @@ N_MODE_ROWS = 7
 # entries of ``lay``: quadrature (lambda_1, dx), body motion (V, 1/M, g_b), body shape (R, p,
 # flat half-width c, tan of the deadrise), layer law (he, K); then lay[N_LAY + j] is the body's
 # profile b(x_j) at the J quadrature nodes (computed once per run, see body_profile)
-L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G, L_BODY_P, L_FLAT, L_TANB = range(11)
-N_LAY = 11
+L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G, L_BODY_P, L_FLAT, L_TANB, L_LAYER_TAU = range(12)
+N_LAY = 12
 # entries of the run control vector ``ctrl`` of integrate
 (C_T_START, C_T_END, C_TOLERANCE, C_FIXED_STEP, C_H_INIT, C_H_MIN, C_H_MAX, C_MAX_STEPS,
  C_BOTTOM_GAP, C_UNTIL_SEPARATION) = range(10)
@@ -537,12 +537,14 @@ def body_extent(reach, lay):
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def layer_forcing(t, a, coef, cosq, wq, lay, delta, fvals, P):
-    """layer_forcing_at for the body at the paper's constant speed: penetration s = V t."""
-    return layer_forcing_at(lay[L_V] * t, a, coef, cosq, wq, lay, delta, fvals, P)
+    """layer_forcing_at for the body at the paper's constant speed (penetration s = V t) and the
+    paper's elastic layer: (status, force, jmax)."""
+    st, force, jmax, _ = layer_forcing_at(lay[L_V] * t, lay[L_V], a, a, coef, cosq, wq, lay, delta, fvals, P)
+    return st, force, jmax
 
 
 @njit(cache=True, nogil=True)
-def layer_forcing_at(s, a, coef, cosq, wq, lay, delta, fvals, P):
+def layer_forcing_at(s, U, a, adot, coef, cosq, wq, lay, delta, fvals, P):
     """Modal forcing P_n(s, a) and body force F from the layer reaction, the body's lowest point
     at y = he - s (penetration s: V t for the paper's body), its profile b(x_j) in lay[N_LAY:].
 
@@ -565,20 +567,25 @@ def layer_forcing_at(s, a, coef, cosq, wq, lay, delta, fvals, P):
     status : 0, or 1 if some node has delta >= 1 (P is then meaningless).
     force : F(t) [N m-1].
     jmax : nodes j >= jmax cannot be in contact (delta < 0 there); delta, fvals are set below it.
+    power : the power the viscoelastic layer dissipates [W m-1] (0 for the elastic layer).
+
+    A viscoelastic layer (lay[L_LAYER_TAU] = tau_l > 0) presses with K f max(1 + tau_l delta', 0)
+    where compressed (layer_damping), delta' = (w' + U) / he from the modal velocities adot and the body's
+    downward speed U (both unused for the elastic layer).
     """
     N = a.shape[0]
     J = delta.shape[0]
     if lay[L_K] == 0.0:              # layer switched off (kernel-level tests): no contact at all
         for n in range(N):
             P[n] = 0.0
-        return 0, 0.0, 0
+        return 0, 0.0, 0, 0.0
     jmax = contact_bound(s, a, lay, J)
     modal_sum(a, cosq, delta, jmax)
-    return layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P)
+    return layer_reaction(s, U, adot, coef, cosq, wq, lay, jmax, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def layer_forcing_strain(s, a, coef, cosq, wq, lay, delta, fvals, P, strain_coef, eps):
+def layer_forcing_strain(s, U, a, adot, coef, cosq, wq, lay, delta, fvals, P, strain_coef, eps):
     """layer_forcing, and the strain at every node into eps (strain_nodes), from one pass over
     the table where both are needed."""
     N = a.shape[0]
@@ -587,10 +594,10 @@ def layer_forcing_strain(s, a, coef, cosq, wq, lay, delta, fvals, P, strain_coef
         strain_nodes(a, strain_coef, cosq, eps)
         for n in range(N):
             P[n] = 0.0
-        return 0, 0.0, 0
+        return 0, 0.0, 0, 0.0
     jmax = contact_bound(s, a, lay, J)
     modal_sum_strain(a, strain_coef, cosq, delta, eps, jmax)
-    return layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P)
+    return layer_reaction(s, U, adot, coef, cosq, wq, lay, jmax, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
@@ -606,9 +613,48 @@ def contact_bound(s, a, lay, J):
 
 
 @njit(cache=True, nogil=True)
-def layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P):
+def layer_damping(U, adot, cosq, lay, jmax, jc, delta, fvals):
+    """The viscoelastic layer (tau_l = lay[L_LAYER_TAU] > 0): at each compressed node f becomes
+    f max(1 + tau_l delta', 0), delta' = (w' + U) / he, w' = sum_n adot_n cos(lambda_n x_j) (one
+    more pass over the table, on the compressed nodes only). The damping is proportional to the
+    elastic reaction (Hunt-Crossley), so the pressure stays continuous as a node enters contact,
+    as the forcing's C1 continuation needs; the layer never pulls. Returns the new sum of fvals over
+    j < jmax (layer_reaction's force before its end weights) and the power the damping part
+    dissipates, 2 K sum_j w_j (p_d / K) he delta' [W m-1], each node weighted by the length the
+    force's quadrature gives it (dx/2 on each side towards a compressed neighbour, the compressed
+    part of a split subinterval towards an uncompressed one, nothing beyond x = 0 and x = L), so
+    that a contact patch narrower than dx is not over-counted."""
+    J = delta.shape[0]
+    tau_l = lay[L_LAYER_TAU]
+    he = lay[L_HE]
+    wdot = np.empty(jc)
+    modal_sum(adot, cosq, wdot, jc)
+    power = 0.0
+    for j in range(jc):
+        if delta[j] > 0.0:
+            rate = (wdot[j] + U) / he
+            f = fvals[j]
+            g = f * max(1.0 + tau_l * rate, 0.0)
+            fvals[j] = g
+            weight = 0.0
+            if j > 0:
+                dl = delta[j - 1]
+                weight += 0.5 if dl > 0.0 else 0.5 * g / (g - dl) if g > 0.0 else 0.0
+            if j < J - 1:
+                dr = delta[j + 1] if j + 1 < jmax else -1.0
+                weight += 0.5 if dr > 0.0 else 0.5 * g / (g - dr) if g > 0.0 else 0.0
+            power += weight * (g - f) * he * rate
+    force = 0.0
+    for j in range(jmax):
+        force += fvals[j]
+    return force, 2.0 * lay[L_K] * lay[L_DX] * power
+
+
+@njit(cache=True, nogil=True)
+def layer_reaction(s, U, adot, coef, cosq, wq, lay, jmax, delta, fvals, P):
     """The rest of layer_forcing, given the deflection sum_n a_n cos(lambda_n x_j) in delta
-    (j < jmax): delta and f at the nodes, then P and F (see layer_forcing)."""
+    (j < jmax): delta and f at the nodes (with the viscoelastic layer's part, layer_damping),
+    then P and F (see layer_forcing_at)."""
     N = P.shape[0]
     J = delta.shape[0]
     lam1 = lay[L_LAM1]
@@ -623,11 +669,14 @@ def layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P):
         f = 0.0
         if d > 0.0:
             if not d < 1.0:          # also catches NaN
-                return 1, 0.0, jmax
+                return 1, 0.0, jmax, 0.0
             f = d / (1.0 - d)
             jc = j + 1
         fvals[j] = f
         force += f
+    power = 0.0
+    if lay[L_LAYER_TAU] > 0.0 and jc > 0:
+        force, power = layer_damping(U, adot, cosq, lay, jmax, jc, delta, fvals)
     if jc > 0:
         modal_projection(fvals, cosq, P, jc)
         f0 = 0.5 * fvals[0]          # trapezoid ends: half weight at x = 0 and x = L
@@ -668,7 +717,7 @@ def layer_reaction(s, coef, cosq, wq, lay, jmax, delta, fvals, P):
                 force += 0.5 * f1 * (x1 - xs - dx)
     for n in range(N):
         P[n] *= K * coef[n]
-    return 0, 2.0 * K * force, jmax
+    return 0, 2.0 * K * force, jmax, power
 
 
 @njit(cache=True, nogil=True)
@@ -1099,18 +1148,27 @@ def body_residual(lay, t, yb, work):
 # the step: its stages, the body alongside the modes
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
-def _stage(s, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, P):
+def _stage(s, U, zs, modes, a_work, adot_work, lay, coef, cosq, wq, delta, fvals, P):
+    """layer_forcing_at at a stage state zs, the body at (s, U); a' is needed (adot_work) only
+    by a viscoelastic layer."""
     for n in range(zs.shape[0]):
         a_work[n] = mode_a(zs[n], n, modes)
-    return layer_forcing_at(s, a_work, coef, cosq, wq, lay, delta, fvals, P)
+    if lay[L_LAYER_TAU] > 0.0:
+        for n in range(zs.shape[0]):
+            adot_work[n] = mode_adot(zs[n], a_work[n], n, modes)
+    return layer_forcing_at(s, U, a_work, adot_work, coef, cosq, wq, lay, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True)
-def _last_stage(s, zs, modes, a_work, lay, cosq, wq, delta, fvals, P, eps):
+def _last_stage(s, U, zs, modes, a_work, adot_work, lay, cosq, wq, delta, fvals, P, eps):
     """_stage at the step's end, with the strain at every node into eps."""
     for n in range(zs.shape[0]):
         a_work[n] = mode_a(zs[n], n, modes)
-    return layer_forcing_strain(s, a_work, modes[M_COEF], cosq, wq, lay, delta, fvals, P, modes[M_STRAIN], eps)
+    if lay[L_LAYER_TAU] > 0.0:
+        for n in range(zs.shape[0]):
+            adot_work[n] = mode_adot(zs[n], a_work[n], n, modes)
+    return layer_forcing_strain(s, U, a_work, adot_work, modes[M_COEF], cosq, wq, lay, delta, fvals, P,
+                                modes[M_STRAIN], eps)
 
 
 @njit(cache=True, nogil=True)
@@ -1136,7 +1194,7 @@ def dissipation_rate(z, modes):
 
 @njit(cache=True, nogil=True)
 def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cosq, wq, cw, rw,
-              fvals, delta, z_out, N_out, err, eps_out, yb, Cb, yb_out, errb, diss, acc):
+              fvals, delta, z_out, N_out, err, eps_out, yb, Cb, yb_out, errb, diss, acc, lp1):
     """One step from (t, z) to t_new = t + h with N1 = P(t, z), F1 = F(t), W(t) = work.
 
     C holds etd_coefficients(omega, h) (RK4 uses them for its error estimate); cw (2, N)
@@ -1147,14 +1205,18 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     eps_out receives the strain at every node at t_new (strain_nodes) from the last stage's pass.
     The body: yb = (d, u) at t, Cb = body_coefficients(h); yb_out and errb receive its state at
     t_new and its error estimate (the prescribed body stays at d = u = 0 exactly). acc[0]
-    receives the energy the damped plate has dissipated by t_new, given diss at t (the step's
-    weights on dissipation_rate at its stages; 0 for the paper's elastic ice).
+    receives the energy dissipated by t_new, given diss at t: the step's weights on the damped
+    plate's dissipation_rate plus the viscoelastic layer's power (lp1 at t) at its stages; 0 for
+    the paper's elastic ice and layer. acc[1] receives the layer's power at t_new.
     """
     omega = modes[M_OMEGA]
     coef = modes[M_COEF]
     kind = modes[M_KIND]
-    damped = modes[M_HALF_C, z.shape[0] - 1] > 0.0
+    plate_damped = modes[M_HALF_C, z.shape[0] - 1] > 0.0
+    damped = plate_damped or lay[L_LAYER_TAU] > 0.0
     D1 = D2 = D3 = D4 = 0.0
+    L2 = L3 = L4 = L5 = 0.0
+    adot_work = rw[4]
     zs = cw[0]
     incr = cw[1]
     a_work = rw[0]
@@ -1175,14 +1237,15 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     u2 = u + Cb[2, 0] * G1
     d3 = u3 = d4 = u4 = 0.0
     G2 = G3 = G4 = 0.0
-    if damped:
+    if plate_damped:
         D1 = dissipation_rate(z, modes)
     if method == ETD34:
         for n in range(N):
             zs[n] = emul(C[1, n], z[n], kind[n]) + C[2, n] * N1[n]
-        if damped:
+        if plate_damped:
             D2 = dissipation_rate(zs, modes)
-        st, F2, jm = _stage(V * th - d2, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        st, F2, jm, L2 = _stage(V * th - d2, V - u2, zs, modes, a_work, adot_work, lay, coef, cosq, wq, delta,
+                                fvals, N2)
         G2 = body_accel(lay, F2)
         event = st == 0 and count_contacts(delta, jm) != contacts
         if st == 0:
@@ -1190,19 +1253,21 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
             d3 = d2 + Cb[3, 1] * (G2 - G1)
             u3 = u2 + Cb[3, 0] * (G2 - G1)
-            if damped:
+            if plate_damped:
                 D3 = dissipation_rate(zs, modes)
-            st, F3, jm = _stage(V * th - d3, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            st, F3, jm, L3 = _stage(V * th - d3, V - u3, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
+                                    delta, fvals, N3)
             G3 = body_accel(lay, F3)
             event = event or (st == 0 and count_contacts(delta, jm) != contacts)
         if st == 0:
             for n in range(N):
                 zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
-            if damped:
+            if plate_damped:
                 D4 = dissipation_rate(zs, modes)
             d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
             u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
-            st, F4, jm = _stage(V * t_new - d4, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            st, F4, jm, L4 = _stage(V * t_new - d4, V - u4, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
+                                    delta, fvals, N4)
             G4 = body_accel(lay, F4)
             event = event or (st == 0 and count_contacts(delta, jm) != contacts)
     else:
@@ -1211,7 +1276,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             k1 = 1j * omega[n] * z[n] + N1[n]
             incr[n] = k1                     # accumulates k1 + 2 k2 + 2 k3
             zs[n] = z[n] + 0.5 * h * k1
-        st, F2, jm = _stage(V * th - d2, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N2)
+        st, F2, jm, L2 = _stage(V * th - d2, V - u2, zs, modes, a_work, adot_work, lay, coef, cosq, wq, delta,
+                                fvals, N2)
         G2 = body_accel(lay, F2)
         if st == 0:
             for n in range(N):
@@ -1220,7 +1286,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = z[n] + 0.5 * h * k2
             d3 = d2 + Cb[3, 1] * (G2 - G1)
             u3 = u2 + Cb[3, 0] * (G2 - G1)
-            st, F3, jm = _stage(V * th - d3, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N3)
+            st, F3, jm, L3 = _stage(V * th - d3, V - u3, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
+                                    delta, fvals, N3)
             G3 = body_accel(lay, F3)
         if st == 0:
             for n in range(N):
@@ -1229,7 +1296,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = z[n] + h * k3
             d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
             u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
-            st, F4, jm = _stage(V * t_new - d4, zs, modes, a_work, lay, coef, cosq, wq, delta, fvals, N4)
+            st, F4, jm, L4 = _stage(V * t_new - d4, V - u4, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
+                                    delta, fvals, N4)
             G4 = body_accel(lay, F4)
     if st == 0:
         yb_out[B_D] = d + Cb[0, 1] * u + Cb[6, 1] * G1 + Cb[7, 1] * (G2 + G3) + Cb[8, 1] * G4
@@ -1242,8 +1310,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             for n in range(N):
                 k4 = 1j * omega[n] * zs[n] + N4[n]
                 z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
-        st, F5, jm = _last_stage(V * t_new - yb_out[B_D], z_out, modes, a_work, lay, cosq, wq, delta,
-                                 fvals, N_out, eps_out)
+        st, F5, jm, L5 = _last_stage(V * t_new - yb_out[B_D], V - yb_out[B_U], z_out, modes, a_work, adot_work,
+                                     lay, cosq, wq, delta, fvals, N_out, eps_out)
     if st != 0:
         return 1, 0.0, jm, work, event
     G5 = body_accel(lay, F5)
@@ -1272,7 +1340,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
         errb[B_D] = 0.0                      # the body's update is the same in both
         errb[B_U] = 0.0
     w_new = _step_work(lay, h, work, F1, F2, F3, F4, V - u, V - u2, V - u3, V - u4)
-    acc[0] = diss + h * (D1 / 6.0 + (D2 + D3) / 3.0 + D4 / 6.0) if damped else diss
+    acc[0] = diss + h * ((D1 + lp1) / 6.0 + (D2 + L2 + D3 + L3) / 3.0 + (D4 + L4) / 6.0) if damped else diss
+    acc[1] = L5
     return 0, F5, jm, w_new, event
 
 
@@ -1657,14 +1726,14 @@ def gap_peak(s, U, delta, jm, a, adot, ones, lay, out):
 
 @njit(cache=True, nogil=True)
 def substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals,
-            delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs, yb_out, errb, diss, acc):
+            delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs, yb_out, errb, diss, acc, lp1):
     """A step of length s from (t, z) (the body at yb) into the given buffers, its own
     coefficients in Cs and Cbs; a_out, adot_out receive a_n and a_n' at t + s, eps the strain at
     the nodes, yb_out the body. Returns take_step's tuple."""
     etd_coefficients(modes, s, Cs)
     body_coefficients(s, Cbs)
     res = take_step(method, t, t + s, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq, cw,
-                    rw, fvals, delta, z_out, N_out, err, eps, yb, Cbs, yb_out, errb, diss, acc)
+                    rw, fvals, delta, z_out, N_out, err, eps, yb, Cbs, yb_out, errb, diss, acc, lp1)
     for k in range(z.shape[0]):
         a_out[k] = mode_a(z_out[k], k, modes)
         adot_out[k] = mode_adot(z_out[k], a_out[k], k, modes)
@@ -1689,7 +1758,7 @@ def event_value(kind, t, jm, delta, a, adot, yb, modes, lay, cosq, eps, ones, ou
 @njit(cache=True, nogil=True)
 def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, Cs, modes, lay,
                  cosq, wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, ones, out,
-                 yb, Cbs, yb_out, errb, diss, acc):
+                 yb, Cbs, yb_out, errb, diss, acc, lp1):
     """First time in the accepted step [t, t + h] at which event_value(kind) reaches level,
     found on true sub-steps of the integrator from (t, z): Illinois regula falsi, bisection
     where a sub-step fails (a stage with delta >= 1 counts as past the level). p0, p1:
@@ -1708,7 +1777,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
         sk = h * k / SCAN
         st, F, jm, w, ev = substep(method, t, sk, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
                                    wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
-                                   yb_out, errb, diss, acc)
+                                   yb_out, errb, diss, acc, lp1)
         f = np.inf if st != 0 else event_value(kind, t + sk, jm, delta, a_out, adot_out, yb_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
@@ -1722,7 +1791,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
     for _ in range(100):
         st, F, jm, w, ev = substep(method, t, s, z, N1, F1, work, contacts, Cs, modes, lay, cosq,
                                    wq, cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
-                                   yb_out, errb, diss, acc)
+                                   yb_out, errb, diss, acc, lp1)
         f = np.inf if st != 0 else event_value(kind, t + s, jm, delta, a_out, adot_out, yb_out, modes, lay,
                                                 cosq, eps, ones, out) - level
         if f >= 0.0:
@@ -1745,7 +1814,7 @@ def locate_event(kind, level, method, t, h, p0, p1, z, N1, F1, work, contacts, C
             s = 0.5 * (lo + hi)
     st, F, jm, w, ev = substep(method, t, lo, z, N1, F1, work, contacts, Cs, modes, lay, cosq, wq,
                                cw, rw, fvals, delta, z_out, N_out, err, a_out, adot_out, eps, yb, Cbs,
-                               yb_out, errb, diss, acc)
+                               yb_out, errb, diss, acc, lp1)
     event_value(kind, t + lo, jm, delta, a_out, adot_out, yb_out, modes, lay, cosq, eps, ones, out)
     return lo, hi, F, jm, w, True
 
@@ -2048,7 +2117,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     err = np.empty(N, np.complex128)
     errsub = np.empty(N, np.complex128)
     cw = np.empty((2, N), np.complex128)
-    rw = np.empty((4, N))
+    rw = np.empty((5, N))
     C = np.empty((9, N), np.complex128)
     Cs = np.empty((9, N), np.complex128)
     Cb = np.empty((9, 2))
@@ -2070,8 +2139,8 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     a_sub = np.empty(N)
     adot_sub = np.empty(N)
     ones = np.ones(N)
-    acc = np.zeros(1)                         # dissipated energy at the end of a step
-    acc_sub = np.zeros(1)
+    acc = np.zeros(2)                         # dissipated energy and layer power at a step's end
+    acc_sub = np.zeros(2)
     damped = modes[M_HALF_C, N - 1] > 0.0
     delta = np.empty(J)
     delta_new = np.empty(J)
@@ -2119,8 +2188,8 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     diss = 0.0                  # energy dissipated in the damped plate
     err_sum = 0.0
     rhs_count = 1
-    st, force, jmax = layer_forcing_at(body_position(lay, t, yb), a, modes[M_COEF], cosq, wq, lay, delta,
-                                       fvals, N1)
+    st, force, jmax, lp = layer_forcing_at(body_position(lay, t, yb), body_speed(lay, yb), a, adot,
+                                           modes[M_COEF], cosq, wq, lay, delta, fvals, N1)
     if st != 0:
         diag[D_T_REACHED] = t
         diag[D_FAIL_T] = t
@@ -2184,7 +2253,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
         # ----- one step
         st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work, contacts,
                                               C, modes, lay, cosq, wq, cw, rw, fvals, delta_new,
-                                              znew, N5, err, eps_new, yb, Cb, yb_new, errb, diss, acc)
+                                              znew, N5, err, eps_new, yb, Cb, yb_new, errb, diss, acc, lp)
         eps_ready = True                     # eps_new: the strain at the nodes at t_new
         rhs_count += 4
         if not _finite_state(st, w_new, znew, yb_new):
@@ -2250,7 +2319,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
             s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(
                 0, bottom_level, method, t, h_step, gap0, gap1, z, N1, force, work, contacts, Cs,
                 modes, lay, cosq, wq, cw, rw, fvals, delta_new, znew, N5, err, a_new, adot_new,
-                eps_sub, ones, gap1, yb, Cbs, yb_new, errb, diss, acc)
+                eps_sub, ones, gap1, yb, Cbs, yb_new, errb, diss, acc, lp)
             if found:
                 bottomed = True
                 eps_ready = False            # the state is the search's last sub-step
@@ -2265,7 +2334,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
                 st, F5, jm5, w_new, event = take_step(method, t, t_new, h_step, z, N1, force, work,
                                                       contacts, C, modes, lay, cosq, wq, cw, rw, fvals,
                                                       delta_new, znew, N5, err, eps_new, yb, Cb, yb_new,
-                                                      errb, diss, acc)
+                                                      errb, diss, acc, lp)
                 for n in range(N):
                     a_new[n] = mode_a(znew[n], n, modes)
                     adot_new[n] = mode_adot(znew[n], a_new[n], n, modes)
@@ -2307,7 +2376,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
                         int(sign), levels[i], method, t, h_eff, tension0[s], tension[s], z, N1,
                         force, work, contacts, Cs, modes, lay, cosq, wq, cw, rw, fvals, delta_sub,
                         zsub, Nsub, errsub, a_sub, adot_sub, eps_sub, ones, out3, yb, Cbs, yb_sub,
-                        errb_sub, diss, acc_sub)
+                        errb_sub, diss, acc_sub, lp)
                     if found:
                         level_t[s, i] = t + 0.5 * (lo_ + hi_)
                         level_x[s, i] = out3[2]
@@ -2335,6 +2404,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
         t = t_new
         work = w_new
         diss = acc[0]
+        lp = acc[1]
         force = F5
         jmax = jm5
         resid = resid_new

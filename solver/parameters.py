@@ -50,12 +50,14 @@ PARAMETER_INFO = {
                  "wedge; R and body_p are then unused)", "degree"),
     "tau": ("retardation time of the Kelvin-Voigt viscoelastic ice, D -> D (1 + tau d/dt) (0: elastic, "
             "the paper's)", "s"),
+    "layer_tau": ("retardation time of the viscoelastic layer: pressure K f(delta) max(1 + layer_tau "
+                  "d(delta)/dt, 0) where compressed (0: elastic, the paper's)", "s"),
 }
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
-                  "deadrise": 0.0, "tau": 0.0}
+                  "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -66,7 +68,7 @@ PHYSICAL_RANGES = {
     "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
     "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
     "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
-    "tau": (0.0, 10.0),
+    "tau": (0.0, 10.0), "layer_tau": (0.0, 10.0),
 }
 
 
@@ -119,6 +121,7 @@ BEYOND_BOUNDS = {
     "body_p": (1.0, False, False, "a convex body"),
     "flat_width": (0.0, False, False, ""),
     "tau": (0.0, False, False, "0: elastic ice"),
+    "layer_tau": (0.0, False, False, "0: elastic layer"),
 }
 
 
@@ -199,6 +202,9 @@ class Parameters:
     tau : retardation time of Kelvin-Voigt viscoelastic ice [s]: D -> D (1 + tau d/dt) damps
         mode n at c_n = tau D lambda_n^4 / M_n (docs/model.md, "Viscoelastic ice"); 0 (the
         default) is the paper's elastic ice.
+    layer_tau : retardation time of a viscoelastic layer [s]: its pressure is
+        K f(delta) max(1 + layer_tau d(delta)/dt, 0) where it is compressed (docs/model.md,
+        "Viscoelastic layer"); 0 (the default) is the paper's elastic layer.
     """
 
     K: float = 8e6
@@ -220,6 +226,7 @@ class Parameters:
     flat_width: float = 0.0
     deadrise: float = 0.0
     tau: float = 0.0
+    layer_tau: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):

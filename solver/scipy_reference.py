@@ -47,7 +47,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
 
     free = p.free_body
     damp = p.damping                                  # Kelvin-Voigt c_n (0: elastic ice)
-    damped = p.tau > 0
+    damped = p.tau > 0 or p.layer_tau > 0             # D: the plate's and the layer's dissipation
     n_extra = 3 if free else 1
 
     def position(t, y):
@@ -57,24 +57,25 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         return y[2 * N + 2] if free else p.V
 
     def forcing(t, y):
-        return kn.layer_forcing_at(position(t, y), np.ascontiguousarray(y[:N]), tab.coef, tab.cosq, tab.wq,
-                                   tab.lay, delta, fvals, P)
+        return kn.layer_forcing_at(position(t, y), speed(y), np.ascontiguousarray(y[:N]),
+                                   np.ascontiguousarray(y[N:2 * N]), tab.coef, tab.cosq, tab.wq, tab.lay, delta,
+                                   fvals, P)
 
     def rhs(t, y):
         nfev[0] += 1
-        st, F, _ = forcing(t, y)
+        st, F, _, layer_power = forcing(t, y)
         if st != 0:
             raise _StageDeltaOne(t)
         v = y[N:2 * N]
         accel = -om2 * y[:N] - damp * v + P if damped else -om2 * y[:N] + P
-        tail = [np.sum(tab.LM * damp * v * v)] if damped else []
+        tail = [np.sum(tab.LM * damp * v * v) + layer_power] if damped else []
         if free:
             U = y[2 * N + 2]
             return np.concatenate([v, accel, [F * U, U, p.body_g - F / p.body_mass], tail])
         return np.concatenate([v, accel, [p.V * F], tail])
 
     def largest_delta(t, y):
-        st, _, jmax = forcing(t, y)
+        st, _, jmax, _ = forcing(t, y)
         if st != 0:
             return np.inf
         kn.gap_peak(position(t, y), speed(y), delta, jmax, np.ascontiguousarray(y[:N]),
@@ -93,7 +94,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     def record(t, y):
         nonlocal k
         a, v, work = y[:N], y[N:2 * N], y[2 * N]
-        st, F, jmax = forcing(t, y)
+        st, F, jmax, _ = forcing(t, y)
         out_a[k], out_v[k] = a, v
         series[k, kn.S_CONTACTS] = kn.count_contacts(delta, jmax)
         series[k, kn.S_FORCE] = F
@@ -146,7 +147,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         if until_separation and t_bottom is None and free and solver.y[2 * N + 2] < 0.0:
             if math.isnan(diag[kn.D_STOP_T]):
                 diag[kn.D_STOP_T] = t_old          # bracketed to the step only
-            st, F, jmax = forcing(solver.t, solver.y)
+            st, F, jmax, _ = forcing(solver.t, solver.y)
             if kn.count_contacts(delta, jmax) == 0:
                 while k < T and times[k] <= t_stop:
                     record(times[k], dense(times[k]))

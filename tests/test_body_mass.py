@@ -198,3 +198,18 @@ def test_times_in_seconds_and_a_free_body_runs_past_the_stage(tmp_path):
         assert float(free["time_reached"]) == pytest.approx(0.2) and np.isfinite(free["force"]).all()
         assert float(paper["time_reached"]) == pytest.approx(0.12) and np.isnan(paper["force"].values[-2:]).all()
         assert np.isfinite(float(free["stop_time"]))
+
+
+def test_a_light_body_flags_its_unresolved_contact_patch():
+    """M = 0.01 kg/m barely enters the layer: its contact patch spans a few nodes, and the
+    identity's quadrature mismatch (O(dx^2)) shows as energy_violation at the paper's 1000
+    subintervals; it falls as dx^2, and the run is ok with finer quadrature."""
+    p = Parameters(Nmod=30, body_mass=1e-2)
+    res = {}
+    for n in (1000, 4000, 16000):
+        r = solve(p, Settings(error_estimate=False, subintervals=n), fields=(), t_end=p.stage_duration)
+        res[n] = (r.status, r.diagnostics["energy_residual"])
+    assert res[1000][0] == "energy_violation" and "more subintervals" in solve(
+        p, Settings(error_estimate=False), fields=()).message
+    assert res[4000][0] == res[16000][0] == "ok"
+    assert res[1000][1] / res[16000][1] > 100             # 256 for an exact dx^2

@@ -1,8 +1,9 @@
-"""Kelvin-Voigt viscoelastic ice (docs/model.md, "Beyond the paper: viscoelastic ice"): the
-elastic ice bit for bit at tau = 0, a free damped plate against the damped oscillator in closed
-form (underdamped, overdamped, next to critical), the approach to elastic ice in proportion to
-tau, the energy identity with the dissipated energy, DOP853 on the same equations, and a study
-that sweeps tau."""
+"""Kelvin-Voigt viscoelastic ice and layer (docs/model.md, "Beyond the paper: viscoelastic ice"
+and "... viscoelastic layer"): the elastic ice and layer bit for bit at tau = layer_tau = 0, a
+free damped plate against the damped oscillator in closed form (underdamped, overdamped, next to
+critical), the approach to elastic in proportion to tau and to layer_tau, the energy identity
+with the dissipated energy, DOP853 on the same equations, a bounce that leaves energy in the
+layer, and a study that sweeps tau."""
 import math
 
 import numpy as np
@@ -130,8 +131,9 @@ def test_damped_impact_agrees_with_dop853():
 
 
 def test_rk4_and_bad_tau_are_refused():
-    with pytest.raises(ParameterError, match="rk4 integrates the paper's elastic plate"):
-        solve(Parameters(Nmod=4, tau=1e-4), Settings(integrator="rk4"))
+    for key in ("tau", "layer_tau"):
+        with pytest.raises(ParameterError, match="rk4 integrates the paper's elastic plate and layer"):
+            solve(Parameters(Nmod=4, **{key: 1e-4}), Settings(integrator="rk4"))
     for bad in (-1e-3, math.inf, math.nan):
         with pytest.raises(ParameterError, match="tau must be finite and >= 0"):
             Parameters(tau=bad)
@@ -159,3 +161,57 @@ def test_viscoelastic_study_runs_and_stores_the_dissipation(tmp_path):
         assert ds["tau"].attrs["units"] == "s" and ds["dissipated_energy"].attrs["units"] == "J m-1"
         assert ds["dissipated_energy"].sel(tau=0.0) == 0.0 and ds["dissipated_energy"].sel(tau=1e-4) > 0
         assert ds["max_strain"].sel(tau=1e-4) < ds["max_strain"].sel(tau=0.0)
+
+
+def test_elastic_layer_is_the_papers_bit_for_bit():
+    p = Parameters(Nmod=20)
+    a = solve(p, Settings(error_estimate=False), fields=("strain", "layer_pressure"))
+    b = solve(p.replace(layer_tau=0.0), Settings(error_estimate=False), fields=("strain", "layer_pressure"))
+    assert np.array_equal(a.fields["layer_pressure"], b.fields["layer_pressure"]) and a.steps == b.steps
+
+
+def test_approach_to_the_elastic_layer_is_proportional_to_layer_tau():
+    p = Parameters(Nmod=20)
+    s = Settings(tolerance=1e-10, error_estimate=False)
+    ref = solve(p, s, fields=()).diagnostics["max_strain"]
+    taus = np.array([1e-8, 1e-7, 1e-6])
+    dev = np.array([abs(solve(p.replace(layer_tau=t), s, fields=()).diagnostics["max_strain"] - ref)
+                    for t in taus]) / ref
+    slope = np.polyfit(np.log(taus), np.log(dev), 1)[0]
+    assert abs(slope - 1.0) < 0.05, f"max strain departs as layer_tau^{slope:.3f} ({dev})"
+
+
+def test_viscoelastic_layer_energy_identity_and_pressure():
+    p = Parameters(Nmod=30, layer_tau=1e-4)
+    r = solve(p, Settings(error_estimate=False), fields=("layer_pressure",))
+    elastic = solve(Parameters(Nmod=30), Settings(error_estimate=False), fields=())
+    d = r.diagnostics
+    assert r.status == "ok" and d["energy_residual"] <= elastic.diagnostics["energy_residual"]
+    assert 0.005 < d["dissipated_energy"] / d["work"] < 0.1
+    closure = r.plate_energy + r.layer_energy + r.dissipated_energy - r.work
+    assert np.max(np.abs(closure[r.valid])) <= 1e-5 * d["work"]
+    assert np.all(r.fields["layer_pressure"][r.valid] >= 0.0)       # the layer never pulls
+
+
+def test_viscoelastic_layer_agrees_with_dop853():
+    p = Parameters(Nmod=20, layer_tau=1e-4)
+    a, b = against_dop853(p, 0.3 * p.stage_duration)
+    assert a.dissipated_energy[-1] == pytest.approx(b.dissipated_energy[-1], rel=1e-5)
+
+
+def test_a_bounce_leaves_energy_in_the_viscoelastic_layer():
+    """A light body on thick ice rebounds more slowly from a damped layer; its kinetic energy,
+    the plate's and the dissipated energy add up to M V^2 / 2 within the run's residual."""
+    base = Parameters(Nmod=30, body_mass=50.0, body_g=0.0, hi=5.0, K=1e7, V=2.0)
+    kw = dict(times=np.linspace(0, 0.01, 21), t_end=0.01, fields=())
+    s = Settings(tolerance=1e-10, error_estimate=False, subintervals=2000)
+    speeds = []
+    for layer_tau in (0.0, 1e-4, 1e-3):
+        p = base.replace(layer_tau=layer_tau)
+        r = solve(p, s, **kw)
+        assert r.status == "ok" and r.contact_intervals[-1] == 0
+        initial = 0.5 * p.body_mass * p.V**2
+        closure = 0.5 * p.body_mass * r.body_speed[-1] ** 2 + r.plate_energy[-1] + r.dissipated_energy[-1] - initial
+        assert abs(closure) <= max(r.diagnostics["energy_residual"] * 1.01, 1e-6) * initial
+        speeds.append(-r.body_speed[-1])
+    assert speeds[0] > speeds[1] > speeds[2] > 0
