@@ -25,9 +25,10 @@ STATUS_INFO = {
     "nonfinite": "a fixed-step run met delta >= 1 or a non-finite state, or the adaptive step "
                  "could not avoid one",
     "step_limit": "max_steps attempted, or error control drove the step below its floor",
-    "energy_violation": "the energy identity E_plate + E_layer + D = W (D: dissipated, 0 for elastic ice) was broken: a step made it jump "
-                        "and no smaller step mended it, or the residual ended above 1e-3 of the work "
-                        "(for a free body, also its own balance M (U^2 - V^2)/2 - M body_g s + W = 0)",
+    "energy_violation": "the energy identity E_plate + E_layer + D = W (D: dissipated, 0 when elastic) was "
+                        "broken: a step made it jump and no smaller step mended it, or the residual ended "
+                        "above 1e-3 of the work (for a free body, also its own balance "
+                        "M (U^2 - V^2)/2 - M body_g s + W = 0)",
     "separated": "a free body (finite body_mass) left the ice moving up at separation_time, and the run "
                  "was asked to end there (until separation); data up to then is valid",
     "stopped": "a free body stopped (its speed reached zero at stop_time) and was still on the ice at the "
@@ -116,7 +117,7 @@ class Result:
     plate_energy: np.ndarray           # (T,) [J m-1]
     layer_energy: np.ndarray           # (T,) [J m-1]
     work: np.ndarray                   # (T,) int F U dt [J m-1]
-    dissipated_energy: np.ndarray      # (T,) energy dissipated in viscoelastic ice [J m-1] (0: elastic)
+    dissipated_energy: np.ndarray      # (T,) dissipated in viscoelastic ice and layer [J m-1] (0: elastic)
     valid: np.ndarray                  # (T,) bool
     diagnostics: dict                  # name -> float, see DIAGNOSTIC_INFO
     status: str                        # see STATUS_INFO
@@ -359,6 +360,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     if (p.tau > 0 or p.layer_tau > 0) and s.integrator == "rk4":
         raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
                              "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")
+    if p.free_body and t_start > 0:
+        raise ParameterError("a free body's run starts at first touch (t_start = 0): its state at a later "
+                             "start is not an input")
     if until_separation and not p.free_body:
         raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
                              "moves down at V for ever")

@@ -132,6 +132,8 @@ def test_ends_separated_stopped_and_ok():
     assert r.status == "ok" and np.isnan(r.diagnostics["stop_time"])
     with pytest.raises(ParameterError, match="until_separation needs a free body"):
         solve(Parameters(Nmod=4), until_separation=True)
+    with pytest.raises(ParameterError, match="starts at first touch"):
+        solve(light, t_start=0.001, t_end=0.002)
 
 
 STUDY = """
