@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup study status test test-slow bench bench-scale bench-revisions regenerate-reference variables-table clean
+.PHONY: help setup study status test test-slow bench bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -48,6 +48,9 @@ bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 
 variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests/test_variables.py checks it)
 	$(PY) -m pipeline.variables
+
+bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 8 cases, every output array
+	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)
 
 bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa .") -> results/bench/revisions.md
 	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .)

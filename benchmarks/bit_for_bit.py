@@ -1,0 +1,110 @@
+"""Are the solver's results bit for bit those of another git revision? (make bit-for-bit)
+
+Runs seven cases that cover the solver's paths (the reference case, rk4, a case that bottoms
+out, one that crushes the layer, located crack onsets, finite depth, a fixed step; plus DOP853)
+in a git worktree of the base revision and in the working tree, each in its own process, and
+compares every output array (fields, amplitudes, series, diagnostics, tension and contact
+records) exactly. Exit 0 when all are identical; else 1, with one line per difference. For a
+refactoring that must not change results (issue 12's "bit for bit or <= 1e-12"):
+
+    python benchmarks/bit_for_bit.py [--base HEAD]
+"""
+from __future__ import annotations
+
+import argparse
+import pickle
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_revisions import ROOT, checkout  # noqa: E402
+
+#: run inside each tree: pickles {case: {name: value}} to argv[1]
+PROBE = r"""
+import pickle, sys
+import numpy as np
+from solver import Parameters, Settings, solve
+quiet = Settings(error_estimate=False)
+cases = {
+    "reference": (Parameters(), quiet, {}),
+    "rk4": (Parameters(Nmod=20), Settings(integrator="rk4", error_estimate=False), {}),
+    "bottoming": (Parameters(V=3.0, hi=0.3, Nmod=30), quiet, {}),
+    "crushing": (Parameters(V=10.0, hi=0.3, Nmod=30), quiet, {}),
+    "crack_onsets": (Parameters(Nmod=30), quiet, {"locate_eps_Y": [1e-5, 5e-5]}),
+    "finite_depth": (Parameters(Nmod=30, H=0.5), quiet, {}),
+    "fixed_step": (Parameters(Nmod=20), Settings(fixed_step=0.01, error_estimate=False), {}),
+    "dop853": (Parameters(Nmod=20), Settings(integrator="dop853", tolerance=1e-9, error_estimate=False), {}),
+}
+out = {}
+for name, (p, s, kw) in cases.items():
+    r = solve(p, s, fields=("strain", "layer_pressure", "compression"), **kw)
+    d = {"status": r.status, "steps": r.steps, "amplitudes": r.amplitudes, "velocities": r.velocities,
+         "contact_intervals": r.contact_intervals, "force": r.force, "plate_energy": r.plate_energy,
+         "layer_energy": r.layer_energy, "work": r.work, "upper_record": r.tension_record["upper"],
+         "lower_record": r.tension_record["lower"], "contact_record": r.contact_record,
+         **{"field " + k: v for k, v in r.fields.items()},
+         **{"diagnostic " + k: v for k, v in r.diagnostics.items()}}
+    if "located_crack_onset" in r.extra:
+        d["located"] = np.concatenate([np.concatenate(v) for v in r.extra["located_crack_onset"].values()])
+    out[name] = d
+pickle.dump(out, open(sys.argv[1], "wb"))
+"""
+
+
+def run(tree: Path, path: Path) -> dict:
+    proc = subprocess.run([sys.executable, "-c", PROBE, str(path)], cwd=tree,
+                          env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin"}, capture_output=True,
+                          text=True, timeout=1800)
+    if proc.returncode != 0:
+        sys.exit(f"the tree at {tree} failed: {proc.stderr.strip().splitlines()[-1:]}")
+    with open(path, "rb") as f:
+        return pickle.load(f)
+
+
+def differences(base: dict, new: dict) -> list:
+    """One line per value of base that new does not reproduce exactly (values new adds, such as
+    diagnostics that did not exist in base, are not differences)."""
+    lines = []
+    for case, values in base.items():
+        for name, old in values.items():
+            if name not in new[case]:
+                lines.append(f"{case}: {name} is gone")
+                continue
+            now = new[case][name]
+            if isinstance(old, np.ndarray):
+                same = isinstance(now, np.ndarray) and old.shape == now.shape and np.array_equal(old, now,
+                                                                                                 equal_nan=True)
+            else:
+                same = old == now or (old != old and now != now)
+            if not same:
+                lines.append(f"{case}: {name} differs")
+    return lines
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--base", default="HEAD", help="the revision to compare against (default HEAD)")
+    args = ap.parse_args(argv)
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = checkout(args.base, Path(tmp))
+        try:
+            base = run(tree, Path(tmp) / "base.pkl")
+        finally:
+            if tree != ROOT:
+                subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True)
+        new = run(ROOT, Path(tmp) / "new.pkl")
+    lines = differences(base, new)
+    for line in lines:
+        print(line)
+    count = sum(len(v) for v in base.values())
+    print(f"{len(base)} cases, {count} values: " + ("bit for bit" if not lines else f"{len(lines)} differ")
+          + f" (working tree against {args.base})")
+    return 1 if lines else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
