@@ -202,6 +202,20 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
     return path
 
 
+def _sweep_line(ax, x, values, ok, on_axis, color, marker, label) -> None:
+    """One line of a sweep: the values over the key values on the axis, filled markers where
+    the case ended complete (COMPLETE), open ones where it did not, and a legend entry; a key
+    value off the axis (inf, or the neutral 0 of a sweep over decades) as a dashed line."""
+    off = values[~on_axis]
+    for value in off[np.isfinite(off)]:
+        ax.axhline(value, color=color, lw=1.0, ls="--")
+    xs, vs, good = x[on_axis], values[on_axis], ok[on_axis]
+    ax.plot(xs, vs, "-", color=color, lw=1.6)
+    ax.plot(xs[good], vs[good], marker, color=color, ms=6)
+    ax.plot(xs[~good], vs[~good], marker, mfc="white", mec=color, mew=1.4, ms=6.5)
+    ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)   # legend entry
+
+
 def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     """Each diagnostic against the first grid key, one line per value of the other keys (a
     grid with more than MAX_LINES combinations of the other keys: heat maps instead).
@@ -226,18 +240,12 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         for (color, marker), combo in zip(styles, combos):
             where = dict(zip(others, combo))
             values = np.asarray(ds[name].sel(where).values, dtype=float)
-            ok = np.isin(np.asarray(ds["status"].sel(where).values), COMPLETE)[on_axis]
+            ok = np.isin(np.asarray(ds["status"].sel(where).values), COMPLETE)
             inf = np.isinf(values)
             shown = np.where(inf, np.nan, values)        # no meaningless value on an axis
             label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
-            for value in shown[~on_axis][np.isfinite(shown[~on_axis])]:
-                ax.axhline(value, color=color, lw=1.0, ls="--")
-            shown, inf = shown[on_axis], inf[on_axis]
-            ax.plot(xvals, shown, "-", color=color, lw=1.6)
-            ax.plot(xvals[ok], shown[ok], marker, color=color, ms=6)
-            ax.plot(xvals[~ok], shown[~ok], marker, mfc="white", mec=color, mew=1.4, ms=6.5)
-            ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)   # legend entry
-            unbounded.append((color, xvals[inf]))
+            _sweep_line(ax, all_x, shown, ok, on_axis, color, marker, label)
+            unbounded.append((color, xvals[inf[on_axis]]))
         if any(x.size for _, x in unbounded):           # drawn just inside the top edge
             for i, (color, x) in enumerate(unbounded):   # one row per line, so none hides another
                 ax.plot(x, np.full(x.size, 0.95 - 0.05 * i), "^", color=color, ms=7,
@@ -305,16 +313,9 @@ def drop_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         for (color, marker), combo in zip(styles, combos):
             where = dict(zip(others, combo))
             values = np.asarray(var.sel(where).values, dtype=float)
-            status = np.asarray(ds["status"].sel(where).values)
-            ok = np.isin(status, COMPLETE) & finite
+            ok = np.isin(np.asarray(ds["status"].sel(where).values), COMPLETE)
             label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
-            ax.plot(masses[finite], values[finite], "-", color=color, lw=1.6)
-            ax.plot(masses[ok], values[ok], marker, color=color, ms=6)
-            bad = finite & ~ok
-            ax.plot(masses[bad], values[bad], marker, mfc="white", mec=color, mew=1.4, ms=6.5)
-            ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)
-            if not finite.all() and np.isfinite(values[~finite]).any():
-                ax.axhline(float(values[~finite][0]), color=color, lw=1.0, ls="--")
+            _sweep_line(ax, masses, values, ok, finite, color, marker, label)
         ax.set_xscale("log")
         ax.set_xlabel("body_mass [kg/m]")
         ax.set_title(title if name != "crack_onset_time" else f"{title} at εY = {eps_y:g}", fontsize=10)

@@ -310,6 +310,12 @@ def emul(e, z, kind):
 
 
 @njit(cache=True, nogil=True)
+def plate_damped(modes):
+    """True for viscoelastic ice (c_n grows with n: the last mode is damped if any is)."""
+    return modes[M_HALF_C, modes.shape[1] - 1] > 0.0
+
+
+@njit(cache=True, nogil=True)
 def mode_a(z, n, modes):
     """a_n from z_n. With mu_+- the roots of mu^2 + c mu + omega^2 = 0, z = a' - mu_- a obeys
     z' = mu_+ z + P: for c = 0, z = a' + i omega a. Oscillating: z = a' + (c/2) a + i omega_d a;
@@ -1212,8 +1218,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     omega = modes[M_OMEGA]
     coef = modes[M_COEF]
     kind = modes[M_KIND]
-    plate_damped = modes[M_HALF_C, z.shape[0] - 1] > 0.0
-    damped = plate_damped or lay[L_LAYER_TAU] > 0.0
+    ice_damped = plate_damped(modes)
+    damped = ice_damped or lay[L_LAYER_TAU] > 0.0
     D1 = D2 = D3 = D4 = 0.0
     L2 = L3 = L4 = L5 = 0.0
     adot_work = rw[4]
@@ -1237,12 +1243,12 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
     u2 = u + Cb[2, 0] * G1
     d3 = u3 = d4 = u4 = 0.0
     G2 = G3 = G4 = 0.0
-    if plate_damped:
+    if ice_damped:
         D1 = dissipation_rate(z, modes)
     if method == ETD34:
         for n in range(N):
             zs[n] = emul(C[1, n], z[n], kind[n]) + C[2, n] * N1[n]
-        if plate_damped:
+        if ice_damped:
             D2 = dissipation_rate(zs, modes)
         st, F2, jm, L2 = _stage(V * th - d2, V - u2, zs, modes, a_work, adot_work, lay, coef, cosq, wq, delta,
                                 fvals, N2)
@@ -1253,7 +1259,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
             d3 = d2 + Cb[3, 1] * (G2 - G1)
             u3 = u2 + Cb[3, 0] * (G2 - G1)
-            if plate_damped:
+            if ice_damped:
                 D3 = dissipation_rate(zs, modes)
             st, F3, jm, L3 = _stage(V * th - d3, V - u3, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
                                     delta, fvals, N3)
@@ -1262,7 +1268,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
         if st == 0:
             for n in range(N):
                 zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
-            if plate_damped:
+            if ice_damped:
                 D4 = dissipation_rate(zs, modes)
             d4 = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (G3 - G1)
             u4 = u + Cb[4, 0] * G1 + Cb[5, 0] * (G3 - G1)
@@ -1840,7 +1846,7 @@ def _plus_plate_energy(e, modes, z):
     """e + E_plate, E_plate = sum_n L M_n (a_n'^2 + omega_n^2 a_n^2) / 2 [J m-1] (added term by
     term to e): L M_n |z_n|^2 / 2 for the undamped plate."""
     LM = modes[M_LM]
-    if modes[M_HALF_C, z.shape[0] - 1] == 0.0:
+    if not plate_damped(modes):
         for n in range(z.shape[0]):
             e += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
         return e
@@ -2141,7 +2147,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     ones = np.ones(N)
     acc = np.zeros(2)                         # dissipated energy and layer power at a step's end
     acc_sub = np.zeros(2)
-    damped = modes[M_HALF_C, N - 1] > 0.0
+    damped = plate_damped(modes)
     delta = np.empty(J)
     delta_new = np.empty(J)
     delta_sub = np.empty(J)
