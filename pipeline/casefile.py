@@ -65,7 +65,7 @@ TENSION_RECORD_INFO = {
     "tension_record_time": ("time of a node of the running-maximum tension record", "s"),
     "tension_record_value": ("peak tension over x at the node (upper: +strain, lower: -strain)", "1"),
     "tension_record_rate": ("time derivative of the peak tension at the node", "s-1"),
-    "tension_record_x": ("position of the peak at the node (x >= 0; mirrored at -x)", "m"),
+    "tension_record_x": ("position of the peak at the node (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
     "tension_record_join": ("1: the node continues the previous one (a Hermite piece between them)", "1"),
 }
 CONTACT_RECORD_INFO = {

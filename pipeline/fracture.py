@@ -27,10 +27,10 @@ from .casefile import SURFACES, TENSION_RECORD_INFO, ragged_offsets, tension_rec
 CRACK_INFO = {
     "crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y (NaN: not "
                          "within the run)", "s"),
-    "crack_onset_x": ("position of the upper-surface crack onset (x >= 0; mirrored at -x)", "m"),
+    "crack_onset_x": ("position of the upper-surface crack onset (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
     "crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y (NaN: "
                                "not within the run)", "s"),
-    "crack_onset_x_lower": ("position of the lower-surface crack onset (x >= 0; mirrored at -x)", "m"),
+    "crack_onset_x_lower": ("position of the lower-surface crack onset (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
 }
 
 

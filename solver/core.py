@@ -14,7 +14,7 @@ import numpy as np
 
 from . import kernels as kn
 from .fracture import crack_onset, thin_record
-from .parameters import Parameters, ParameterError, Settings
+from .parameters import Parameters, ParameterError, Settings, water_added_mass
 from .scipy_reference import integrate_dop853
 
 #: status -> meaning (docs/model.md, "Statuses")
@@ -47,13 +47,13 @@ FIELDS = tuple(FIELD_INFO)
 #: diagnostic name -> (long_name, units, kernel index)
 DIAGNOSTIC_INFO = {
     "max_strain": ("largest tensile strain on the upper surface", "1", kn.D_MAX_UPPER),
-    "max_strain_x": ("position of max_strain (x >= 0; mirrored at -x)", "m", kn.D_MAX_UPPER_X),
+    "max_strain_x": ("position of max_strain (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m", kn.D_MAX_UPPER_X),
     "max_strain_time": ("time of max_strain", "s", kn.D_MAX_UPPER_T),
     "max_strain_lower": ("largest tensile strain on the lower surface (max of -strain)", "1", kn.D_MAX_LOWER),
-    "max_strain_lower_x": ("position of max_strain_lower (x >= 0)", "m", kn.D_MAX_LOWER_X),
+    "max_strain_lower_x": ("position of max_strain_lower (centred impact: x >= 0; off centre: signed)", "m", kn.D_MAX_LOWER_X),
     "max_strain_lower_time": ("time of max_strain_lower", "s", kn.D_MAX_LOWER_T),
     "max_abs_strain": ("largest strain magnitude", "1", kn.D_MAX_ABS),
-    "max_abs_strain_x": ("position of max_abs_strain (x >= 0)", "m", kn.D_MAX_ABS_X),
+    "max_abs_strain_x": ("position of max_abs_strain (centred impact: x >= 0; off centre: signed)", "m", kn.D_MAX_ABS_X),
     "max_abs_strain_time": ("time of max_abs_strain", "s", kn.D_MAX_ABS_T),
     "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L, intervals that "
                               "open and close within a step included", "1", kn.D_MAX_CONTACTS),
@@ -65,7 +65,7 @@ DIAGNOSTIC_INFO = {
     "max_compression_time": ("time of max_compression", "s", kn.D_MAX_DELTA_T),
     "bottoming_time": ("time at which the layer's gap first closed to bottoming_gap (default 1e-3) of "
                        "its thickness, anywhere on the plate (NaN: it never did)", "s", kn.D_BOTTOM_T),
-    "bottoming_x": ("position where the gap first closed (x >= 0; mirrored at -x)", "m", kn.D_BOTTOM_X),
+    "bottoming_x": ("position where the gap first closed (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m", kn.D_BOTTOM_X),
     "bottoming_closing_speed": ("speed at which the gap was closing at bottoming, he d(delta)/dt",
                                 "m s-1", kn.D_BOTTOM_SPEED),
     "energy_rejections": ("steps rejected because the energy identity jumped", "1", kn.D_ENERGY_JUMPS),
@@ -110,7 +110,7 @@ class Result:
     times: np.ndarray                  # (T,) output times [s]
     x: np.ndarray                      # (X,) positions of the fields [m]
     fields: dict                       # name -> (T, X) array
-    amplitudes: np.ndarray             # (T, N) a_n [m]
+    amplitudes: np.ndarray             # (T, N) a_n of cos(lambda_n x) [m]
     velocities: np.ndarray             # (T, N) da_n/dt [m s-1]
     contact_intervals: np.ndarray      # (T,) contact intervals on -L..L
     force: np.ndarray                  # (T,) F [N m-1]
@@ -134,6 +134,8 @@ class Result:
     body_position: np.ndarray = None   # (T,) penetration s of the body, V t for the paper's body [m]
     body_speed: np.ndarray = None      # (T,) downward speed U of the body, V for the paper's [m s-1]
     extra: dict = field(default_factory=dict)   # error_estimate_wall_time [s] when a companion ran
+    antisymmetric_amplitudes: np.ndarray = None  # (T, N) b_m of sin((m - 1/2) pi x / L) [m]; 0 centred
+    antisymmetric_velocities: np.ndarray = None  # (T, N) db_m/dt [m s-1]
 
     @property
     def ok(self) -> bool:
@@ -164,23 +166,46 @@ class Result:
 
 
 class _Tables:
-    """Per-case arrays the kernels need (modal constants and quadrature weights)."""
+    """Per-case arrays the kernels need (modal constants and quadrature weights).
 
-    def __init__(self, p: Parameters, subintervals: int):
-        lam = p.wavenumbers
+    The centred impact (x0 = 0, or full_plate False) is solved on the symmetric half plate
+    0 <= x <= L: modes cos(lambda_n x), lambda_n = pi n / L, integrals over 0..L doubled
+    (mirror = 2). An off-centre impact (full_plate True) is solved on the full plate in the
+    kernel coordinate xi = x + L in 0..2L: the sliding-wall modes cos(k pi xi / 2L),
+    k = 1..2 Nmod (even k = 2n: (-1)^n cos(lambda_n x), the symmetric modes; odd k = 2m - 1:
+    (-1)^m sin((m - 1/2) pi x / L), the antisymmetric ones), integrals over 0..2L (mirror = 1),
+    twice the nodes at the same dx. Everything the kernels see has the same form on both.
+    """
+
+    def __init__(self, p: Parameters, subintervals: int, full_plate: bool | None = None):
+        full = p.off_centre if full_plate is None else bool(full_plate)
+        self.full_plate = full
+        if full:
+            lam = np.pi * np.arange(1, 2 * p.Nmod + 1) / (2.0 * p.L)
+            M = p.plate_mass + water_added_mass(p.rho_w, lam, p.H)
+            self.omega = np.sqrt((p.rigidity * lam**4 + p.rho_w * p.g) / M)
+            damping = p.tau * p.rigidity * lam**4 / M
+            self.coef = -1.0 / (p.L * M)
+            self.origin = -p.L                       # x of the kernel's xi = 0
+        else:
+            lam = p.wavenumbers
+            self.omega = p.frequencies
+            M = p.added_masses
+            damping = p.damping
+            self.coef = -2.0 / (p.L * M)
+            self.origin = 0.0
         self.lam = lam
-        self.omega = p.frequencies
-        M = p.added_masses
-        self.coef = -2.0 / (p.L * M)
+        self.damping = damping
         self.LM = p.L * M
         self.strain_coef = 0.5 * p.hi * lam**2
         self.dx = p.L / subintervals
-        xq = self.dx * np.arange(subintervals + 1)
-        self.xq = xq
+        xq = self.dx * np.arange((2 if full else 1) * subintervals + 1)
+        self.xq = xq                                 # the nodes in kernel coordinates
+        self.x_nodes = xq + self.origin              # and on the plate
         self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, xq)))            # (N, J)
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
         self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
-        half_c = 0.5 * p.damping                     # Kelvin-Voigt: 0 for the paper's elastic ice
+        half_c = 0.5 * damping                       # Kelvin-Voigt: 0 for the paper's elastic ice
         over = half_c > self.omega                   # overdamped modes: two real decay rates
         wd = np.sqrt(np.abs(self.omega - half_c) * (self.omega + half_c))
         # a mode within 1e-12 of critical damping is taken as underdamped with omega_d = 1e-6
@@ -192,11 +217,44 @@ class _Tables:
                                                     over.astype(float)]))
         assert self.modes.shape[0] == kn.N_MODE_ROWS
         free = p.free_body
-        body = xq * xq * (0.5 / p.R) if p.parabola else p.body_profile(xq)          # b(x_j)
+        if full:
+            body = p.body_profile(self.x_nodes)                                      # b(x_j - x0)
+        else:
+            body = xq * xq * (0.5 / p.R) if p.parabola else p.body_profile(xq)      # b(x_j)
         self.lay = np.concatenate([[lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
                                     p.body_g if free else 0.0, p.body_p, p.flat_width, p.tan_deadrise,
-                                    p.layer_tau], body])
+                                    p.layer_tau, 1.0 if full else 2.0, p.L + p.x0 if full else 0.0,
+                                    self.LM[1] if full else self.LM[0]], body])
         assert self.lay.size == kn.N_LAY + xq.size
+
+    def kernel_x(self, x):
+        """Kernel coordinates of plate positions x [m]: |x| on the half plate, x + L on the full."""
+        x = np.asarray(x, dtype=float)
+        return x - self.origin if self.full_plate else np.abs(x)
+
+    def to_kernel(self, symmetric, antisymmetric=None):
+        """Modal amplitudes in the kernel's order from those of cos(lambda_n x) (and of
+        sin((m - 1/2) pi x / L) on the full plate): the last axis has Nmod entries each."""
+        symmetric = np.asarray(symmetric, dtype=float)
+        if not self.full_plate:
+            return symmetric
+        n = symmetric.shape[-1]
+        out = np.zeros(symmetric.shape[:-1] + (2 * n,))
+        sign = (-1.0) ** np.arange(1, n + 1)
+        out[..., 1::2] = sign * symmetric
+        if antisymmetric is not None:
+            out[..., 0::2] = sign * np.asarray(antisymmetric, dtype=float)
+        return out
+
+    def from_kernel(self, amplitudes):
+        """(symmetric, antisymmetric) amplitudes of cos(lambda_n x) and sin((m - 1/2) pi x / L)
+        from the kernel's; on the half plate the antisymmetric ones are 0 (NaN where the
+        symmetric are)."""
+        if not self.full_plate:
+            return amplitudes, np.where(np.isnan(amplitudes), np.nan, 0.0)
+        n = amplitudes.shape[-1] // 2
+        sign = (-1.0) ** np.arange(1, n + 1)
+        return sign * amplitudes[..., 1::2], sign * amplitudes[..., 0::2]
 
 
 #: a damped mode is kept at least this far (omega_d or kappa over omega) from critical damping
@@ -237,12 +295,12 @@ def _layer_pressure(p, tables, a, s, x, adot=None, U=None):
 
     This is exactly the reaction the modes feel (the forcing integrates the same function).
     """
-    delta = (a @ tables.cosq + s - p.body_profile(tables.xq)) / p.he       # (J,)
+    delta = (a @ tables.cosq + s - p.body_profile(tables.x_nodes)) / p.he  # (J,)
     f = np.where(delta > 0, delta / (1 - np.where(delta > 0, delta, 0.0)), 0.0)
     if p.layer_tau > 0:
         rate = (adot @ tables.cosq + U) / p.he
         f = np.where(delta > 0, f * np.maximum(1.0 + p.layer_tau * rate, 0.0), 0.0)
-    ax = np.abs(x)
+    ax = tables.kernel_x(x)
     j = np.minimum((ax / tables.dx).astype(int), delta.size - 2)
     theta = ax / tables.dx - j
     d0, d1 = delta[j], delta[j + 1]
@@ -305,7 +363,7 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
-          until_separation=False) -> Result:
+          until_separation=False, full_plate=None) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -325,6 +383,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     until_separation : a free body's run (finite body_mass) ends when the body leaves the ice
         moving up (status ``separated``), at the latest at t_end (``stopped`` if it had stopped
         by then; ``ok`` if it was still moving down).
+    full_plate : solve on the full plate, Nmod symmetric and Nmod antisymmetric modes (default
+        None: exactly when the body is off centre, x0 != 0; True at x0 = 0 is for verification:
+        it must agree with the symmetric run, its antisymmetric amplitudes staying 0).
 
     Returns
     -------
@@ -367,7 +428,15 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
                              "moves down at V for ever")
 
-    tab = _Tables(p, s.subintervals)
+    if full_plate is not None and not isinstance(full_plate, bool):
+        raise ParameterError(f"full_plate must be true, false or None, got {full_plate!r}")
+    if full_plate is False and p.off_centre:
+        raise ParameterError(f"an off-centre body (x0 = {p.x0!r} m) needs the full plate's antisymmetric modes")
+    tab = _Tables(p, s.subintervals, full_plate)
+    a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
+    a0 = tab.to_kernel(a0)
+    v0 = tab.to_kernel(v0)
+    N = tab.lam.size                                 # the kernel's modes: 2 Nmod on the full plate
     method = kn.ETD34 if s.integrator == "etd34" else kn.RK4
     if method == kn.RK4:
         fixed = s.rk4_step_fraction * 2 * np.pi / tab.omega[-1]
@@ -401,6 +470,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             series, diag, level_t, level_x)
         # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
         records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
+        for rec in records.values():
+            rec[:, kn.R_X] += tab.origin                 # kernel coordinates -> x on the plate
         contact_record = cont[:n_cont].copy()
         fail = ""
     wall = _time.perf_counter() - started
@@ -411,8 +482,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     body_s = series[:, kn.S_BODY_POSITION]
     valid = np.arange(T) < n_out
     field_values = {}
+    for i in (kn.D_MAX_UPPER_X, kn.D_MAX_LOWER_X, kn.D_MAX_ABS_X, kn.D_BOTTOM_X):
+        diag[i] += tab.origin
+    level_x += tab.origin
     if fields:
-        cosx = np.cos(np.outer(x, tab.lam))                                   # (X, N)
+        cosx = np.cos(np.outer(x - tab.origin if tab.full_plate else x, tab.lam))   # (X, N)
         w = out_a @ cosx.T
         for name in fields:
             if name == "deflection":
@@ -433,8 +507,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     if s.error_estimate and s.integrator == "etd34" and s.fixed_step == 0 and n_out > 0:
         looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
         other = solve(p, looser, times=times[valid], fields=(), t_end=t_end, t_start=t_start,
-                      initial_amplitudes=a0, initial_velocities=v0, until_separation=until_separation)
-        companion = other.amplitudes
+                      initial_amplitudes=a0_sym, initial_velocities=v0_sym, until_separation=until_separation,
+                      full_plate=tab.full_plate)
+        companion = tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes)
         extra["error_estimate_wall_time"] = other.wall_time
     if s.error_estimate:                  # dop853 gives no local estimates: its time part is NaN
         diagnostics.update(error_estimates(out_a[valid], tab.strain_coef, diagnostics["energy_residual"],
@@ -462,7 +537,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         floor = f"{1e-13 * t_end:.1e} s"
         if kind == kn.FAIL_LOCATED:
             message = (f"layer bottomed out {where}: its gap closed to {s.bottoming_gap:g} of its thickness "
-                       f"at x = +-{diagnostics['bottoming_x']:.4g} m, closing at "
+                       f"at x = {'' if p.off_centre else '+-'}{diagnostics['bottoming_x']:.4g} m, closing at "
                        f"{diagnostics['bottoming_closing_speed']:.3g} m/s; the force there is unbounded")
         elif kind == kn.FAIL_BOTTOMED:
             message = (f"layer bottomed out {where} (not located to the threshold): the compression "
@@ -497,9 +572,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
                        f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
     if levels.size:
         extra["located_crack_onset"] = {"upper": (level_t[0], level_x[0]), "lower": (level_t[1], level_x[1])}
+    sym_a, anti_a = tab.from_kernel(out_a)
+    sym_v, anti_v = tab.from_kernel(out_adot)
     return Result(
         parameters=p, settings=s, times=times, x=x, fields=field_values,
-        amplitudes=out_a, velocities=out_adot, contact_intervals=series[:, kn.S_CONTACTS],
+        amplitudes=sym_a, velocities=sym_v, antisymmetric_amplitudes=anti_a, antisymmetric_velocities=anti_v,
+        contact_intervals=series[:, kn.S_CONTACTS],
         force=series[:, kn.S_FORCE], plate_energy=series[:, kn.S_E_PLATE],
         layer_energy=series[:, kn.S_E_LAYER], work=series[:, kn.S_WORK],
         dissipated_energy=series[:, kn.S_DISSIPATED],

@@ -152,7 +152,7 @@ def crack_onset(record, eps_Y):
     Returns
     -------
     time : array like eps_Y [s]; NaN where the tension never reaches it in the run.
-    x : array like eps_Y [m], x >= 0 (the field is mirrored at -x).
+    x : array like eps_Y [m], x >= 0 for a centred impact (the field is mirrored at -x), signed off centre.
     """
     rec = np.asarray(record, dtype=float)
     rec = rec[np.isfinite(rec[:, R_T])] if rec.size else np.empty((0, 5))

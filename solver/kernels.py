@@ -19,7 +19,10 @@ module is split by what the model is made of, each piece readable and changeable
   ``_error_ratio``, ``_energy_allowance``, ``_observe_tensions``, ``_finish_diagnostics``).
 
 Model, SI units, symmetric half plate 0 <= x <= L (the paper's body, elastic ice; the
-additions beyond the paper are in docs/model.md and at their functions)::
+additions beyond the paper are in docs/model.md and at their functions). An off-centre body is
+solved on the full plate in the coordinate xi = x + L, 0 <= xi <= 2L, modes cos(k pi xi / 2L):
+the same form, with lay[L_MIRROR] = 1 where the half plate's integrals over 0..L are doubled
+(2), and the body's centre at lay[L_XC] = L + x0 (docs/model.md, "Off-centre impact")::
 
     w(x, t)   = sum_n a_n(t) cos(lambda_n x),        lambda_n = pi n / L
     delta     = (w + V t - x^2 / (2 R)) / he           relative compression of the layer
@@ -185,10 +188,15 @@ N_REC = 5
 M_OMEGA, M_COEF, M_STRAIN, M_LM, M_HALF_C, M_WD, M_KIND = range(7)
 N_MODE_ROWS = 7
 # entries of ``lay``: quadrature (lambda_1, dx), body motion (V, 1/M, g_b), body shape (R, p,
-# flat half-width c, tan of the deadrise), layer law (he, K); then lay[N_LAY + j] is the body's
-# profile b(x_j) at the J quadrature nodes (computed once per run, see body_profile)
-L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G, L_BODY_P, L_FLAT, L_TANB, L_LAYER_TAU = range(12)
-N_LAY = 12
+# flat half-width c, tan of the deadrise), layer law (he, K, tau_l), the plate's geometry (the
+# mirror factor: 2 on the symmetric half plate 0..L, whose integrals stand for -L..L; 1 on the
+# full plate of an off-centre impact, kernel coordinate xi = x + L in 0..2L; the body's centre
+# in kernel coordinates: 0, or L + x0), and L M of the first symmetric mode (the floor of the
+# error norm); then lay[N_LAY + j] is the body's profile b(x_j) at the J quadrature nodes
+# (computed once per run, see body_profile)
+(L_LAM1, L_DX, L_V, L_R, L_HE, L_K, L_INV_MASS, L_BODY_G, L_BODY_P, L_FLAT, L_TANB, L_LAYER_TAU, L_MIRROR,
+ L_XC, L_LM_FLOOR) = range(15)
+N_LAY = 15
 # entries of the run control vector ``ctrl`` of integrate
 (C_T_START, C_T_END, C_TOLERANCE, C_FIXED_STEP, C_H_INIT, C_H_MIN, C_H_MAX, C_MAX_STEPS,
  C_BOTTOM_GAP, C_UNTIL_SEPARATION) = range(10)
@@ -494,15 +502,17 @@ def modal_projection(f, cosq, P, jmax):
 # ---------------------------------------------------------------------------------------
 @njit(cache=True, nogil=True)
 def is_parabola(lay):
-    return lay[L_BODY_P] == 2.0 and lay[L_FLAT] == 0.0 and lay[L_TANB] == 0.0
+    """The paper's parabola x^2 / 2R, centred at the kernel's x = 0."""
+    return lay[L_BODY_P] == 2.0 and lay[L_FLAT] == 0.0 and lay[L_TANB] == 0.0 and lay[L_XC] == 0.0
 
 
 @njit(cache=True, nogil=True)
 def body_profile(x, lay):
-    """b(x) [m]: with u = max(|x| - c, 0) (c: half-width of a flat bottom), u tan(beta) for a
-    wedge of deadrise beta, else the power law u^p / (p R^(p-1)) (p = 2: the paper's parabola
-    u^2 / 2R, exactly x * x * (0.5 / R) at c = 0)."""
-    u = max(abs(x) - lay[L_FLAT], 0.0)
+    """b(x) [m]: with u = max(|x - x_c| - c, 0) (x_c: the body's centre in kernel
+    coordinates, 0 but for an off-centre impact; c: half-width of a flat bottom), u tan(beta)
+    for a wedge of deadrise beta, else the power law u^p / (p R^(p-1)) (p = 2: the paper's
+    parabola u^2 / 2R, exactly x * x * (0.5 / R) at c = 0 and x_c = 0)."""
+    u = max(abs(x - lay[L_XC]) - lay[L_FLAT], 0.0)
     if lay[L_TANB] > 0.0:
         return u * lay[L_TANB]
     p = lay[L_BODY_P]
@@ -514,28 +524,31 @@ def body_profile(x, lay):
 
 @njit(cache=True, nogil=True)
 def body_slope_curvature(x, lay):
-    """(b'(x), b''(x)) for x >= 0 (at a wedge's or a flat bottom's corner: the right-hand
-    values)."""
-    u = x - lay[L_FLAT]
+    """(b'(x), b''(x)) (at a wedge's or a flat bottom's corner: the values on the side away
+    from the centre x_c)."""
+    r = x - lay[L_XC]
+    side = 1.0 if r >= 0.0 else -1.0
+    u = abs(r) - lay[L_FLAT]
     if u <= 0.0:
         return 0.0, 0.0
     if lay[L_TANB] > 0.0:
-        return lay[L_TANB], 0.0
+        return side * lay[L_TANB], 0.0
     p = lay[L_BODY_P]
     R = lay[L_R]
-    return u ** (p - 1.0) / R ** (p - 1.0), (p - 1.0) * u ** (p - 2.0) / R ** (p - 1.0)
+    return side * (u ** (p - 1.0) / R ** (p - 1.0)), (p - 1.0) * u ** (p - 2.0) / R ** (p - 1.0)
 
 
 @njit(cache=True, nogil=True)
 def body_extent(reach, lay):
-    """The largest x >= 0 with b(x) <= reach (reach > 0): b's inverse."""
+    """The largest x with b(x) <= reach (reach > 0): x_c plus b's inverse."""
+    xc = lay[L_XC]
     if lay[L_TANB] > 0.0:
-        return lay[L_FLAT] + reach / lay[L_TANB]
+        return xc + (lay[L_FLAT] + reach / lay[L_TANB])
     p = lay[L_BODY_P]
     R = lay[L_R]
     if p == 2.0:
-        return lay[L_FLAT] + math.sqrt(2.0 * R * reach)
-    return lay[L_FLAT] + (p * R ** (p - 1.0) * reach) ** (1.0 / p)
+        return xc + (lay[L_FLAT] + math.sqrt(2.0 * R * reach))
+    return xc + (lay[L_FLAT] + (p * R ** (p - 1.0) * reach) ** (1.0 / p))
 
 
 # ---------------------------------------------------------------------------------------
@@ -653,7 +666,7 @@ def layer_damping(U, adot, cosq, lay, jmax, jc, delta, fvals):
     force = 0.0
     for j in range(jmax):
         force += fvals[j]
-    return force, 2.0 * lay[L_K] * lay[L_DX] * power
+    return force, lay[L_MIRROR] * lay[L_K] * lay[L_DX] * power
 
 
 @njit(cache=True, nogil=True)
@@ -723,12 +736,13 @@ def layer_reaction(s, U, adot, coef, cosq, wq, lay, jmax, delta, fvals, P):
                 force += 0.5 * f1 * (x1 - xs - dx)
     for n in range(N):
         P[n] *= K * coef[n]
-    return 0, 2.0 * K * force, jmax, power
+    return 0, lay[L_MIRROR] * K * force, jmax, power
 
 
 @njit(cache=True, nogil=True)
-def layer_energy(delta, jmax, dx, K, he):
-    """E_layer = 2 K he int_0^L G(delta) dx, G = -delta - ln(1 - delta) (delta > 0).
+def layer_energy(delta, jmax, dx, K, he, mirror=2.0):
+    """E_layer = 2 K he int_0^L G(delta) dx, G = -delta - ln(1 - delta) (delta > 0); on the
+    full plate of an off-centre impact (mirror = 1) K he int_0^2L G dx.
 
     Trapezoid on the nodes; on a subinterval where delta changes sign, G is taken linear from
     0 at the split point of the forcing quadrature to the compressed node.
@@ -747,18 +761,20 @@ def layer_energy(delta, jmax, dx, K, he):
             if j < J - 1 and j + 1 < jmax and not delta[j + 1] > 0.0:
                 wr = 0.5 * dx * f / (f - delta[j + 1])
             total += (wl + wr) * G
-    return 2.0 * K * he * total
+    return mirror * K * he * total
 
 
 @njit(cache=True, nogil=True)
-def count_contacts(delta, jmax):
-    """Disjoint intervals of delta > 0 on -L..L from the nodes of 0..L (central one once)."""
+def count_contacts(delta, jmax, mirror=2.0):
+    """Disjoint intervals of delta > 0 on -L..L from the nodes of 0..L (central one once;
+    mirror = 2), or from the nodes of the full plate (mirror = 1: each once)."""
     count = 0
     inside = False
+    away = 2 if mirror == 2.0 else 1
     for j in range(jmax):
         if delta[j] > 0.0:
             if not inside:
-                count += 1 if j == 0 else 2
+                count += 1 if j == 0 else away
                 inside = True
         else:
             inside = False
@@ -1253,7 +1269,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
         st, F2, jm, L2 = _stage(V * th - d2, V - u2, zs, modes, a_work, adot_work, lay, coef, cosq, wq, delta,
                                 fvals, N2)
         G2 = body_accel(lay, F2)
-        event = st == 0 and count_contacts(delta, jm) != contacts
+        event = st == 0 and count_contacts(delta, jm, lay[L_MIRROR]) != contacts
         if st == 0:
             for n in range(N):
                 zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
@@ -1264,7 +1280,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             st, F3, jm, L3 = _stage(V * th - d3, V - u3, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
                                     delta, fvals, N3)
             G3 = body_accel(lay, F3)
-            event = event or (st == 0 and count_contacts(delta, jm) != contacts)
+            event = event or (st == 0 and count_contacts(delta, jm, lay[L_MIRROR]) != contacts)
         if st == 0:
             for n in range(N):
                 zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
@@ -1275,7 +1291,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             st, F4, jm, L4 = _stage(V * t_new - d4, V - u4, zs, modes, a_work, adot_work, lay, coef, cosq, wq,
                                     delta, fvals, N4)
             G4 = body_accel(lay, F4)
-            event = event or (st == 0 and count_contacts(delta, jm) != contacts)
+            event = event or (st == 0 and count_contacts(delta, jm, lay[L_MIRROR]) != contacts)
     else:
         # classical RK4 on z' = i w z + P
         for n in range(N):
@@ -1322,7 +1338,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
         return 1, 0.0, jm, work, event
     G5 = body_accel(lay, F5)
     if method == ETD34:
-        event = event or count_contacts(delta, jm) != contacts
+        event = event or count_contacts(delta, jm, lay[L_MIRROR]) != contacts
         if event:
             # z+ minus the exponential trapezoid e^{zeta} z + h(phi1 - phi2) N1 + h phi2 N5: the
             # embedded estimate reads zero where the forcing is only (t - t*)^{3/2} smooth
@@ -1337,7 +1353,7 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
             errb[B_D] = Cb[8, 1] * (G4 - G5)
             errb[B_U] = Cb[8, 0] * (G4 - G5)
     else:
-        event = count_contacts(delta, jm) != contacts
+        event = count_contacts(delta, jm, lay[L_MIRROR]) != contacts
         # error estimate: RK4 against the exponential (Krogstad) update from the same stage
         # values; RK4's Taylor approximation of e^{i w h} dominates its error
         for n in range(N):
@@ -1669,13 +1685,13 @@ def observe_contacts(t0, h, delta0, jm0, delta1, jm1, a0, adot0, a1, adot1, body
     for i in range(n_ev):
         j = int(ev_j[i])
         sgn[j] = -sgn[j]
-        c = count_contacts(sgn, jm)
+        c = count_contacts(sgn, jm, lay[L_MIRROR])
         if c != contacts:
             rec, n = _append(rec, n, t0 + ev_th[i] * h, c, 0.0, 0.0, 0.0)
             contacts = c
             if c > largest:
                 largest = c
-    final = count_contacts(delta1, jm)
+    final = count_contacts(delta1, jm, lay[L_MIRROR])
     if final != contacts:               # the end pattern is exact: it wins
         rec, n = _append(rec, n, t0 + h, final, 0.0, 0.0, 0.0)
         contacts = final
@@ -1865,11 +1881,11 @@ def _record_output(k, t, z, a, adot, yb, delta, jmax, force, work, err_sum, diss
     for n in range(z.shape[0]):
         out_a[k, n] = a[n]
         out_adot[k, n] = adot[n]
-    out_series[k, S_CONTACTS] = count_contacts(delta, jmax)
+    out_series[k, S_CONTACTS] = count_contacts(delta, jmax, lay[L_MIRROR])
     out_series[k, S_FORCE] = force
     out_series[k, S_E_PLATE] = _plus_plate_energy(0.0, modes, z)
     out_series[k, S_DISSIPATED] = diss
-    out_series[k, S_E_LAYER] = layer_energy(delta, jmax, lay[L_DX], lay[L_K], lay[L_HE])
+    out_series[k, S_E_LAYER] = layer_energy(delta, jmax, lay[L_DX], lay[L_K], lay[L_HE], lay[L_MIRROR])
     out_series[k, S_WORK] = work
     out_series[k, S_ERR] = err_sum
     out_series[k, S_BODY_POSITION] = body_position(lay, t, yb)
@@ -1893,7 +1909,7 @@ def _error_ratio(err, errb, z, znew, yb, yb_new, modes, lay, tolerance, gap, bot
         num += errb[B_U] ** 2 / im
         den_old += body_speed(lay, yb) ** 2 / im
         den_new += body_speed(lay, yb_new) ** 2 / im
-    floor = lay[L_V] * math.sqrt(LM[0])
+    floor = lay[L_V] * math.sqrt(lay[L_LM_FLOOR])
     ratio = math.sqrt(num) / (tolerance * max(math.sqrt(max(den_old, den_new)), floor))
     he = lay[L_HE]
     if lay[L_K] > 0.0 and gap[0] > 1.0 - max(GAP_WATCH, 10.0 * bottom_gap):
@@ -1910,13 +1926,14 @@ def _error_ratio(err, errb, z, znew, yb, yb_new, modes, lay, tolerance, gap, bot
 
 
 @njit(cache=True, nogil=True)
-def _energy_allowance(delta_new, jm5, e_new, w_new, e0, work):
-    """How much one step may change the residual E_plate + E_layer - W (see ENERGY_JUMP)."""
+def _energy_allowance(delta_new, jm5, e_new, w_new, e0, work, mirror):
+    """How much one step may change the residual E_plate + E_layer - W (see ENERGY_JUMP); the
+    compressed nodes counted as on the half plate (mirror / 2 of them on the full plate)."""
     compressed = 0
     for j in range(jm5):
         if delta_new[j] > 0.0:
             compressed += 1
-    under = min(1.0, (RESOLVED_NODES / max(compressed, 1)) ** 2)
+    under = min(1.0, (RESOLVED_NODES / max(compressed * (0.5 * mirror), 1.0)) ** 2)
     return ENERGY_JUMP * max(e_new, w_new, e0) + under * abs(w_new - work)
 
 
@@ -2100,6 +2117,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     dx = lay[L_DX]
     K = lay[L_K]
     he = lay[L_HE]
+    mirror = lay[L_MIRROR]
     t_start = ctrl[C_T_START]
     t_end = ctrl[C_T_END]
     tolerance = ctrl[C_TOLERANCE]
@@ -2201,7 +2219,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
         diag[D_FAIL_T] = t
         diag[D_FAIL_KIND] = FAIL_BOTTOMED
         return LAYER_BOTTOMED_OUT, 0, rec_up, 0, rec_lo, 0, rec_c, 0
-    contacts = count_contacts(delta, jmax)
+    contacts = count_contacts(delta, jmax, mirror)
     rec_c, n_c = _append(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
     strain_nodes(a, strain_coef, cosq, eps)
@@ -2215,7 +2233,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
     gap_peak(body_position(lay, t, yb), body_speed(lay, yb), delta, jmax, a, adot, ones, lay, gap0)
     diag[D_MAX_DELTA] = gap0[0]
     diag[D_MAX_DELTA_T] = t
-    e0 = _plus_plate_energy(layer_energy(delta, jmax, dx, K, he), modes, z)
+    e0 = _plus_plate_energy(layer_energy(delta, jmax, dx, K, he, mirror), modes, z)
     resid = 0.0                 # E_plate + E_layer + D - W - E(t_start)
     max_residual = 0.0
     body_resid0 = body_residual(lay, t, yb, work)
@@ -2300,9 +2318,9 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
                 continue
 
         # ----- the energy identity may not jump (a step that breaks it is rejected)
-        e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), modes, znew)
+        e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he, mirror), modes, znew)
         resid_new = e_new + acc[0] - w_new - e0
-        if not abs(resid_new - resid) <= _energy_allowance(delta_new, jm5, e_new, w_new, e0, work):
+        if not abs(resid_new - resid) <= _energy_allowance(delta_new, jm5, e_new, w_new, e0, work, mirror):
             diag[D_ENERGY_JUMPS] += 1.0
             rejected += 1
             h = 0.25 * h_step
@@ -2332,7 +2350,7 @@ def integrate(method, modes, lay, cosq, wq, ctrl, t_out, a0, adot0, levels, out_
                 h_eff = s_lo
                 t_new = t + s_lo
                 F5, jm5, w_new = F_b, jm_b, w_b
-                e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he), modes, znew)
+                e_new = _plus_plate_energy(layer_energy(delta_new, jm5, dx, K, he, mirror), modes, znew)
                 resid_new = e_new + acc[0] - w_new - e0
             else:
                 # the interpolant's crossing was not real: the search overwrote the step's

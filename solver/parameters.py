@@ -52,12 +52,13 @@ PARAMETER_INFO = {
             "the paper's)", "s"),
     "layer_tau": ("retardation time of the viscoelastic layer: pressure K f(delta) max(1 + layer_tau "
                   "d(delta)/dt, 0) where compressed (0: elastic, the paper's)", "s"),
+    "x0": ("horizontal position of the body's centre, -L < x0 < L (0: the paper's centred impact)", "m"),
 }
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
-                  "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0}
+                  "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -205,6 +206,10 @@ class Parameters:
     layer_tau : retardation time of a viscoelastic layer [s]: its pressure is
         K f(delta) max(1 + layer_tau d(delta)/dt, 0) where it is compressed (docs/model.md,
         "Viscoelastic layer"); 0 (the default) is the paper's elastic layer.
+    x0 : horizontal position of the body's centre [m], -L < x0 < L: the body is
+        y = b(x - x0) + he - s (docs/model.md, "Off-centre impact"). 0 (the default) is the
+        paper's centred impact on the symmetric modes; any other value is solved on the full
+        plate, Nmod symmetric and Nmod antisymmetric modes.
     """
 
     K: float = 8e6
@@ -227,6 +232,7 @@ class Parameters:
     deadrise: float = 0.0
     tau: float = 0.0
     layer_tau: float = 0.0
+    x0: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -237,6 +243,10 @@ class Parameters:
             elif f.name == "deadrise":
                 if not number or not 0.0 <= float(value) < 90.0:
                     raise ParameterError(f"deadrise must be in [0, 90) degrees (0: not a wedge), got {value!r}")
+            elif f.name == "x0":
+                if not number or not math.isfinite(float(value)):
+                    raise ParameterError(f"x0 must be a finite number of metres (0: the paper's centred impact), "
+                                         f"got {value!r}")
             elif f.name == "nu":
                 if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
                         or not math.isfinite(float(value)) or not 0.0 <= float(value) < 0.5:
@@ -246,6 +256,8 @@ class Parameters:
                 if f.name == "Nmod" and int(value) > MAX_MODES:
                     raise ParameterError(f"Nmod must be at most {MAX_MODES}, got {value!r}")
             object.__setattr__(self, f.name, int(value) if f.name == "Nmod" else float(value))
+        if not abs(self.x0) < self.L:
+            raise ParameterError(f"x0 must lie inside the plate, -L < x0 < L = {self.L!r} m, got {self.x0!r}")
 
     # --- derived quantities -------------------------------------------------------------
     @property
@@ -301,10 +313,15 @@ class Parameters:
     def tan_deadrise(self) -> float:
         return math.tan(math.radians(self.deadrise)) if self.deadrise > 0.0 else 0.0
 
+    @property
+    def off_centre(self) -> bool:
+        """True when the body's centre x0 is not 0: solved on the full plate."""
+        return self.x0 != 0.0
+
     def body_profile(self, x):
-        """b(x) [m]: the body is y = b(x) + he - s (s = V t for the paper's body); x^2 / (2R) for
-        the paper's parabola (the same expression as before shapes existed)."""
-        x = np.asarray(x, dtype=float)
+        """b(x - x0) [m]: the body is y = b(x - x0) + he - s (s = V t for the paper's body);
+        x^2 / (2R) for the paper's parabola (the same expression as before shapes existed)."""
+        x = np.asarray(x, dtype=float) - self.x0
         if self.parabola:
             return x**2 / (2 * self.R)
         u = np.maximum(np.abs(x) - self.flat_width, 0.0)
@@ -313,14 +330,27 @@ class Parameters:
         return u**self.body_p / (self.body_p * self.R ** (self.body_p - 1.0))
 
     def profile_mean(self) -> float:
-        """b_mean = (1/L) int_0^L b(x) dx [m], the mean height of the body's profile over the
-        plate. The modes keep int w dx = 0 (mass conservation), so the mean compression of the
-        layer is (s - b_mean) / he: it bottoms out before the penetration s reaches b_mean + he."""
+        """b_mean = (1/2L) int_-L^L b(x - x0) dx [m], the mean height of the body's profile over
+        the plate. The modes keep int w dx = 0 (mass conservation), so the mean compression of
+        the layer is (s - b_mean) / he: it bottoms out before the penetration s reaches
+        b_mean + he. Centred (x0 = 0): (1/L) int_0^L b dx."""
+        if self.off_centre:
+            # the profile rises away from x0 on both sides: b_mean = (B(L + |x0|) + B(L - |x0|)) / 2L
+            return (self._profile_integral(self.L + abs(self.x0))
+                    + self._profile_integral(self.L - abs(self.x0))) / (2.0 * self.L)
         c = min(self.flat_width, self.L)
         if self.deadrise > 0.0:
             return (self.L - c) ** 2 * self.tan_deadrise / (2.0 * self.L)
         p = self.body_p
         return (self.L - c) ** (p + 1.0) / ((p + 1.0) * p * self.R ** (p - 1.0) * self.L)
+
+    def _profile_integral(self, reach: float) -> float:
+        """B(r) = int_0^r b(u) du [m2] of the centred profile."""
+        u = max(reach - self.flat_width, 0.0)
+        if self.deadrise > 0.0:
+            return u**2 * self.tan_deadrise / 2.0
+        p = self.body_p
+        return u ** (p + 1.0) / ((p + 1.0) * p * self.R ** (p - 1.0))
 
     @property
     def free_body(self) -> bool:
@@ -329,9 +359,10 @@ class Parameters:
 
     @property
     def stage_duration(self) -> float:
-        """T = L^2 / (6 R V), the impact stage computed [s]; for any body shape T = b_mean / V,
-        b_mean = (1/L) int_0^L b dx (docs/model.md, "Body shapes")."""
-        if self.parabola:
+        """T = L^2 / (6 R V), the impact stage computed [s]; for any body shape and centre
+        T = b_mean / V, b_mean = (1/2L) int_-L^L b(x - x0) dx (docs/model.md, "Body shapes";
+        the parabola off centre: (L^2/3 + x0^2) / (2 R V))."""
+        if self.parabola and not self.off_centre:
             return self.L**2 / (6.0 * self.R * self.V)
         return self.profile_mean() / self.V
 

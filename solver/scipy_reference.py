@@ -36,7 +36,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     except ImportError:                                      # pragma: no cover
         from .parameters import ParameterError
         raise ParameterError("integrator dop853 needs scipy: pip install scipy") from None
-    N = p.Nmod
+    N = tab.lam.size                                  # 2 Nmod on the full plate of an off-centre body
     J = tab.xq.size
     delta, fvals, P = np.empty(J), np.empty(J), np.empty(N)
     om2 = tab.omega**2
@@ -46,7 +46,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     level = 1.0 - bottom_gap
 
     free = p.free_body
-    damp = p.damping                                  # Kelvin-Voigt c_n (0: elastic ice)
+    damp = tab.damping                                # Kelvin-Voigt c_n (0: elastic ice)
     damped = p.tau > 0 or p.layer_tau > 0             # D: the plate's and the layer's dissipation
     n_extra = 3 if free else 1
 
@@ -96,10 +96,10 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         a, v, work = y[:N], y[N:2 * N], y[2 * N]
         st, F, jmax, _ = forcing(t, y)
         out_a[k], out_v[k] = a, v
-        series[k, kn.S_CONTACTS] = kn.count_contacts(delta, jmax)
+        series[k, kn.S_CONTACTS] = kn.count_contacts(delta, jmax, tab.lay[kn.L_MIRROR])
         series[k, kn.S_FORCE] = F
         series[k, kn.S_E_PLATE] = 0.5 * np.sum(tab.LM * (v**2 + om2 * a**2))
-        series[k, kn.S_E_LAYER] = kn.layer_energy(delta, jmax, tab.dx, p.K, p.he)
+        series[k, kn.S_E_LAYER] = kn.layer_energy(delta, jmax, tab.dx, p.K, p.he, tab.lay[kn.L_MIRROR])
         series[k, kn.S_WORK] = work
         series[k, kn.S_BODY_POSITION] = position(t, y)
         series[k, kn.S_BODY_SPEED] = speed(y)
@@ -148,7 +148,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
             if math.isnan(diag[kn.D_STOP_T]):
                 diag[kn.D_STOP_T] = t_old          # bracketed to the step only
             st, F, jmax, _ = forcing(solver.t, solver.y)
-            if kn.count_contacts(delta, jmax) == 0:
+            if kn.count_contacts(delta, jmax, tab.lay[kn.L_MIRROR]) == 0:
                 while k < T and times[k] <= t_stop:
                     record(times[k], dense(times[k]))
                 t_reached = t_stop
