@@ -14,7 +14,7 @@ import numpy as np
 
 from . import kernels as kn
 from .fracture import crack_onset, thin_record
-from .parameters import Parameters, ParameterError, Settings, water_added_mass
+from .parameters import Parameters, ParameterError, Settings
 from .scipy_reference import integrate_dop853
 
 #: status -> meaning (docs/model.md, "Statuses")
@@ -182,18 +182,12 @@ class _Tables:
         self.full_plate = full
         if full:
             lam = np.pi * np.arange(1, 2 * p.Nmod + 1) / (2.0 * p.L)
-            M = p.plate_mass + water_added_mass(p.rho_w, lam, p.H)
-            self.omega = np.sqrt((p.rigidity * lam**4 + p.rho_w * p.g) / M)
-            damping = p.tau * p.rigidity * lam**4 / M
-            self.coef = -1.0 / (p.L * M)
             self.origin = -p.L                       # x of the kernel's xi = 0
         else:
             lam = p.wavenumbers
-            self.omega = p.frequencies
-            M = p.added_masses
-            damping = p.damping
-            self.coef = -2.0 / (p.L * M)
             self.origin = 0.0
+        M, self.omega, damping = p.mode_constants(lam)
+        self.coef = (-1.0 if full else -2.0) / (p.L * M)
         self.lam = lam
         self.damping = damping
         self.LM = p.L * M

@@ -275,24 +275,34 @@ class Parameters:
         """lambda_n = pi n / L, n = 1..Nmod [m-1]."""
         return np.pi * np.arange(1, self.Nmod + 1) / self.L
 
+    def mode_constants(self, lam):
+        """(M, omega, c) of modes of wavenumbers lam [m-1]: the mass with the water's added mass
+        M = m + rho_w coth(lam H) / lam [kg m-2] (m + rho_w / lam in deep water, H = inf, bit for
+        bit the paper's), omega = sqrt((D lam^4 + rho_w g) / M) [rad s-1] and the Kelvin-Voigt
+        damping c = tau D lam^4 / M [s-1]. The symmetric modes' are ``added_masses``,
+        ``frequencies`` and ``damping``; an off-centre impact also takes lam = k pi / 2L."""
+        lam = np.asarray(lam, dtype=float)
+        if math.isinf(self.H):
+            M = self.plate_mass + self.rho_w / lam
+        else:
+            M = self.plate_mass + water_added_mass(self.rho_w, lam, self.H)
+        omega = np.sqrt((self.rigidity * lam**4 + self.rho_w * self.g) / M)
+        return M, omega, self.tau * self.rigidity * lam**4 / M
+
     @property
     def added_masses(self) -> np.ndarray:
-        """M_n = m + rho_w coth(lambda_n H) / lambda_n [kg m-2]; m + rho_w / lambda_n for deep
-        water (H = inf, bit for bit the paper's)."""
-        if math.isinf(self.H):
-            return self.plate_mass + self.rho_w / self.wavenumbers
-        return self.plate_mass + water_added_mass(self.rho_w, self.wavenumbers, self.H)
+        """M_n = m + rho_w coth(lambda_n H) / lambda_n [kg m-2] (see mode_constants)."""
+        return self.mode_constants(self.wavenumbers)[0]
 
     @property
     def damping(self) -> np.ndarray:
         """c_n = tau D lambda_n^4 / M_n [s-1]: a_n'' + c_n a_n' + omega_n^2 a_n = P_n."""
-        return self.tau * self.rigidity * self.wavenumbers**4 / self.added_masses
+        return self.mode_constants(self.wavenumbers)[2]
 
     @property
     def frequencies(self) -> np.ndarray:
         """omega_n = sqrt((D lambda_n^4 + rho_w g) / M_n) [rad s-1]."""
-        lam = self.wavenumbers
-        return np.sqrt((self.rigidity * lam**4 + self.rho_w * self.g) / self.added_masses)
+        return self.mode_constants(self.wavenumbers)[1]
 
     @cached_property
     def time_scale(self) -> float:
