@@ -2,16 +2,13 @@
 symmetric path; the full plate at x0 = 0 is the symmetric run with its antisymmetric amplitudes
 at 0; a mirrored x0 mirrors every field; the departure from the centred run is odd and even in x0
 as symmetry says; the energy identity; DOP853; the stage end; bad values; a study."""
-import math
-
 import numpy as np
 import pytest
 
 from dop853_check import against_dop853
-from pipeline.study import load_study_text
+from neutral_ids import assert_ids_hold_at_neutral, run_swept_study
 from solver import ParameterError, Parameters, Settings, solve
 from solver.core import _Tables
-from test_pipeline import pipeline
 
 FIELDS = ("deflection", "strain", "layer_pressure", "compression")
 X = np.linspace(-6.0, 6.0, 97)                     # symmetric about 0: X[::-1] == -X
@@ -165,39 +162,15 @@ def test_bad_centres_are_refused(bad):
         Parameters(x0=bad)
 
 
-STUDY = """
-[base]
-Nmod = 6
-{x0}
-[grid]
-V = [3.0, 5.0]
-[output]
-times = {{ unit = "t_sc", step = 0.5, stop = 1.0 }}
-fields = ["strain"]
-x_points = 13
-"""
-
-
 def test_case_ids_hold_for_the_centred_impact():
-    before = load_study_text(STUDY.format(x0=""), "s")
-    centred = load_study_text(STUDY.format(x0="x0 = 0.0"), "s")
-    off = load_study_text(STUDY.format(x0="x0 = 1.0"), "s")
-    assert before.case_ids == centred.case_ids == [c.case_id for c in centred.cases]
-    assert not set(off.case_ids) & set(centred.case_ids)
-    swept = load_study_text(STUDY.format(x0="").replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\nx0 = [0.0, 1.0]"), "s")
-    assert swept.case_ids == [c.case_id for c in swept.cases]
+    assert_ids_hold_at_neutral("x0", "0.0", "1.0")
 
 
 def test_off_centre_study_runs_and_stores_x0(tmp_path):
     import xarray as xr
-    path = tmp_path / "off.toml"
-    path.write_text(STUDY.format(x0="").replace("V = [3.0, 5.0]", "x0 = [-1.0, 0.0, 1.0]"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
-    assert code == 0, err
-    with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
-        assert list(ds["x0"].values) == [-1.0, 0.0, 1.0] and ds["x0"].attrs["units"] == "m"
+    with xr.open_dataset(run_swept_study(tmp_path, "x0", [-1.0, 0.0, 1.0], "m")) as ds:
         strain = ds["strain"]
-        assert strain.dims == ("x0", "t", "x") and ds["x"].size == 13
+        assert strain.dims == ("x0", "t", "x") and ds["x"].size == 11
         mirrored = strain.sel(x0=-1.0).values[..., ::-1]
         assert rel(mirrored, strain.sel(x0=1.0).values) < 1e-6
         assert ds["max_strain"].sel(x0=1.0).item() == pytest.approx(ds["max_strain"].sel(x0=-1.0).item(), rel=1e-6)

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.study import load_study_text
+from neutral_ids import assert_ids_hold_at_neutral, run_swept_study, study
 from solver import ParameterError, Parameters, Settings, solve
 from test_pipeline import pipeline
 
@@ -65,44 +65,18 @@ def test_strain_converges_to_deep_water_as_exp_minus_2_lambda1_H():
     assert abs(rate / (2 * lam1) - 1) < 0.15
 
 
-STUDY = """
-[base]
-Nmod = 6
-{H}
-[grid]
-V = [3.0, 5.0]
-[output]
-times = {{ unit = "t_sc", step = 0.25, stop = 0.5 }}
-fields = ["strain"]
-x_points = 11
-"""
-
-
 def test_case_ids_hold_for_deep_water_and_change_with_depth():
-    before = load_study_text(STUDY.format(H=""), "s")
-    deep = load_study_text(STUDY.format(H="H = inf"), "s")
-    shallow = load_study_text(STUDY.format(H="H = 2.0"), "s")
-    assert before.case_ids == deep.case_ids == [c.case_id for c in deep.cases]
-    assert not set(shallow.case_ids) & set(deep.case_ids)
-    assert shallow.case_ids == [c.case_id for c in shallow.cases]
-    swept = load_study_text(STUDY.format(H="").replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\nH = [2.0, inf]"), "s")
-    assert swept.case_ids == [c.case_id for c in swept.cases]             # the fast ids agree
-    assert swept.case_ids[1] == before.case_ids[0] and swept.case_ids[0] == shallow.case_ids[0]
+    assert_ids_hold_at_neutral("H", "inf", "2.0")
 
 
 def test_depth_out_of_range_is_one_line(tmp_path):
     path = tmp_path / "too_shallow.toml"
-    path.write_text(STUDY.format(H="H = 1e-4"))
+    path.write_text(study("H = 1e-4"))
     code, _, err = pipeline("run", path, "--out", tmp_path / "o")
     assert code == 2 and err.count("\n") == 1 and "H = 0.0001 lies outside the range" in err, err
 
 
 def test_water_depth_study_runs_and_stores_H(tmp_path):
     import xarray as xr
-    path = tmp_path / "depths.toml"
-    path.write_text(STUDY.format(H="").replace("V = [3.0, 5.0]", "H = [0.5, inf]"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
-    assert code == 0, err
-    with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
-        assert list(ds["H"].values) == [0.5, np.inf] and ds["H"].attrs["units"] == "m"
+    with xr.open_dataset(run_swept_study(tmp_path, "H", [0.5, np.inf], "m")) as ds:
         assert ds["max_strain"].sel(H=0.5).item() != ds["max_strain"].sel(H=np.inf).item()
