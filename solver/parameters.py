@@ -207,7 +207,8 @@ class Parameters:
         K f(delta) max(1 + layer_tau d(delta)/dt, 0) where it is compressed (docs/model.md,
         "Viscoelastic layer"); 0 (the default) is the paper's elastic layer.
     x0 : horizontal position of the body's centre [m], -L < x0 < L: the body is
-        y = b(x - x0) + he - s (docs/model.md, "Off-centre impact"). 0 (the default) is the
+        y = b(x - x0) + he - s and moves vertically only, without rotating (docs/model.md,
+        "Off-centre impact"). 0 (the default) is the
         paper's centred impact on the symmetric modes; any other value is solved on the full
         plate, Nmod symmetric and Nmod antisymmetric modes.
     """
