@@ -62,8 +62,8 @@ def profile_step(p, repeats=2000):
     out = {}
     for name, fn in [("forcing (one stage)", lambda: kn.layer_forcing(*args)),
                      ("strain at the nodes (timed alone; in the loop it shares the last stage's table pass)", lambda: kn.strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
-                     ("layer energy (diagnostics)", lambda: kn.layer_energy(delta, jmax, tab.dx, p.K, p.he)),
-                     ("contact intervals", lambda: kn.count_contacts(delta, jmax))]:
+                     ("layer energy (diagnostics)", lambda: kn.layer_energy(delta, jmax, tab.dx, p.K, p.he, 2.0)),
+                     ("contact intervals", lambda: kn.count_contacts(delta, jmax, 2.0))]:
         fn()
         t0 = time.perf_counter()
         for _ in range(repeats):

@@ -740,7 +740,7 @@ def layer_reaction(s, U, adot, coef, cosq, wq, lay, jmax, delta, fvals, P):
 
 
 @njit(cache=True, nogil=True)
-def layer_energy(delta, jmax, dx, K, he, mirror=2.0):
+def layer_energy(delta, jmax, dx, K, he, mirror):
     """E_layer = 2 K he int_0^L G(delta) dx, G = -delta - ln(1 - delta) (delta > 0); on the
     full plate of an off-centre impact (mirror = 1) K he int_0^2L G dx.
 
@@ -765,7 +765,7 @@ def layer_energy(delta, jmax, dx, K, he, mirror=2.0):
 
 
 @njit(cache=True, nogil=True)
-def count_contacts(delta, jmax, mirror=2.0):
+def count_contacts(delta, jmax, mirror):
     """Disjoint intervals of delta > 0 on -L..L from the nodes of 0..L (central one once;
     mirror = 2), or from the nodes of the full plate (mirror = 1: each once)."""
     count = 0
