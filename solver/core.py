@@ -480,7 +480,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         diag[i] += tab.origin
     level_x += tab.origin
     if fields:
-        cosx = np.cos(np.outer(x - tab.origin if tab.full_plate else x, tab.lam))   # (X, N)
+        cosx = np.cos(np.outer(tab.kernel_x(x), tab.lam))                     # (X, N)
         w = out_a @ cosx.T
         for name in fields:
             if name == "deflection":
@@ -531,7 +531,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         floor = f"{1e-13 * t_end:.1e} s"
         if kind == kn.FAIL_LOCATED:
             message = (f"layer bottomed out {where}: its gap closed to {s.bottoming_gap:g} of its thickness "
-                       f"at x = {'' if p.off_centre else '+-'}{diagnostics['bottoming_x']:.4g} m, closing at "
+                       f"at x = {'' if tab.full_plate else '+-'}{diagnostics['bottoming_x']:.4g} m, closing at "
                        f"{diagnostics['bottoming_closing_speed']:.3g} m/s; the force there is unbounded")
         elif kind == kn.FAIL_BOTTOMED:
             message = (f"layer bottomed out {where} (not located to the threshold): the compression "
