@@ -106,7 +106,7 @@ def test_no_node_beyond_the_contact_bound_touches(shape):
     for _ in range(20):
         a = rng.normal(scale=0.01, size=12)
         s = rng.uniform(0.0, 0.3)
-        jmax = kn.contact_bound(s, a, tab.lay, tab.xq.size)
+        jmax = kn.contact_bound(s, a, tab.cosq, tab.lay, np.empty(tab.xq.size))
         delta = (a @ tab.cosq + s - p.body_profile(tab.xq)) / p.he
         assert np.all(delta[jmax:] < 0)
 

@@ -3,7 +3,9 @@
 - phi_1..phi_3 of i y against their Taylor series summed exactly in rational arithmetic;
 - the dense output (exact sub-steps of a quadratic forcing) against the direct formula
   z(s) = e^{i w s} z0 + s phi1 P0 + b1 s^2 phi2 + 2 b2 s^3 phi3 and against scipy's DOP853;
-- the fused deflection + strain pass against the two sums it replaces;
+- the deflection + strain pass against the two sums it is made of;
+- the contact bound (the nodes the forcing sums over) against the contact edge of a run,
+  and the contact observer on those nodes against the observer on every node;
 - the forcing's projection on the modes against the hat-function weights written out as a
   (J, N) matrix, the form the forcing used before it was folded into per-mode weights.
 """
@@ -77,7 +79,7 @@ def test_dense_output_matches_direct_formula_and_dop853():
         assert np.allclose(A[:, n], sol.y[1] / omega[n], rtol=1e-10, atol=1e-14 * scale[n])
 
 
-def test_fused_deflection_and_strain_pass_equals_the_separate_sums():
+def test_deflection_and_strain_pass_equals_the_separate_sums():
     p = Parameters(Nmod=61)                                     # not a multiple of 4: the tail loop too
     tab = _Tables(p, 1000)
     a = np.random.default_rng(5).normal(size=61) * 1e-3
@@ -124,3 +126,104 @@ def test_forcing_projection_equals_hat_weight_matrix(t_tilde):
                 kn._add_segment(extra, tab.lam[0], x0, x1, 0.0, fvals[j + 1], -1.0)
                 kn._add_segment(extra, tab.lam[0], xs, x1, 0.0, fvals[j + 1], 1.0)
     assert np.allclose(P, nodal + p.K * tab.coef * extra, rtol=1e-12, atol=1e-12 * np.abs(P).max())
+
+
+def _reference_run_states(count):
+    p = Parameters(Nmod=60)
+    tab = _Tables(p, 1000)
+    times = np.linspace(0.05, 4.6, count) * p.time_scale
+    r = solve(p, Settings(error_estimate=False), times=times, fields=())
+    return p, tab, r
+
+
+def test_contact_bound_is_close_to_the_contact_edge():
+    """contact_bound's node-by-node bound (its first four modes exact) leaves at most a few
+    nodes beyond the last compressed one, where the coarse bound sum |a_n| left hundreds; no
+    node at or beyond jmax - 1 is compressed (safety on random amplitudes and every body
+    shape: test_body_shapes)."""
+    p, tab, r = _reference_run_states(60)
+    J = tab.xq.size
+    work, delta, fvals, P = np.empty(J), np.empty(J), np.empty(J), np.empty(p.Nmod)
+    slack, coarse_slack = [], []
+    for a, s in zip(r.amplitudes, r.body_position):
+        jmax = kn.contact_bound(s, a, tab.cosq, tab.lay, work)
+        exact = (a @ tab.cosq + s - tab.lay[kn.N_LAY:]) / p.he
+        compressed = np.nonzero(exact > 0)[0]
+        edge = compressed[-1] + 1 if compressed.size else 0
+        assert not np.any(exact[jmax - 1:] > 0)
+        slack.append(jmax - edge)
+        coarse = min(J, int(kn.body_extent(s + np.abs(a).sum(), tab.lay) / tab.dx) + 2)
+        coarse_slack.append(coarse - edge)
+        st, force, jm, _ = kn.layer_forcing_at(s, p.V, a, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
+        assert st == 0 and jm == jmax
+        assert np.allclose(delta[:jm], exact[:jm], rtol=0, atol=1e-12)
+    slack, coarse_slack = np.array(slack), np.array(coarse_slack)
+    print(f"nodes beyond the contact edge: mean {slack.mean():.1f}, max {slack.max()} "
+          f"(coarse bound: mean {coarse_slack.mean():.1f})")
+    assert slack.min() >= 1 and slack.max() <= 0.03 * J and slack.mean() <= 6
+    assert coarse_slack.mean() > 20 * slack.mean()
+
+
+def test_reach_in_step_bounds_every_node_beyond_it():
+    """No node at or beyond reach_in_step's jm' has (delta_0 + delta_1) / 2 + drift / he > 0,
+    the condition for a sign change inside the step; drifts from 0 to large."""
+    p, tab, r = _reference_run_states(40)
+    J = tab.xq.size
+    work = np.empty(J)
+    b = tab.lay[kn.N_LAY:]
+    rng = np.random.default_rng(11)
+    for i in range(len(r.times) - 1):
+        a0, a1 = r.amplitudes[i], r.amplitudes[i + 1]
+        s0, s1 = r.body_position[i], r.body_position[i + 1]
+        jm = max(kn.contact_bound(s0, a0, tab.cosq, tab.lay, work), kn.contact_bound(s1, a1, tab.cosq, tab.lay, work))
+        d0 = (a0 @ tab.cosq + s0 - b) / p.he
+        d1 = (a1 @ tab.cosq + s1 - b) / p.he
+        for drift in (0.0, *(10.0 ** rng.uniform(-6, -2, size=3))):
+            jx = kn.reach_in_step(jm, a0, a1, s0, s1, drift, tab.cosq, tab.lay, work)
+            assert jx >= jm
+            assert not np.any(0.5 * (d0[jx:] + d1[jx:]) + drift / p.he > 0), (i, drift)
+
+
+def test_contact_observer_on_the_bounded_nodes_equals_the_observer_on_every_node():
+    """observe_contacts given delta only on contact_bound's nodes (NaN beyond) records the same
+    changes as given delta at every node. The rates are scaled up so that nodes beyond both
+    ends' bounds do cross inside the step (checked), which only reach_in_step lets it see."""
+    p, tab, r = _reference_run_states(120)
+    J = tab.xq.size
+    b = tab.lay[kn.N_LAY:]
+    work = np.empty(J)
+    outside = 0
+    h = np.diff(r.times).mean()
+    for scale in (1.0, 30.0):
+        for i in range(len(r.times) - 1):
+            a0, a1 = r.amplitudes[i], r.amplitudes[i + 1]
+            v0, v1 = scale * r.velocities[i], scale * r.velocities[i + 1]
+            body0 = np.array([r.body_position[i], p.V])
+            body1 = np.array([r.body_position[i + 1], p.V])
+            full0 = (a0 @ tab.cosq + body0[0] - b) / p.he
+            full1 = (a1 @ tab.cosq + body1[0] - b) / p.he
+            jm0 = kn.contact_bound(body0[0], a0, tab.cosq, tab.lay, work)
+            jm1 = kn.contact_bound(body1[0], a1, tab.cosq, tab.lay, work)
+            part0, part1 = np.full(J, np.nan), np.full(J, np.nan)
+            part0[:jm0], part1[:jm1] = full0[:jm0], full1[:jm1]
+            contacts = kn.count_contacts(full0, J, 2.0)
+            runs = []
+            for d0, j0, d1, j1 in ((full0, J, full1, J), (part0, jm0, part1, jm1)):
+                rec = np.empty((64, 2))
+                out = kn.observe_contacts(0.0, h, d0.copy(), j0, d1.copy(), j1, a0, v0, a1, v1, body0, body1,
+                                          tab.cosq, tab.lay, np.empty(J), np.empty(4 * J + 16),
+                                          np.empty(4 * J + 16), contacts, rec, 0)
+                runs.append((out[0], out[3], out[1][:out[2]].copy()))
+            assert runs[0][0] == runs[1][0] and runs[0][1] == runs[1][1], i
+            np.testing.assert_allclose(runs[1][2], runs[0][2], rtol=1e-12, atol=1e-12 * h)
+            # does a node beyond both bounds change sign inside the step (Hermite of its ends)?
+            jm = max(jm0, jm1)
+            rate0 = (v0 @ tab.cosq + p.V) / p.he
+            rate1 = (v1 @ tab.cosq + p.V) / p.he
+            roots = np.empty(3)
+            for j in range(jm, J):
+                c = kn.hermite(full0[j], full1[j], rate0[j], rate1[j], h)
+                if kn.cubic_sign_changes(*c, roots):
+                    outside += 1
+    print(f"nodes beyond both ends' bounds that change sign inside a step: {outside}")
+    assert outside > 0
