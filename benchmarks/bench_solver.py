@@ -61,7 +61,7 @@ def profile_step(p, repeats=2000):
     _, _, jmax = kn.layer_forcing(*args)
     out = {}
     for name, fn in [("forcing (one stage)", lambda: kn.layer_forcing(*args)),
-                     ("strain at the nodes (timed alone; in the loop it shares the last stage's table pass)", lambda: kn.strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
+                     ("strain at the nodes (in the loop: the last stage's second pass over the table)", lambda: kn.strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
                      ("layer energy (diagnostics)", lambda: kn.layer_energy(delta, jmax, tab.dx, p.K, p.he, 2.0)),
                      ("contact intervals", lambda: kn.count_contacts(delta, jmax, 2.0))]:
         fn()
@@ -164,9 +164,9 @@ def main(argv=None):
         lines.append(f"| {tol:.0e} | " + " | ".join(f"{med[N]:.3f}" for N in (20, 60, 120, 240))
                      + f" | {med[240] / med[60]:.2f} | {steps[60]}, {steps[240]} |")
     lines += ["", "## Where an etd34 step goes (Nmod = 60, state at t~ = 3.8)", "",
-              f"{jmax} of 1001 nodes can touch the body (bound from sum |a_n|), {ncontact} are in contact.",
+              f"{jmax} of 1001 nodes can touch the body (contact_bound: four modes exact, the rest by sum |a_n|), {ncontact} are in contact.",
               "", "| piece | microseconds per call | calls per accepted step |", "|---|---|---|"]
-    calls = {"forcing (one stage)": "4", "strain at the nodes (timed alone; in the loop it shares the last stage's table pass)": "1",
+    calls = {"forcing (one stage)": "4", "strain at the nodes (in the loop: the last stage's second pass over the table)": "1",
              "layer energy (diagnostics)": "1", "contact intervals": "5"}
     for name, us in prof.items():
         lines.append(f"| {name} | {us:.1f} | {calls[name]} |")

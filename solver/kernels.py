@@ -595,6 +595,10 @@ def layer_forcing_strain(s, U, a, adot, coef, cosq, wq, lay, delta, fvals, P, st
     return layer_reaction(s, U, adot, coef, cosq, wq, lay, jmax, delta, fvals, P)
 
 
+#: modes taken exactly in contact_bound's node-by-node bound on the deflection
+BOUND_MODES = 4
+
+
 @njit(cache=True, nogil=True)
 def contact_bound(s, a, cosq, lay, work):
     """jmax such that no node j >= jmax - 1 touches: delta_j < 0 there.
@@ -602,46 +606,47 @@ def contact_bound(s, a, cosq, lay, work):
     Two bounds on the deflection w = sum_n a_n cos(lambda_n x). The coarse one, w <= sum |a_n|,
     limits contact to the nodes j < jc with b(x) <= s + sum |a_n|. On those, each node's own
         w_j <= sum_{n < 4} a_n cos(lambda_n x_j) + sum_{n >= 4} |a_n|
-    (one vectorised pass over four table rows): scanning from the last node down, the first
-    where b(x_j) - s is within it is the last that can touch, j*, and jmax = j* + 2 (the pair
-    (j*, j* + 1) is where the layer's split subinterval can lie). The amplitudes fall fast
-    with n, so j* is close to the true contact edge: on the reference case jmax falls from 550
-    to 265 nodes on average, and the forcing's pass over the table with it. A relative 1e-9 of
-    sum |a_n| is added to the bound against rounding. work (J,) is scratch (the caller's
-    delta, which the forcing overwrites below jmax); J = work.shape[0].
+    (last_reachable): scanning from the last node down, the first where b(x_j) - s is within
+    it is the last that can touch, j*, and jmax = j* + 2 (the pair (j*, j* + 1) is where the
+    layer's split subinterval can lie). The amplitudes fall fast with n, so j* is close to the
+    true contact edge: on the reference case jmax is 3.5 nodes beyond it on average, where
+    the coarse bound left 295, and the forcing's passes over the table shrink with it. A
+    relative 1e-9 of sum |a_n| is added to the bound against rounding. work (J,) is scratch
+    (the caller's delta, which the forcing overwrites below jmax); J = work.shape[0].
     """
     J = work.shape[0]
     N = a.shape[0]
-    if N < 4:
-        tail = 0.0
-        for n in range(N):
-            tail += abs(a[n])
-        reach = s + tail
-        return 1 if reach <= 0.0 else min(J, int(body_extent(reach, lay) / lay[L_DX]) + 2)
-    head = abs(a[0]) + abs(a[1]) + abs(a[2]) + abs(a[3])
+    m = min(BOUND_MODES, N)
+    head = 0.0
     tail = 0.0
-    for n in range(4, N):
-        tail += abs(a[n])
+    for n in range(N):
+        if n < m:
+            head += abs(a[n])
+        else:
+            tail += abs(a[n])
     reach = s + head + tail
     if reach <= 0.0:
         return 1
     jc = min(J, int(body_extent(reach, lay) / lay[L_DX]) + 2)
-    slack = s + tail + 1e-9 * (head + tail)
-    a0 = a[0]
-    a1 = a[1]
-    a2 = a[2]
-    a3 = a[3]
-    r0 = cosq[0]
-    r1 = cosq[1]
-    r2 = cosq[2]
-    r3 = cosq[3]
-    b = lay[N_LAY:N_LAY + jc]
-    for j in range(jc):                  # b(x_j) - s - (the bound on w_j)
-        work[j] = b[j] - slack - ((a0 * r0[j] + a1 * r1[j]) + (a2 * r2[j] + a3 * r3[j]))
-    for j in range(jc - 1, -1, -1):
+    j = last_reachable(a, m, cosq, lay, s + tail + 1e-9 * (head + tail), work, 0, jc)
+    return min(J, j + 2)
+
+
+@njit(cache=True, nogil=True)
+def last_reachable(c, m, cosq, lay, lift, work, j0, j1):
+    """The last node j0 <= j < j1 with b(x_j) <= lift + sum_{n < m} c_n cos(lambda_n x_j), or
+    j0 - 1 if there is none: m + 1 vectorised passes over work (scratch), then a scan down."""
+    for j in range(j0, j1):
+        work[j] = lay[N_LAY + j] - lift
+    for n in range(m):
+        cn = c[n]
+        row = cosq[n]
+        for j in range(j0, j1):
+            work[j] -= cn * row[j]
+    for j in range(j1 - 1, j0 - 1, -1):
         if work[j] <= 0.0:
-            return min(J, j + 2)
-    return 1
+            return j
+    return j0 - 1
 
 
 @njit(cache=True, nogil=True)
@@ -1623,39 +1628,32 @@ def reach_in_step(jm, a0, a1, s0, s1, drift, cosq, lay, work):
     Given: at both ends delta < 0 at the nodes j >= jm (contact_bound), and delta moves at most
     drift / he over half the step, so delta(t) <= (delta_0 + delta_1) / 2 + drift / he at every
     t in it. Each end's delta is bounded as in contact_bound, w_j <= sum_{n < 4} a_n
-    cos(lambda_n x_j) + sum_{n >= 4} |a_n|, on the nodes up to the coarse limit
-    b(x_j) <= max(s0, s1) + max(sum |a0_n|, sum |a1_n|) + drift (one vectorised pass over four
-    table rows, into the scratch work (J,) at those nodes), then scanned from the last down.
+    cos(lambda_n x_j) + sum_{n >= 4} |a_n| (last_reachable on the mean of the ends' first
+    modes), on the nodes up to the coarse limit
+    b(x_j) <= max(s0, s1) + max(sum |a0_n|, sum |a1_n|) + drift. work (J,) is scratch.
     """
     N = a0.shape[0]
     J = work.shape[0]
+    m = min(BOUND_MODES, N)
     A0 = 0.0
     A1 = 0.0
+    T = 0.0
     for n in range(N):
         A0 += abs(a0[n])
         A1 += abs(a1[n])
+        if n >= m:
+            T += abs(a0[n]) + abs(a1[n])
     reach = max(s0, s1) + max(A0, A1) + drift
     if reach <= 0.0:
         return jm
     jc = min(J, int(body_extent(reach, lay) / lay[L_DX]) + 2)
     if jc <= jm:
         return jm
-    m = min(4, N)
-    T = 0.0
-    for n in range(m, N):
-        T += abs(a0[n]) + abs(a1[n])
-    lift = 0.5 * (s0 + s1 + T) + drift + 1e-9 * (A0 + A1)
-    for j in range(jm, jc):
-        work[j] = lift - lay[N_LAY + j]
+    mean = np.empty(m)
     for n in range(m):
-        c = 0.5 * (a0[n] + a1[n])
-        row = cosq[n]
-        for j in range(jm, jc):
-            work[j] += c * row[j]
-    for j in range(jc - 1, jm - 1, -1):
-        if work[j] > 0.0:
-            return j + 1
-    return jm
+        mean[n] = 0.5 * (a0[n] + a1[n])
+    lift = 0.5 * (s0 + s1 + T) + drift + 1e-9 * (A0 + A1)
+    return max(jm, last_reachable(mean, m, cosq, lay, lift, work, jm, jc) + 1)
 
 
 @njit(cache=True, nogil=True)
