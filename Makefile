@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup study status test test-slow bench bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
+.PHONY: help setup study status test test-slow test-portable bench bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -39,6 +39,19 @@ status: setup  ## what a study has done: make status STUDY=speed_sweep
 test: setup  ## the default test suite (fast; excludes tests marked slow): 2 processes, a file each
 	$(PY) -m pytest -q -n 2 --dist loadfile --durations=10
 
+#: the tests whose numbers another CPU's round-off could move: the solver's, the regression
+#: against the stored reference, and the axes a study generates
+PORTABLE_TESTS := tests/test_axes.py tests/test_body_mass.py tests/test_body_shapes.py tests/test_energy_and_forcing.py \
+	tests/test_error_estimate.py tests/test_events.py tests/test_extremes.py tests/test_integrators.py \
+	tests/test_kernel_pieces.py tests/test_off_centre.py tests/test_paper_numbers.py tests/test_pipeline.py \
+	tests/test_viscoelastic.py tests/test_water_depth.py
+#: numpy's SIMD dispatch targets above its baseline, turned off to emulate an older CPU
+NO_AVX512 := X86_V4 AVX512_ICL AVX512_SPR
+
+test-portable: setup  ## the numerics-bearing tests as on other CPUs: numpy without AVX-512 + numba for haswell; numpy's SSE baseline + numba generic
+	NPY_DISABLE_CPU_FEATURES="$(NO_AVX512)" NUMBA_CPU_NAME=haswell $(PY) -m pytest -q -n 2 --dist loadfile $(PORTABLE_TESTS)
+	NPY_DISABLE_CPU_FEATURES="X86_V3 $(NO_AVX512)" NUMBA_CPU_NAME=generic $(PY) -m pytest -q -n 2 --dist loadfile $(PORTABLE_TESTS)
+
 test-slow: setup  ## only the long tests (marked slow)
 	$(PY) -m pytest -q -n 2 --dist loadfile -m slow --durations=10
 
@@ -58,7 +71,7 @@ bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS=
 bench-scale: setup  ## 100 000 small cases end to end, a killed runner, status (about 12 min) -> results/bench/scale.md
 	$(PY) benchmarks/bench_scale.py
 
-regenerate-reference: setup  ## rebuild tests/data/regression_small.nc (only after a deliberate change)
+regenerate-reference: setup  ## rebuild tests/data/regression_small.nc and its spread over tolerances (only after a deliberate change)
 	$(PY) tests/regenerate_reference.py
 
 clean:  ## remove results/ and caches (keeps .venv)

@@ -5,6 +5,8 @@ import sys
 INTERRUPTED = 130
 
 try:
+    from . import interrupts
+    interrupts.install()
     from .cli import main
     code = main()
 except KeyboardInterrupt:                        # Ctrl-C while Python imports the runner, or

@@ -31,7 +31,7 @@ import numpy as np
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, STATUS_INFO
 
 from . import provenance
-from .study import SCHEMA_VERSION, Case
+from .study import SCHEMA_VERSION, Case, x_fractions, x_positions
 
 #: variable name -> (long_name, units) for the per-case series and run records
 SERIES_INFO = {
@@ -98,17 +98,29 @@ def compute_case(case: Case):
     t_sec = case.times_seconds()
     inside = t_sec <= case.t_end * (1 + 1e-12)
     times = np.minimum(t_sec[inside], case.t_end)
-    x = np.linspace(-1.0, 1.0, case.x_points) * case.parameters.L
+    x = x_positions(case.x_points, case.parameters.L)
     return solve(case.parameters, case.settings, times=times, fields=case.fields, x=x, t_end=case.t_end,
                  until_separation=case.end == "separation")
+
+
+def _or_nan(compute, size=None):
+    """compute(), or NaN (an array of size NaN) if it raises: for the record of a failed case."""
+    try:
+        with np.errstate(all="ignore"):
+            return compute()
+    except Exception:
+        return np.nan if size is None else np.full(size, np.nan)
 
 
 def case_arrays(case: Case, result=None, status=None, message="") -> dict:
     """One case's data as plain arrays (no case dimension), from a solver Result or, with
     result=None, all NaN with the given status and message."""
     p = case.parameters
-    t_sec = case.times_seconds()
-    inside = t_sec <= case.t_end * (1 + 1e-12)
+    # a case that failed: its record must not fail in turn (NaN for what cannot be computed)
+    t_sec = case.times_seconds() if result is not None else _or_nan(case.times_seconds,
+                                                                      case.requested_times().size)
+    with np.errstate(invalid="ignore"):
+        inside = t_sec <= (case.t_end if result is not None else _or_nan(lambda: case.t_end)) * (1 + 1e-12)
     T = t_sec.size
     out = {}
     for name in case.fields:
@@ -132,7 +144,7 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
             value = np.nan                   # case) is kept: the model's force is unbounded there
         out[name] = value
     none = result is None
-    out.update({"t_sc": p.time_scale, "stage_duration": p.stage_duration,
+    out.update({"t_sc": _or_nan(lambda: p.time_scale), "stage_duration": _or_nan(lambda: p.stage_duration),
                 "time_reached": np.nan if none else result.time_reached,
                 "run_time": np.nan if none else result.wall_time,
                 "error_estimate_run_time": np.nan if none else result.extra.get("error_estimate_wall_time", 0.0),
@@ -204,7 +216,7 @@ def batch_dataset(cases: list, arrays: list) -> dict:
               "surface": ("surface", np.array(SURFACES, dtype=object),
                           _attrs("ice surface: upper (tension = +strain), lower (tension = -strain)")),
               "t": ("t", first.requested_times(), _attrs(t_long, t_units)),
-              "x": ("x", np.linspace(-1.0, 1.0, first.x_points),
+              "x": ("x", x_fractions(first.x_points),
                     _attrs("position along the plate as a fraction of the case's half-length L", "1"))}
     attrs = {"title": BATCH_TITLE, "schema_version": SCHEMA_VERSION,
              "output_times": json.dumps(first.times_spec), "fields": json.dumps(list(first.fields)),

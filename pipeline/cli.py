@@ -181,8 +181,11 @@ def _prepare_dirs(out_dir: Path) -> Path:
 
 
 def command_run(args) -> int:
+    from .interrupts import check
     from .study import find_study, load_study
+    check()                                           # a Ctrl-C during the imports
     study = load_study(find_study(args.study))
+    check()
     if args.workers < 1:
         raise StudyError(f"--workers must be >= 1, got {args.workers}")
     if not 0.0 < args.batch_seconds <= 3600.0:
@@ -328,6 +331,7 @@ def _todo(study, states: dict, rerun_failed: bool) -> tuple:
 
 def _run_locked(args, study, out_dir: Path) -> int:
     from .casefile import NUMERICAL_FAILURES
+    from .interrupts import check
     from .ledger import reconcile
     batches = _prepare_dirs(out_dir)
     from .study import keep_study_copy
@@ -342,7 +346,8 @@ def _run_locked(args, study, out_dir: Path) -> int:
     past = cases_past_their_stage(study)
     if past:
         print(f"note: {past} of {study.n_cases} cases have output times past their impact stage "
-              f"L^2/(6RV); those times are not integrated and stay NaN", file=sys.stderr)
+              f"(b_mean/V: L^2/(6RV) for the paper's parabola); those times are not integrated and stay NaN",
+              file=sys.stderr)
     skipped = len(study.run_ids) - len(items)
     print(f"{study.name}: {_count(study)}, {len(items)} to run, {skipped} already done "
           f"-> {out_dir}", file=sys.stderr)
@@ -384,6 +389,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
                     for record in lost:
                         print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
                               file=sys.stderr)
+                check()
                 fresh = _combine(args, study, out_dir, ledger, states, session, bool(items), writer)
             except BaseException:
                 if writer is not None:
@@ -570,6 +576,9 @@ def main(argv=None) -> int:
     except _IOProblem as err:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_IO
+    except BrokenPipeError:                          # output piped into head, say (before OSError,
+        sys.stdout = open(os.devnull, "w")           # which would catch it first)
+        return EXIT_OK
     except OSError as err:
         from .casefile import CaseWriteError
         if isinstance(err, CaseWriteError):
@@ -582,9 +591,6 @@ def main(argv=None) -> int:
             print(f"error: {err.strerror or err} ({getattr(err, 'filename', '') or ''}); finished cases "
                   f"are kept", file=sys.stderr)
         return EXIT_IO
-    except BrokenPipeError:                          # output piped into head, say
-        sys.stdout = open(os.devnull, "w")
-        return EXIT_OK
     except KeyboardInterrupt:
         # the run is over: a second SIGINT (seen once in CI, 1.3 s into the start-up) must not
         # kill the shutdown that follows with a signal instead of this exit status

@@ -32,7 +32,7 @@ from .casefile import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_I
                        time_coordinate_attrs)
 from .fracture import CRACK_INFO, onset_from_records
 from .ledger import BATCHES, write_sidecar
-from .study import SCHEMA_VERSION, Study
+from .study import SCHEMA_VERSION, Study, x_fractions, x_positions
 
 ERROR_INFO = {
     "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
@@ -272,7 +272,7 @@ class StudyWriter:
             L_values = {v for v in study.grid.get("L", [])} or {c.parameters.L for c in
                                                                 (study._listed or [first])}
             if len(L_values) == 1:
-                x[:] = np.asarray(x_fraction) * first.parameters.L
+                x[:] = x_positions(len(x_fraction), first.parameters.L)
                 x.setncatts({"long_name": "position along the plate", "units": "m"})
             else:
                 x[:] = x_fraction
@@ -428,7 +428,7 @@ def plan(study: Study, index: dict, out_dir: Path) -> dict:
 
 def open_writer(study: Study, out_dir: Path) -> StudyWriter:
     first = study.case(0)
-    return StudyWriter(study, Path(out_dir) / "study.nc", first.requested_times(), np.linspace(-1, 1, first.x_points))
+    return StudyWriter(study, Path(out_dir) / "study.nc", first.requested_times(), x_fractions(first.x_points))
 
 
 def stream_spec(study: Study):

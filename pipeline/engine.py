@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import signal
+import subprocess
 import sys
 import time
 from contextlib import contextmanager
@@ -79,8 +80,9 @@ def cluster_client(workers: int, scheduler: str | None):
         # only the runner reacts, abandons the in-flight cases and shuts the cluster down. In
         # the runner a Ctrl-C during the start stays pending (Linux keeps a blocked signal even
         # while it is ignored) and is raised as soon as the cluster is up: it is never lost.
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        # blocked first, then ignored: a SIGINT between the two is kept pending, not discarded
         mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
         cluster = None
         try:
             # CRITICAL: a case's failure reaches the runner as its record (run_batch catches
@@ -225,19 +227,31 @@ def start_kernels():
     Ctrl-C during the compile interrupts only the child (an interrupt inside LLVM left the
     runner to crash at exit: SIGSEGV, or a second SIGINT) and the runner exits cleanly. It
     runs while the cluster starts; kernels_ready waits for it. Returns (process, start time)."""
-    import subprocess
-    print("loading the solver's kernels (the first run after an install or an update compiles "
-          "them: about 40 s on this 2-core machine) ...", file=sys.stderr, flush=True)
-    proc = subprocess.Popen([sys.executable, "-c", "from solver import compile_kernels; compile_kernels()"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    print("loading the solver's kernels ...", file=sys.stderr, flush=True)
+    # SIGINT kills the child outright (SIG_DFL): a KeyboardInterrupt raised inside the compiler
+    # could be swallowed there and the compile go on
+    code = "import signal; signal.signal(signal.SIGINT, signal.SIG_DFL); " \
+           "from solver import compile_kernels; compile_kernels()"
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            text=True)
     return proc, time.monotonic()
+
+
+#: seconds after which loading the kernels is taken for a compile and said so (from numba's
+#: cache they load in about 1.5 s)
+COMPILE_NOTICE = 4.0
 
 
 def kernels_ready(handle) -> None:
     """Wait for start_kernels' child; one line if it failed (KernelCompileError)."""
     proc, started = handle
     try:
-        _, stderr = proc.communicate()
+        try:
+            _, stderr = proc.communicate(timeout=COMPILE_NOTICE)
+        except subprocess.TimeoutExpired:              # not from the cache: numba compiles them
+            print("compiling them (the first run after an install or an update: about 40 s on a 2-core "
+                  "machine) ...", file=sys.stderr, flush=True)
+            _, stderr = proc.communicate()
     except BaseException:                              # Ctrl-C: the child got it too
         proc.kill()
         proc.wait()
@@ -273,8 +287,10 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
         in_flight[future.key] = batch
         futures.add(future)
 
+    from .interrupts import check
     for _ in range(limit):
         if batcher:
+            check()
             submit_next()
     for future in futures:
         batch = in_flight.pop(future.key)
@@ -294,6 +310,7 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
             batcher.record([r["run_time"] for r in records])
         if progress:
             progress.update_many(records)
+        check()
         if batcher:
             submit_next()
     return lost

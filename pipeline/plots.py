@@ -370,7 +370,11 @@ def _yield_line(ax, values, eps_y: float) -> None:
         ax.axhline(eps_y, color="k", lw=0.8, ls="--", label=None)
 
 
-def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4, 4.6)) -> Path:
+#: the paper's figure 2 snapshots [t_sc]
+PAPER_FIG2_TIMES = (3.8, 4.0, 4.2, 4.4, 4.6)
+
+
+def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=PAPER_FIG2_TIMES) -> Path:
     """The paper's figure 2 for the first case: (a) body and ice at 3.8 t_sc, with an inset on
     the contact zone where the layer (thickness he) shows, (b) deflection, (c) layer pressure,
     (d) upper-surface strain at 3.8 ... 4.6 t_sc."""
@@ -397,6 +401,7 @@ def paper_fig2(ds: xr.Dataset, dims: list, path: Path, times=(3.8, 4.0, 4.2, 4.4
     # the 2 cm layer is invisible at this scale: an inset on the contact zone
     touch = np.flatnonzero(body - (w38 + he) <= he)          # within a layer thickness of touching
     half = float(np.max(np.abs(x[touch]))) * 1.3 if touch.size else 0.2 * float(np.max(x))
+    half = max(half, 0.02 * float(np.max(x)))                # touching at x = 0 alone: a visible zone
     zoom = np.abs(x) <= half
     inset = ax.inset_axes([0.33, 0.5, 0.34, 0.45])           # the empty space between the body's flanks
     inset.fill_between(x[zoom], w38[zoom], w38[zoom] + he, color="C0", alpha=0.25, lw=0,
@@ -455,6 +460,12 @@ def make_plots(ds: xr.Dataset, dims: list, kinds: list, out_dir: Path) -> list:
             needed = {"deflection", "layer_pressure", "strain"}
             if not needed <= set(ds.data_vars) or ds["t"].attrs.get("long_name", "").find("t_sc") < 0:
                 notes.append("paper_fig2 needs deflection, layer_pressure and strain at times in t_sc: skipped")
+                continue
+            case = ds.isel({d: 0 for d in dims})
+            reached = float(case["time_reached"]) / float(case["t_sc"])
+            if not reached >= PAPER_FIG2_TIMES[-1] * (1 - 1e-9):
+                notes.append(f"paper_fig2 shows the first case at 3.8 ... 4.6 t_sc, and it ended at {reached:.3g} t_sc "
+                             f"({case['status'].item()}): skipped")
                 continue
             written.append(paper_fig2(ds, dims, out_dir / "paper_fig2.png"))
         elif kind == "work_precision":

@@ -44,9 +44,38 @@ def attributes() -> dict:
         "host": socket.gethostname(),
         "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
     }
+    attrs.update(cpu_attributes())
     for lib in LIBRARIES:
         try:
             attrs[f"version_{lib}"] = importlib.metadata.version(lib)
         except importlib.metadata.PackageNotFoundError:
             attrs[f"version_{lib}"] = "not installed"
     return attrs
+
+
+@lru_cache(maxsize=1)
+def cpu_attributes() -> dict:
+    """The CPU and the instruction sets the numerics ran with: round-off, and so an adaptive
+    run's step sequence, depends on them (numpy's SIMD dispatch, numba's target CPU; see
+    make test-portable)."""
+    model = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    try:
+        import numpy._core._multiarray_umath as umath
+        found = umath.__cpu_features__
+        simd = " ".join([*umath.__cpu_baseline__, *(k for k in umath.__cpu_dispatch__ if found.get(k))])
+    except (ImportError, AttributeError):
+        simd = "unknown"
+    try:
+        import numba
+        import llvmlite.binding as llvm
+        target = numba.config.CPU_NAME or f"{llvm.get_host_cpu_name()} (host)"
+    except ImportError:
+        target = "unknown"
+    return {"cpu_model": model, "cpu_numpy_simd": simd, "cpu_numba_target": target}

@@ -30,6 +30,7 @@ class Session:
             from contextlib import ExitStack
 
             from .engine import cluster_client, kernels_ready, start_kernels, warm_workers
+            from .interrupts import check
             compiling = start_kernels()                  # alongside the cluster's start
             stack = ExitStack()
             try:
@@ -40,7 +41,9 @@ class Session:
                     compiling[0].wait()
                     raise
                 kernels_ready(compiling)
+                check()
                 warm_workers(self.client, one_at_a_time=bool(self.scheduler))
+                check()
             except BaseException:
                 stack.close()
                 self.client = None

@@ -92,6 +92,21 @@ def stored_case(out_dir: Path, case_id: str):
     return ds, position
 
 
+def stage_text(p) -> str:
+    """'impact stage RULE = T ms': L^2/(6RV) for the paper's centred parabola, else b_mean/V."""
+    rule = "L^2/(6RV)" if p.parabola and not p.off_centre else "b_mean/V"
+    return f"impact stage {rule} = {p.stage_duration * 1e3:.4g} ms"
+
+
+def running_maximum(record: np.ndarray) -> tuple:
+    """(t [s], m(t)) of a tension record: its nodes are values of the peak tension where the
+    running maximum rose, of one peak or another (a piece's first node can lie below the
+    maximum so far), so the running maximum is their accumulated maximum in time; it never
+    falls."""
+    order = np.argsort(record[:, 0], kind="stable")
+    return record[order, 0], np.maximum.accumulate(record[order, 1])
+
+
 def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int = 400,
          figure: Path | None = None) -> tuple:
     """Draw the case; returns (figure path, text summary)."""
@@ -111,8 +126,8 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
         f"{k}={case.value(k):g}" if not isinstance(case.value(k), str) else f"{k}={case.value(k)}"
         for k in study.varying_keys)]
     lines.append("parameters: " + ", ".join(f"{k}={v:g}" for k, v in p.as_dict().items()))
-    lines.append(f"time scale t_sc = {p.time_scale * 1e3:.4g} ms, impact stage L^2/(6RV) = "
-                 f"{p.stage_duration * 1e3:.4g} ms")
+    lines.append(f"time scale t_sc = {p.time_scale * 1e3:.4g} ms, {stage_text(p)} (b_mean: the body's mean "
+                 f"height over the plate)")
     records = None
     if stored is not None:
         ds, i = stored
@@ -182,7 +197,8 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
         rec = records.get(surface) if records else None
         if rec is not None and len(rec):
             sign = 1.0 if surface == "upper" else -1.0
-            ax_s.plot(rec[:, 0] * 1e3, sign * rec[:, 1], color=color, lw=1.0, ls="--",
+            t_rec, m_rec = running_maximum(rec)
+            ax_s.plot(t_rec * 1e3, sign * m_rec, color=color, lw=1.0, ls="--", drawstyle="steps-post",
                       label=f"largest tension so far, {surface} surface" + (" (−)" if sign < 0 else ""))
     from solver import crack_onset
     eps_Y = sorted(float(e) for e in study.output.get("eps_Y") or [])

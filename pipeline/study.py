@@ -36,6 +36,8 @@ import numpy as np
 
 from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings,
                     default_eps_Y)
+from solver.parameters import check_combination
+from solver.axes import linear_axis, log_axis, round_significant
 
 from .errors import StudyError
 
@@ -240,10 +242,25 @@ def _grid_label(grid: dict, idx: tuple) -> str:
 
 
 def coordinate_times(spec: dict) -> np.ndarray:
+    """The output times in the unit of the request, rounded to 12 significant digits (the same
+    on every CPU, and 0.6 rather than 0.6000000000000001: solver.axes)."""
     if spec["unit"] in ("t_sc", "s"):
         n = int(math.floor(spec["stop"] / spec["step"] + 1e-9))
-        return np.round(np.arange(n + 1) * spec["step"], 12)
-    return np.linspace(0.0, 1.0, spec["count"])
+        return round_significant(np.round(np.arange(n + 1) * spec["step"], 12))
+    return linear_axis(0.0, 1.0, spec["count"])
+
+
+def x_fractions(x_points: int) -> np.ndarray:
+    """The positions of the fields as fractions of L, -1..1 (the study's x coordinate where L
+    varies between cases)."""
+    return linear_axis(-1.0, 1.0, x_points)
+
+
+def x_positions(x_points: int, L: float) -> np.ndarray:
+    """The positions of the fields [m], -L..L, rounded to 12 significant digits (0.5, not
+    0.49999999999999994: solver.axes): where the fields are evaluated, and the study's x
+    coordinate where all cases share L."""
+    return round_significant(x_fractions(x_points) * L)
 
 
 def _number(where: str, value, integer=False):
@@ -358,7 +375,7 @@ def _check_eps_Y(spec) -> list:
             raise StudyError(f"[output] eps_Y needs 0 < min < max < 1, got min = {lo!r}, max = {hi!r}")
         if not 2 <= count <= 10_000:
             raise StudyError(f"[output] eps_Y.count must be between 2 and 10000, got {count!r}")
-        return [float(v) for v in np.logspace(math.log10(lo), math.log10(hi), int(count))]
+        return [float(v) for v in log_axis(lo, hi, int(count))]
     if not isinstance(spec, list) or not spec:
         raise StudyError("[output] eps_Y must be a non-empty list of yield strains or {min, max, count}")
     values = [_number("[output] eps_Y value", v) for v in spec]
@@ -615,6 +632,7 @@ def _make_case(index, values: dict, output: dict, label: str) -> Case:
     try:
         p = Parameters(**params)
         s = Settings(**settings)
+        check_combination(p, s)
     except ParameterError as err:
         raise StudyError(f"case {label}: {err}") from None
     return Case(case_id(p, s, output), tuple(index), p, s, output["times"], tuple(output["fields"]),
@@ -704,6 +722,12 @@ def _check_grid_values(study: Study) -> None:
     params = {k: v for k, v in {**study.base, **study.solver}.items() if k in PARAMETER_INFO}
     settings = {k: (True if k == "error_estimate" and v == SAMPLE else v)
                 for k, v in {**study.base, **study.solver}.items() if k in SETTING_INFO}
+    try:
+        Parameters(**params)
+    except ParameterError as err:
+        blamed = str(err).split()[0]          # a message starts with the key it is about
+        if blamed in study.base and blamed not in study.grid and not (blamed == "x0" and "L" in study.grid):
+            raise StudyError(f"[base] {err}") from None
     for key, values in study.grid.items():
         for v in values:
             try:
@@ -713,6 +737,50 @@ def _check_grid_values(study: Study) -> None:
                     Settings(**{**settings, key: v})
             except ParameterError as err:
                 raise StudyError(f"[grid] {key} = {v!r}: {err}") from None
+    _check_grid_combinations(study, params)
+    _check_integrator_combinations(study, params, settings)
+
+
+#: the keys that are checked together (Parameters._check_scales: the time scale, the impact
+#: stage against the layer's response time, flat_width against L + |x0|, x0 against L)
+COUPLED_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H", "R", "V", "body_p", "flat_width",
+                "deadrise", "x0", "K", "he")
+#: at most this many combinations of the grid's coupled keys are checked one by one; beyond,
+#: the corners of their ranges (each check is monotone in every key but body_p)
+MAX_COMBINATIONS = 20_000
+
+
+def _check_integrator_combinations(study: Study, params: dict, settings: dict) -> None:
+    """Every integrator the grid's cases take goes with every ice and layer they take
+    (solver.parameters.check_combination)."""
+    integrators = study.grid.get("integrator", [settings.get("integrator", "etd34")])
+    damped = [("tau", v) for v in study.grid.get("tau", [params.get("tau", 0.0)])] + \
+             [("layer_tau", v) for v in study.grid.get("layer_tau", [params.get("layer_tau", 0.0)])]
+    for integrator in integrators:
+        for key, value in damped:
+            try:
+                check_combination(Parameters(**{**params, key: value}),
+                                  Settings(**{**settings, "integrator": integrator}))
+            except ParameterError as err:
+                raise StudyError(f"{key} = {value!r} with integrator = {integrator!r}: {err}") from None
+
+
+def _check_grid_combinations(study: Study, params: dict) -> None:
+    """Every combination of the grid's values of COUPLED_KEYS gives valid Parameters, so that
+    no case is refused only when a worker builds it."""
+    keys = [k for k in study.grid if k in COUPLED_KEYS]
+    if len(keys) < 2:
+        return
+    choices = [study.grid[k] for k in keys]
+    if math.prod(len(c) for c in choices) > MAX_COMBINATIONS:
+        choices = [sorted({min(c), max(c)}) for c in choices]
+    for combo in itertools.product(*choices):
+        values = dict(zip(keys, combo))
+        try:
+            Parameters(**{**params, **values})
+        except ParameterError as err:
+            where = ", ".join(f"{k} = {v!r}" for k, v in values.items())
+            raise StudyError(f"[grid] {where}: {err}") from None
 
 
 def _stage_in_t_sc(study: Study) -> np.ndarray:
@@ -722,16 +790,22 @@ def _stage_in_t_sc(study: Study) -> np.ndarray:
         return np.array([c.parameters.stage_duration / c.parameters.time_scale for c in study._listed])
     default = Parameters(**{k: v for k, v in study.base.items()}).as_dict()
     keys = list(study.grid)
+
+    def along(names):                      # the grid's shape, 1 but along the grid keys among names
+        return [len(study.grid[k]) if k in names else 1 for k in keys]
     arrays = {}
-    for name in (*TIME_SCALE_KEYS, "R", "V"):
+    for name in (*TIME_SCALE_KEYS, "V"):
         if name in study.grid:
-            shape = [1] * len(keys)
-            shape[keys.index(name)] = -1
-            arrays[name] = np.asarray(study.grid[name], dtype=float).reshape(shape)
+            arrays[name] = np.asarray(study.grid[name], dtype=float).reshape(along([name]))
         else:
             arrays[name] = default[name]
-    stage = arrays["L"] ** 2 / (6.0 * arrays["R"] * arrays["V"])
-    return stage / time_scale_of(**{k: arrays[k] for k in TIME_SCALE_KEYS})
+    # the body's mean height over the plate, b_mean (stage = b_mean / V), over the grid's shape keys
+    shape_keys = [k for k in keys if k in ("L", "R", "body_p", "flat_width", "deadrise", "x0")]
+    profile = np.empty(along(shape_keys))
+    for idx in np.ndindex(profile.shape):
+        values = {k: study.grid[k][i] for k, i in zip(keys, idx) if k in shape_keys}
+        profile[idx] = Parameters(**{**study.base, **values}).profile_mean()
+    return profile / arrays["V"] / time_scale_of(**{k: arrays[k] for k in TIME_SCALE_KEYS})
 
 
 def _longest_stage_in_t_sc(study: Study) -> float:

@@ -14,7 +14,7 @@ import numpy as np
 
 from . import kernels as kn
 from .fracture import crack_onset, thin_record
-from .parameters import Parameters, ParameterError, Settings
+from .parameters import Parameters, ParameterError, Settings, check_combination
 from .scipy_reference import integrate_dop853
 
 #: status -> meaning (docs/model.md, "Statuses")
@@ -89,7 +89,8 @@ DIAGNOSTIC_INFO = {
     "error_estimate": ("estimated relative L2 strain error over the output times: "
                        "error_estimate_time + error_estimate_modes + error_estimate_quadrature", "1", None),
     "error_estimate_time": ("time-integration part (etd34: difference from a companion run at 10x "
-                            "the tolerance / (10^0.6 - 1); rk4: summed local error estimates)", "1", None),
+                            "the tolerance / (10^0.6 - 1); rk4: summed local error estimates; dop853: NaN, "
+                            "it returns no error estimates, and so is error_estimate)", "1", None),
     "error_estimate_modes": ("modal part: strain carried by the top quarter of the retained modes",
                              "1", None),
     "error_estimate_quadrature": ("quadrature part: 4 x energy_residual (both are the O(dx^2) "
@@ -258,12 +259,8 @@ HMAX_FRACTION = 0.1
 
 
 def contact_frequency(p: Parameters) -> float:
-    """Omega_c = sqrt(K / (he rho_i hi)) [rad s-1]: the layer on the bare plate at first touch.
-
-    The layer's stiffness per unit area is K f'(delta)/he, f'(0) = 1; on the plate mass alone
-    (no added water mass, no bending) this is the fastest the contact force can change.
-    """
-    return math.sqrt(p.K / (p.he * p.plate_mass))
+    """Omega_c [rad s-1], see Parameters.contact_frequency."""
+    return p.contact_frequency
 
 
 def _check_times(times, t_start, t_end):
@@ -354,6 +351,23 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
             "error_estimate_modes": modes, "error_estimate_quadrature": quadrature}
 
 
+def _energy_bound_message(p: Parameters, diagnostics: dict) -> str:
+    """Which energy balance ended the run above kn.ENERGY_BOUND: the ice's, or a free body's
+    own (with its round-off floor when the body is so heavy that M V^2 x 1e-16 is not small
+    against the work)."""
+    plate, body = diagnostics["energy_residual"], diagnostics["body_energy_residual"]
+    if not plate > kn.ENERGY_BOUND and body > kn.ENERGY_BOUND:
+        text = (f"energy identity broken: the free body's balance |M (U^2 - V^2)/2 - M body_g s + W| reached "
+                f"{body:.2e} of the work (bound {kn.ENERGY_BOUND:g}; the ice's residual is {plate:.2e})")
+        floor = 1e-16 * p.body_mass * p.V**2 / max(diagnostics["work"], 1e-300)
+        if floor > 1e-2 * kn.ENERGY_BOUND:
+            text += (f"; at body_mass = {p.body_mass:g} kg/m its round-off alone, M V^2 x 1e-16, is {floor:.1e} of "
+                     f"the work: a body this heavy is the paper's body (body_mass = inf)")
+        return text
+    return (f"energy identity broken: the residual |E_plate + E_layer + D - W| reached {plate:.2e} of the work "
+            f"(bound {kn.ENERGY_BOUND:g}; more subintervals or a tighter tolerance may mend it)")
+
+
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
@@ -412,9 +426,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
     if not isinstance(until_separation, bool):
         raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
-    if (p.tau > 0 or p.layer_tau > 0) and s.integrator == "rk4":
-        raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
-                             "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")
+    check_combination(p, s)
     if p.free_body and t_start > 0:
         raise ParameterError("a free body's run starts at first touch (t_start = 0): its state at a later "
                              "start is not an input")
@@ -448,13 +460,14 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     levels = np.ascontiguousarray(np.atleast_1d(np.asarray(locate_eps_Y, dtype=float)))
     level_t = np.full((2, levels.size), np.nan)
     level_x = np.full((2, levels.size), np.nan)
-    empty = np.empty((0, kn.N_REC))
     started = _time.perf_counter()
     if s.integrator == "dop853":
-        code, n_out, out_a, out_adot, series, diag, fail = integrate_dop853(
+        code, n_out, out_a, out_adot, series, diag, fail, (up, lo) = integrate_dop853(
             p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init,
             s.bottoming_gap, until_separation)
-        records = {"upper": empty, "lower": empty}
+        records = {"upper": up, "lower": lo}
+        for rec in records.values():
+            rec[:, kn.R_X] += tab.origin                 # kernel coordinates -> x on the plate
         contact_record = np.empty((0, 2))
     else:
         ctrl = kn.make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
@@ -555,10 +568,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
                        f"than {kn.ENERGY_JUMP:g} of the energy in play, and " +
                        ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
         elif kind == kn.FAIL_ENERGY_BOUND:
-            message = (f"energy identity broken: the residual |E_plate + E_layer + D - W| reached "
-                       f"{diagnostics['energy_residual']:.2e} of the work (bound {kn.ENERGY_BOUND:g}; more "
-                       f"subintervals or a tighter tolerance may mend it); the run reached t = "
-                       f"{t_reached:.6g} s ({t_reached / t_sc:.4g} t_sc)")
+            message = _energy_bound_message(p, diagnostics) + (f"; the run reached t = {t_reached:.6g} s "
+                                                               f"({t_reached / t_sc:.4g} t_sc)")
             if math.isfinite(diagnostics["bottoming_time"]):
                 message += ", where the layer bottomed out"
         else:

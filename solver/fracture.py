@@ -17,6 +17,7 @@ located on true sub-steps of the integrator).
 import numpy as np
 from numba import njit
 
+from .axes import log_axis
 from .kernels import R_JOIN, R_RATE, R_T, R_VALUE, R_X, cubic_first_reach, cubic_max, hermite
 
 #: record nodes whose places differ by more than this [m] belong to two different peaks
@@ -29,8 +30,9 @@ PAPER_EPS_Y = 8e-5
 
 
 def default_eps_Y() -> np.ndarray:
-    """The default axis: 10 values a decade from 1e-5 to 1e-1, and the paper's 8e-5."""
-    return np.unique(np.r_[np.logspace(-5, -1, 41), PAPER_EPS_Y])
+    """The default axis: 10 values a decade from 1e-5 to 1e-1 (decades exact, every value the
+    same on any CPU: solver.axes), and the paper's 8e-5."""
+    return np.unique(np.r_[log_axis(1e-5, 1e-1, 41), PAPER_EPS_Y])
 
 
 @njit(cache=True, nogil=True)

@@ -142,12 +142,19 @@ def _check_positive(name: str, value, integer: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a number, got {value!r}")
     if integer:
-        if float(value) != int(value) or not math.isfinite(float(value)) or int(value) < 1:
+        if not math.isfinite(float(value)) or float(value) != int(value) or int(value) < 1:
             raise ParameterError(f"{name} must be a positive integer, got {value!r}")
         return
     if not math.isfinite(float(value)) or float(value) <= 0.0:
         raise ParameterError(f"{name} must be finite and > 0, got {value!r}")
 
+
+#: the shortest impact stage the model resolves, as a fraction of the layer's response time
+#: 1/Omega_c (Parameters.contact_frequency): a body flatter than that (deadrise = 1e-9 degree:
+#: 1e-8 of it) sinks by its mean height before the layer passes any force to the ice, and
+#: the run would report a strain of 1e-28 as a result; the paper's case is at 112, its
+#: V = 1000 m/s at 0.56, a 1e-3 degree wedge at 1e-2
+MIN_STAGE_RESPONSE = 1e-4
 
 #: the parameters t_sc depends on
 TIME_SCALE_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H")
@@ -259,6 +266,51 @@ class Parameters:
             object.__setattr__(self, f.name, int(value) if f.name == "Nmod" else float(value))
         if not abs(self.x0) < self.L:
             raise ParameterError(f"x0 must lie inside the plate, -L < x0 < L = {self.L!r} m, got {self.x0!r}")
+        self._check_scales()
+
+    def _check_scales(self) -> None:
+        """Refuse values that are each allowed but give no finite time scale or impact stage,
+        or a stage too short to resolve (MIN_STAGE_STEPS): one line naming the keys."""
+        with np.errstate(all="ignore"):
+            added = float(water_added_mass(self.rho_w, np.pi / self.L, self.H))
+            try:
+                t_sc = float(self.time_scale)
+            except (OverflowError, ZeroDivisionError):
+                t_sc = math.nan
+        if not (math.isfinite(added) and math.isfinite(t_sc) and t_sc > 0.0):
+            cause = (f"the water depth H = {self.H!r} m makes the water's added mass infinite" if not
+                     math.isfinite(added) else "from hi, L, E, nu, rho_i, rho_w, g and H")
+            raise ParameterError(f"these parameters give no finite time scale 1/omega_1 (t_sc = {t_sc!r} s): "
+                                 f"{cause}")
+        if self.flat_width >= self.L + abs(self.x0):
+            raise ParameterError(f"flat_width = {self.flat_width!r} m covers the whole plate (L + |x0| = "
+                                 f"{self.L + abs(self.x0)!r} m): the flat bottom meets all the ice at once and "
+                                 f"the impact stage is 0; flat_width must be < L + |x0|")
+        try:
+            stage = float(self.stage_duration)
+        except (OverflowError, ZeroDivisionError):
+            stage = math.nan
+        if not (math.isfinite(stage) and stage > 0.0):
+            raise ParameterError(f"the body's shape gives no finite impact stage (stage = {stage!r} s from "
+                                 f"R = {self.R!r} m, body_p = {self.body_p!r}, flat_width = {self.flat_width!r} m, "
+                                 f"deadrise = {self.deadrise!r} degree, V = {self.V!r} m/s)")
+        response = 1.0 / self.contact_frequency
+        if not stage >= MIN_STAGE_RESPONSE * response:
+            raise ParameterError(
+                f"the impact stage, {stage:.3g} s, is shorter than {MIN_STAGE_RESPONSE:g} of the layer's "
+                f"response time sqrt(he rho_i hi / K) = {response:.3g} s: the body sinks by its mean height "
+                f"over the plate before the layer can pass a force to the ice, an impact the model does not "
+                f"resolve (a body this flat: flat_width = {self.flat_width!r} m, deadrise = {self.deadrise!r} "
+                f"degree, R = {self.R!r} m, body_p = {self.body_p!r}; or V = {self.V!r} m/s)")
+
+    @property
+    def contact_frequency(self) -> float:
+        """Omega_c = sqrt(K / (he rho_i hi)) [rad s-1]: the layer on the bare plate at first touch.
+
+        The layer's stiffness per unit area is K f'(delta)/he, f'(0) = 1; on the plate mass alone
+        (no added water mass, no bending) this is the fastest the contact force can change.
+        """
+        return math.sqrt(self.K / (self.he * self.plate_mass))
 
     # --- derived quantities -------------------------------------------------------------
     @property
@@ -460,3 +512,10 @@ class Settings:
 
     def as_dict(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def check_combination(parameters: Parameters, settings: Settings) -> None:
+    """Refuse parameters and settings that are each valid but do not go together (one line)."""
+    if (parameters.tau > 0 or parameters.layer_tau > 0) and settings.integrator == "rk4":
+        raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
+                             "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")

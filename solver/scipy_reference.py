@@ -8,8 +8,10 @@ touch straight into delta >= 1). Outputs come from its 7th-order dense output. B
 located event, as in the kernels: the first time the largest delta on the continuous plate
 reaches 1 - bottoming_gap, found by brentq on the dense output. DOP853 has no step rejection
 on delta >= 1: a stage there ends the run, with the time and scipy's step in the message,
-and so does a step failure, with scipy's own reason. It has no in-loop diagnostics: max
-strain and the tension and contact records stay empty. scipy is imported here only.
+and so does a step failure, with scipy's own reason. The kernels' in-loop diagnostics (largest
+tensions and their records, so crack onset; contacts, force, compression; a free body's stop,
+separation and balance) are observed on the dense output at SAMPLES points a step, not located
+inside steps; the contact record stays empty. scipy is imported here only.
 """
 from __future__ import annotations
 
@@ -24,9 +26,112 @@ class _StageDeltaOne(Exception):
     """A stage evaluated delta >= 1 (the forcing is undefined there)."""
 
 
+#: dense-output samples per DOP853 step at which the diagnostics are observed
+SAMPLES = 8
+
+
+def _peak(coef, lam, xq, eps, sign):
+    """The largest sign * eps(x), eps = sum_n coef_n cos(lam_n x) given at the nodes xq, refined
+    by two Newton steps on the modal sum: (value, x)."""
+    j = int(np.argmax(sign * eps))
+    x, value = xq[j], sign * eps[j]
+    for _ in range(2):
+        d1 = -sign * np.sum(coef * lam * np.sin(lam * x))
+        d2 = -sign * np.sum(coef * lam**2 * np.cos(lam * x))
+        if not d2 < 0.0:
+            break
+        trial = min(max(x - d1 / d2, xq[0]), xq[-1])
+        if abs(trial - x) > xq[1] - xq[0]:
+            break
+        trial_value = sign * np.sum(coef * np.cos(lam * trial))
+        if trial_value < value:
+            break
+        x, value = trial, trial_value
+    return value, x
+
+
+class _Observer:
+    """The in-loop diagnostics of the kernels, observed on DOP853's dense output at SAMPLES
+    points a step (not located inside steps as the kernels locate them): the largest tensions
+    with their places and times and their running-maximum records (so crack onset for any
+    eps_Y, solver.fracture), contacts, force, compression, and a free body's stop, separation
+    and energy balance."""
+
+    def __init__(self, p, tab):
+        self.p, self.tab = p, tab
+        self.records = ([], [])
+        self.running = [-np.inf, -np.inf]
+        self.last = [None, None]               # each surface's previous sample row
+        self.max_contacts = self.max_force = self.max_delta = 0.0
+        self.max_force_t = self.max_delta_t = np.nan
+        self.stop_t = self.depth = self.separation_t = self.separation_speed = np.nan
+        self.previous_speed = p.V
+        self.body_residual = 0.0
+        self.peak_work = 0.0
+
+    def sample(self, t, a, v, work, contacts, force, delta_max, s, U):
+        tab, p = self.tab, self.p
+        coef = a * tab.strain_coef
+        eps = coef @ tab.cosq
+        for k, sign in enumerate((1.0, -1.0)):
+            value, x = _peak(coef, tab.lam, tab.xq, eps, sign)
+            rate = sign * np.sum(v * tab.strain_coef * np.cos(tab.lam * x))
+            row = [t, value, rate, x, 0.0]
+            previous = self.last[k]
+            if value > self.running[k]:            # a piece from the previous sample to this one
+                rec = self.records[k]
+                if previous is not None:
+                    if not rec or rec[-1] is not previous:
+                        rec.append(previous)
+                    row[kn.R_JOIN] = 1.0
+                rec.append(row)
+                self.running[k] = value
+            self.last[k] = row
+        self.max_contacts = max(self.max_contacts, contacts)
+        if force > self.max_force:
+            self.max_force, self.max_force_t = force, t
+        if delta_max > self.max_delta:
+            self.max_delta, self.max_delta_t = delta_max, t
+        self.peak_work = max(self.peak_work, work)
+        if p.free_body:
+            if np.isnan(self.stop_t) and self.previous_speed > 0.0 >= U:
+                self.stop_t, self.depth = t, s
+            if not np.isnan(self.stop_t) and np.isnan(self.separation_t) and U < 0.0 and contacts == 0:
+                self.separation_t, self.separation_speed = t, -U
+            balance = p.body_mass * (0.5 * (U**2 - p.V**2) - p.body_g * s) + work
+            self.body_residual = max(self.body_residual, abs(balance))
+            self.previous_speed = U
+
+    def finish(self, diag):
+        """The diagnostics into diag (the kernels' slots); returns the records (upper, lower)."""
+        records = []
+        for k in range(2):
+            rec = np.asarray(self.records[k], dtype=float).reshape(-1, kn.N_REC)
+            if rec.shape[0]:
+                i = int(np.argmax(rec[:, kn.R_VALUE]))
+                diag[kn.D_MAX_UPPER + 3 * k] = rec[i, kn.R_VALUE]
+                diag[kn.D_MAX_UPPER_T + 3 * k] = rec[i, kn.R_T]
+                diag[kn.D_MAX_UPPER_X + 3 * k] = rec[i, kn.R_X]
+            records.append(rec)
+        up, lo = diag[kn.D_MAX_UPPER], diag[kn.D_MAX_LOWER]
+        top = 0 if up >= lo else 1
+        diag[kn.D_MAX_ABS], diag[kn.D_MAX_ABS_X], diag[kn.D_MAX_ABS_T] = (
+            diag[kn.D_MAX_UPPER + 3 * top], diag[kn.D_MAX_UPPER_X + 3 * top], diag[kn.D_MAX_UPPER_T + 3 * top])
+        diag[kn.D_MAX_CONTACTS] = self.max_contacts
+        if not np.isinf(diag[kn.D_MAX_FORCE]):        # +inf: bottomed out, set by the caller
+            diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = self.max_force, self.max_force_t
+        diag[kn.D_MAX_DELTA], diag[kn.D_MAX_DELTA_T] = self.max_delta, self.max_delta_t
+        diag[kn.D_ENERGY_JUMPS] = 0.0                 # DOP853 has no energy guard
+        if self.p.free_body:
+            diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION] = self.stop_t, self.depth
+            diag[kn.D_SEPARATION_T], diag[kn.D_SEPARATION_SPEED] = self.separation_t, self.separation_speed
+            diag[kn.D_BODY_RESIDUAL] = self.body_residual / self.peak_work if self.peak_work > 0 else 0.0
+        return records[0], records[1]
+
+
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
                      bottom_gap=kn.BOTTOM_GAP, until_separation=False):
-    """Returns (status, n_out, out_a, out_adot, out_series, diag, failure) with the meaning of
+    """Returns (status, n_out, out_a, out_adot, out_series, diag, failure, records) with the meaning of
     :func:`solver.kernels.integrate` (the error column all NaN: DOP853 gives no local error
     estimates back); failure names what stopped it, or "". A free body's run that asks to end
     at separation ends at the first step after which it is off the ice, moving up."""
@@ -106,6 +211,15 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         series[k, kn.S_DISSIPATED] = y[2 * N + n_extra] if damped else 0.0
         k += 1
 
+    observer = _Observer(p, tab)
+
+    def observe(t, y):
+        st, F, jmax, _ = forcing(t, y)
+        contacts = kn.count_contacts(delta, jmax, tab.lay[kn.L_MIRROR])
+        observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, largest_delta(t, y), position(t, y),
+                        speed(y))
+
+    observe(t_start, y0)
     while k < T and times[k] <= t_start:
         record(t_start, y0)
     solver = DOP853(rhs, t_start, y0, t_end, rtol=tolerance, atol=tolerance * 1e-3, first_step=first_step)
@@ -144,6 +258,8 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
                 break
             below = tp
         t_stop = solver.t if t_bottom is None else t_bottom
+        for tp in np.linspace(t_old, t_stop, SAMPLES + 1)[1:]:
+            observe(tp, dense(tp))
         if until_separation and t_bottom is None and free and solver.y[2 * N + 2] < 0.0:
             if math.isnan(diag[kn.D_STOP_T]):
                 diag[kn.D_STOP_T] = t_old          # bracketed to the step only
@@ -166,6 +282,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
             diag[kn.D_BOTTOM_T], diag[kn.D_BOTTOM_X], diag[kn.D_BOTTOM_SPEED] = t_bottom, gap[2], p.he * gap[1]
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = np.inf, t_bottom
             break
+    records = observer.finish(diag)
     if status not in (kn.OK, kn.SEPARATED):
         diag[kn.D_FAIL_T] = t_reached
         diag[kn.D_FAIL_KIND] = reason
@@ -183,4 +300,4 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     diag[kn.D_RHS] = nfev[0]
     diag[kn.D_STEPS] = steps
     diag[kn.D_REJECTED] = 0
-    return status, n_out, out_a, out_v, series, diag, failure
+    return status, n_out, out_a, out_v, series, diag, failure, records

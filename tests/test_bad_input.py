@@ -67,6 +67,28 @@ BAD_FILES = [
     (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = [1e-4, 1e-4]"), "eps_Y has duplicate values"),
     (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = {min = 1e-5, max = 1e-1}"), "takes exactly min, max and count"),
     (GOOD.replace("x_points = 11", "x_points = 11\neps_Y = {min = 1e-1, max = 1e-5, count = 9}"), "0 < min < max < 1"),
+    # the hostile trial of issue 20: each of these was a traceback, a wrong table, a refusal after
+    # the run, or every case failing, on main before it
+    *[(GOOD + f"\n[solver]\nsubintervals = {v}", "[solver]: subintervals must be a positive integer")
+      for v in ("nan", "inf", "-inf")],
+    *[(GOOD.replace("Nmod = 4", f"Nmod = {v}"), "[base] Nmod must be a positive integer") for v in ("nan", "inf")],
+    (GOOD + "\n[solver]\nmax_steps = inf", "[solver]: max_steps must be a positive integer"),
+    (GOOD.replace("Nmod = 4", "Nmod = 4\nbody_mass = -1.0"), "[base] body_mass must be > 0"),
+    *[(GOOD.replace("Nmod = 4", f"Nmod = 4\nflat_width = {v}"), f"flat_width = {v} m covers the whole plate")
+      for v in ("6.0", "100.0")],
+    *[(GOOD.replace("Nmod = 4", f"Nmod = 4\n{k} = {v}"), "shorter than 0.0001 of the layer's response time")
+      for k, v in (("deadrise", "1e-9"), ("flat_width", "5.99"))],
+    ("accept_extreme_values = true\n" + GOOD.replace("Nmod = 4", "Nmod = 4\ndeadrise = 1e-308"),
+     "shorter than 0.0001 of the layer's response time"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\ndeadrise = [1.0, 1e-6]"), "deadrise = 1e-06: the impact stage"),
+    (GOOD.replace("Nmod = 4", "Nmod = 4\ntau = 1e-3") + "\n[solver]\nintegrator = \"rk4\"",
+     "tau = 0.001 with integrator = 'rk4'"),
+    (GOOD.replace("V = [3.0, 5.0]", "V = [3.0]\nlayer_tau = [0.0, 1e-3]\nintegrator = [\"etd34\", \"rk4\"]"),
+     "layer_tau = 0.001 with integrator = 'rk4'"),
+    ("accept_extreme_values = true\n" + GOOD.replace("Nmod = 4", "Nmod = 4\nH = 1e-308"),
+     "the water depth H = 1e-308 m makes the water's added mass infinite"),
+    ("accept_extreme_values = true\n" + GOOD.replace("Nmod = 4", "Nmod = 4\nbody_p = 1e308"),
+     "the body's shape gives no finite impact stage"),
 ]
 
 
@@ -111,3 +133,12 @@ def test_bad_input_from_a_real_process_has_no_traceback(tmp_path):
     assert proc.returncode == 2
     assert "Traceback" not in proc.stderr and proc.stderr.count("\n") == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_a_dry_run_refuses_what_a_run_refuses(tmp_path, capsys):
+    """--dry-run validates the whole file as a run does (flat_width >= L: exit 0 before)."""
+    study = tmp_path / "bad.toml"
+    study.write_text(GOOD.replace("Nmod = 4", "Nmod = 4\nflat_width = 6.0"))
+    code = main(["run", str(study), "--out", str(tmp_path / "out"), "--dry-run"])
+    err = capsys.readouterr().err
+    assert code == 2 and "flat_width = 6.0 m covers the whole plate" in err and err.count("\n") == 1, err

@@ -31,15 +31,54 @@ def test_infinite_mass_is_the_papers_body_bit_for_bit():
 
 def test_heavy_body_approaches_the_papers_body_as_one_over_M():
     """Weightless (body_g = 0), the body's speed falls by W/(M V) to first order: every result
-    departs from the prescribed motion in proportion to 1/M."""
+    departs from the prescribed motion in proportion to 1/M. At a fixed step both runs take the
+    same steps, so the departure is the 1/M effect alone, down to 6e-9 (adaptive runs would
+    differ by their own error, 1e-6, and sit on that floor from M = 1e11 on)."""
     p = Parameters(Nmod=20)
-    ref = solve(p, TIGHT, fields=()).diagnostics["max_strain"]
-    masses = np.array([1e9, 1e10, 1e11])
-    dev = np.array([abs(solve(p.replace(body_mass=M, body_g=0.0), TIGHT, fields=()).diagnostics["max_strain"] - ref)
+    s = Settings(fixed_step=0.005, error_estimate=False)
+    ref = solve(p, s, fields=()).diagnostics["max_strain"]
+    masses = np.array([1e9, 1e10, 1e11, 1e12, 1e13])
+    dev = np.array([abs(solve(p.replace(body_mass=M, body_g=0.0), s, fields=()).diagnostics["max_strain"] - ref)
                     for M in masses]) / ref
     slope = np.polyfit(np.log(masses), np.log(dev), 1)[0]
-    assert abs(slope + 1.0) < 0.05, f"max strain departs as M^{slope:.3f}, expected M^-1 ({dev})"
-    assert dev[-1] < 1e-4
+    assert abs(slope + 1.0) < 0.01, f"max strain departs as M^{slope:.3f}, expected M^-1 ({dev})"
+    assert dev[-2] < 1e-7 and np.all(np.abs(np.diff(np.log10(dev)) + 1.0) < 0.02), dev
+
+
+def strain_error(p, t_end, tolerance=1e-8):
+    """Relative L2 error of the strain at 41 times over the run at ``tolerance``, against a run
+    at 1e-12."""
+    times = np.linspace(0.0, t_end, 41)
+
+    def strain(tol):
+        return solve(p, Settings(tolerance=tol, error_estimate=False), times=times, fields=("strain",),
+                     t_end=t_end).fields["strain"]
+    reference = strain(1e-12)
+    return float(np.sqrt(np.sum((strain(tolerance) - reference) ** 2) / np.sum(reference**2)))
+
+
+def test_a_heavy_body_is_as_accurate_as_the_papers_body():
+    """The step control measures a free body's error against the plate's energy, not against an
+    energy that holds the body's own M U^2 / 2 (which loosened the plate's control as M grew:
+    M = 1e12 kg/m was 29x less accurate than the paper's body it converges to). Now every heavy
+    body is within 2x of the paper body's error at the default tolerance (N = 30, 0..2 t_sc,
+    body_g = 0; measured 0.34x to 1.34x)."""
+    p = Parameters(Nmod=30)
+    t_end = 2 * p.time_scale
+    paper = strain_error(p, t_end)
+    errors = {M: strain_error(p.replace(body_mass=M, body_g=0.0), t_end) for M in (1e3, 1e5, 1e6, 1e8, 1e10, 1e12)}
+    assert all(e <= 2 * paper for e in errors.values()), (paper, errors)
+
+
+@pytest.mark.xfail(strict=True, reason="not yet: a light body that bounces off within 0.1 t_sc is 4x (M = 1e4 "
+                   "kg/m) to 12x (1e2) less accurate than the paper's body; its error hardly falls with the "
+                   "tolerance (191 to 259 steps from 1e-6 to 1e-12) and grows where the contact shrinks over "
+                   "the quadrature's nodes, which a contact-resolving quadrature (issue 24) would remove")
+@pytest.mark.parametrize("mass", [1e2, 1e4])
+def test_a_light_body_is_as_accurate_as_the_papers_body(mass):
+    p = Parameters(Nmod=30)
+    t_end = 2 * p.time_scale
+    assert strain_error(p.replace(body_mass=mass, body_g=0.0), t_end) <= 2 * strain_error(p, t_end)
 
 
 def test_free_flight_is_exact():
@@ -215,3 +254,13 @@ def test_a_light_body_flags_its_unresolved_contact_patch():
         p, Settings(error_estimate=False), fields=()).message
     assert res[4000][0] == res[16000][0] == "ok"
     assert res[1000][1] / res[16000][1] > 100             # 256 for an exact dx^2
+
+
+def test_an_energy_violation_names_the_balance_that_failed():
+    """body_mass = 1e308: the free body's own balance fails (its round-off alone, M V^2 x 1e-16,
+    dwarfs the work), not the ice's; the message quoted the ice's residual, below its bound."""
+    r = solve(Parameters(Nmod=10, body_mass=1e308), Settings(error_estimate=False), fields=())
+    assert r.status == "energy_violation"
+    assert r.diagnostics["energy_residual"] < 1e-3 < r.diagnostics["body_energy_residual"]
+    assert "the free body's balance" in r.message and "round-off alone" in r.message, r.message
+    assert f"{r.diagnostics['body_energy_residual']:.2e}" in r.message

@@ -5,6 +5,7 @@ import shutil
 import socket
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from test_integrity import STUDY
@@ -147,3 +148,49 @@ def test_result_gives_its_time_scales_as_the_readme_says():
     r = solve(Parameters(V=5.0, Nmod=10), times=[0.0, 0.01], fields=())
     p = Parameters(V=5.0, Nmod=10)
     assert r.t_sc == r.time_scale == p.time_scale and r.stage_duration == p.L**2 / (6 * p.R * p.V)
+
+
+def test_output_piped_into_head_ends_quietly(tmp_path):
+    """status --all of 2400 cases into a pipe its reader closes after one line: exit 0 and
+    nothing on stderr (BrokenPipeError is an OSError: it must be caught before OSError, which
+    reported it as an I/O error, exit 74)."""
+    import subprocess
+    import sys
+    values = lambda xs: "[" + ", ".join(xs) + "]"          # noqa: E731
+    study = tmp_path / "big.toml"
+    study.write_text(f"[base]\nNmod = 10\n[grid]\nV = {values(f'{v}.0' for v in range(1, 61))}\n"
+                     f"hi = {values(f'0.{v}' for v in range(101, 141))}\n")
+    proc = subprocess.Popen([sys.executable, "-m", "pipeline", "status", str(study), "--all", "--out",
+                             str(tmp_path / "none")], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout.readline().startswith(b"case_id")
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0 and err == "", err
+
+
+def test_shows_largest_tension_so_far_never_falls():
+    """The record of a free body that rebounds (M = 3000 kg/m, drop_mass's case) has nodes of
+    two peaks: joining them drew a 'largest tension so far' that fell from 0.00412 to 0.00336.
+    The running maximum drawn now rises or stays, and meets every record node's value where
+    the maximum rose there."""
+    from pipeline.show import running_maximum
+    from solver import Parameters, Settings, solve
+    r = solve(Parameters(Nmod=20, body_mass=3000.0), Settings(error_estimate=False), fields=(),
+              until_separation=True, t_end=0.05)
+    for surface in ("upper", "lower"):
+        rec = r.tension_record[surface]
+        assert np.any(np.diff(rec[:, 1]) < 0)                 # the nodes themselves do fall
+        t, m = running_maximum(rec)
+        assert np.all(np.diff(t) >= 0) and np.all(np.diff(m) >= 0)
+        assert m[-1] == rec[:, 1].max() and m[0] == rec[np.argmin(rec[:, 0]), 1]
+
+
+def test_show_names_the_stage_rule_of_the_body():
+    """A wedge's stage is b_mean / V, not L^2/(6RV) (show printed the formula of the parabola
+    with another body's value)."""
+    from pipeline.show import stage_text
+    from solver import Parameters
+    assert stage_text(Parameters()) == "impact stage L^2/(6RV) = 120 ms"
+    wedge = Parameters(deadrise=15.0)
+    assert stage_text(wedge) == f"impact stage b_mean/V = {wedge.stage_duration * 1e3:.4g} ms"
+    assert stage_text(Parameters(x0=1.0)).startswith("impact stage b_mean/V = 130")

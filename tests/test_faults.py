@@ -189,3 +189,48 @@ def test_ctrl_c_while_the_kernels_compile(study_file, tmp_path, delay):
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr and stderr.strip().splitlines()[-1].startswith("interrupted:"), stderr
     assert time.monotonic() - started < 10, "the runner waited for the compile to finish"
+
+
+#: the runner behind a library that swallows a KeyboardInterrupt (a bare except around an
+#: optional import, a ctypes callback in the compiler): it prints "ready", then the test's
+#: SIGINT lands in the swallowing code
+SWALLOWING = """
+import runpy, sys, time
+from pipeline import interrupts
+interrupts.install()
+try:
+    print("ready", flush=True)
+    time.sleep(30)
+except BaseException:
+    pass
+sys.argv = ["pipeline", *sys.argv[1:]]
+runpy.run_module("pipeline", run_name="__main__")
+"""
+
+
+def test_a_ctrl_c_that_a_library_swallowed_still_stops_the_run(study_file, tmp_path):
+    """The SIGINT handler records the interrupt; the run checks the record when it has read
+    the study, so a KeyboardInterrupt lost inside other code stops it all the same (seen once:
+    a Ctrl-C 1.0 s into a first run, under load, was lost and the run went on to exit 0)."""
+    proc = subprocess.Popen([sys.executable, "-c", SWALLOWING, "run", str(study_file), "--out",
+                             str(tmp_path / "out"), "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+    assert proc.stdout.readline().strip() == "ready"
+    os.killpg(proc.pid, signal.SIGINT)
+    _, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1].startswith("interrupted:") and "Traceback" not in stderr, stderr
+    assert not (tmp_path / "out").exists()               # stopped before anything was written
+
+
+def test_the_compile_notice_shows_only_when_the_kernels_compile(capsys, monkeypatch):
+    """'compiling them ... about 40 s' is printed when the kernels take longer than
+    COMPILE_NOTICE to load (a compile), not on every run (from the cache they load in 1.5 s)."""
+    from pipeline import engine
+    monkeypatch.setattr(engine, "COMPILE_NOTICE", 0.5)
+    for seconds, shown in ((0.0, False), (1.5, True)):
+        child = subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        engine.kernels_ready((child, time.monotonic()))
+        err = capsys.readouterr().err
+        assert ("compiling them" in err) == shown and "kernels ready in" in err, err
