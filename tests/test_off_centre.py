@@ -73,16 +73,23 @@ def test_mirrored_x0_mirrors_every_field(settings):
     left = solve(p.replace(x0=-1.2), settings, **kw)
     assert right.status == left.status == "ok"
     # adaptive: the mirrored quadrature's round-off moves the step sequence; the runs then agree
-    # within the run's own estimate of its time-integration error
-    bound = 1e-11 if settings.fixed_step else right.diagnostics["error_estimate_time"]
+    # within their own errors. Each estimate is 0.33 to 2.2 times its run's true error
+    # (solver.core.error_estimates), so they differ by at most 3x the sum of the estimates
+    # (measured 1.6x with numba generic, 1x on this machine's own target)
+    bound = 1e-11 if settings.fixed_step else 3.0 * (right.diagnostics["error_estimate_time"]
+                                                      + left.diagnostics["error_estimate_time"])
     print(f"mirror bound {bound:.2e}")
     for name in FIELDS:
         assert rel(left.fields[name][:, ::-1], right.fields[name]) < bound, name
     assert rel(left.amplitudes, right.amplitudes) < bound
     assert rel(-left.antisymmetric_amplitudes, right.antisymmetric_amplitudes) < bound
     assert np.nanmax(np.abs(right.antisymmetric_amplitudes)) > 0.1 * np.nanmax(np.abs(right.amplitudes))
-    for key in ("max_strain", "max_strain_lower", "max_strain_time"):      # located inside steps
+    for key in ("max_strain", "max_strain_lower"):      # located inside steps
         assert left.diagnostics[key] == pytest.approx(right.diagnostics[key], rel=bound), key
+    # the time of a smooth maximum is set to the square root of its value's error (adaptively:
+    # 1.75e-5 relative with numba generic, where the values agree to 1e-6)
+    assert left.diagnostics["max_strain_time"] == pytest.approx(
+        right.diagnostics["max_strain_time"], rel=bound if settings.fixed_step else np.sqrt(bound))
     for key in ("max_force", "max_compression"):      # taken at the steps' ends: as close as those are
         assert left.diagnostics[key] == pytest.approx(right.diagnostics[key],
                                                       rel=1e-11 if settings.fixed_step else 1e-4), key
