@@ -270,7 +270,7 @@ class Parameters:
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,
-        or a stage too short to resolve (MIN_STAGE_STEPS): one line naming the keys."""
+        or a stage too short to resolve (MIN_STAGE_RESPONSE): one line naming the keys."""
         with np.errstate(all="ignore"):
             added = float(water_added_mass(self.rho_w, np.pi / self.L, self.H))
             try:
