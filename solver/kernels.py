@@ -1157,6 +1157,18 @@ def body_coefficients(h, Cb):
 
 
 @njit(cache=True, nogil=True)
+def _body_error(h, G1, G2, G3, G4, G5, errb):
+    """A free body's local error against genuine third-order companions (docs/model.md, "A
+    body of finite mass"). The modes' embedded estimate h (4 phi3 - phi2)(G4 - G5) reads ~ h^6
+    on the body: its acceleration depends on its position, and stage 4's position differs from
+    the step's by h^2 (G2 - G3)/6 = O(h^5). The companions are Simpson's rule on (G1, G2, G5)
+    for u, err = h/3 (G3 - G2) + h/6 (G4 - G5), and d + h u + h^2 (2 G1 + G5)/6 for d, err =
+    h^2 (G2 + G3 - G1 - G5)/6, both O(h^4)."""
+    errb[B_U] = h / 3.0 * (G3 - G2) + h / 6.0 * (G4 - G5)
+    errb[B_D] = h * h / 6.0 * (G2 + G3 - G1 - G5)
+
+
+@njit(cache=True, nogil=True)
 def body_accel(lay, F):
     """G = u' = F / M - g_b: the body's deceleration (0 for the paper's prescribed body)."""
     return lay[L_INV_MASS] * F - lay[L_BODY_G]
@@ -1370,6 +1382,8 @@ def take_step(method, t, t_new, h, z, N1, F1, work, contacts, C, modes, lay, cos
                 err[n] = C[8, n] * (N4[n] - N_out[n])
             errb[B_D] = Cb[8, 1] * (G4 - G5)
             errb[B_U] = Cb[8, 0] * (G4 - G5)
+            if lay[L_INV_MASS] > 0.0:
+                _body_error(h, G1, G2, G3, G4, G5, errb)
     else:
         event = count_contacts(delta, jm, lay[L_MIRROR]) != contacts
         # error estimate: RK4 against the exponential (Krogstad) update from the same stage
