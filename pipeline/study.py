@@ -746,8 +746,10 @@ def _check_grid_values(study: Study) -> None:
 COUPLED_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H", "R", "V", "body_p", "flat_width",
                 "deadrise", "x0", "K", "he")
 #: at most this many combinations of the grid's coupled keys are checked one by one; beyond,
-#: the corners of their ranges (each check is monotone in every key but body_p)
+#: every value of the keys the checks are not monotone in (NOT_MONOTONE: the stage against
+#: body_p, and against |x0|) with the lowest and highest of each other key
 MAX_COMBINATIONS = 20_000
+NOT_MONOTONE = ("body_p", "x0")
 
 
 def _check_integrator_combinations(study: Study, params: dict, settings: dict) -> None:
@@ -773,7 +775,7 @@ def _check_grid_combinations(study: Study, params: dict) -> None:
         return
     choices = [study.grid[k] for k in keys]
     if math.prod(len(c) for c in choices) > MAX_COMBINATIONS:
-        choices = [sorted({min(c), max(c)}) for c in choices]
+        choices = [c if k in NOT_MONOTONE else sorted({min(c), max(c)}) for k, c in zip(keys, choices)]
     for combo in itertools.product(*choices):
         values = dict(zip(keys, combo))
         try:

@@ -142,3 +142,19 @@ def test_a_dry_run_refuses_what_a_run_refuses(tmp_path, capsys):
     code = main(["run", str(study), "--out", str(tmp_path / "out"), "--dry-run"])
     err = capsys.readouterr().err
     assert code == 2 and "flat_width = 6.0 m covers the whole plate" in err and err.count("\n") == 1, err
+
+
+def test_a_large_grid_is_checked_where_the_checks_are_not_monotone(tmp_path, capsys, monkeypatch):
+    """Beyond MAX_COMBINATIONS the coupled keys are checked at their extremes, but every value of
+    body_p: a body's mean height (so its stage) is least at an inner body_p (4.5 here, with
+    L/R = 1.5). The combination V = 6000, body_p = 4.5 is refused at load, not by a worker (where
+    the case would stay pending); each value alone with the base is fine."""
+    from pipeline import study as study_module
+    monkeypatch.setattr(study_module, "MAX_COMBINATIONS", 2)
+    text = "accept_extreme_values = true\n" + GOOD.replace("V = [3.0, 5.0]", "V = [5.0, 6000.0]\nbody_p = [1.0, 4.5, 10.0]") \
+        .replace("Nmod = 4", "Nmod = 4\nK = 1e3\nhe = 1.0\nhi = 5.0\nR = 4.0")
+    path = tmp_path / "grid.toml"
+    path.write_text(text)
+    code = main(["run", str(path), "--out", str(tmp_path / "out"), "--dry-run"])
+    err = capsys.readouterr().err
+    assert code == 2 and "V = 6000.0, body_p = 4.5" in err and "impact stage" in err, err
