@@ -254,13 +254,8 @@ class _Tables:
 
 #: a damped mode is kept at least this far (omega_d or kappa over omega) from critical damping
 CRITICAL_GAP = 1e-6
-#: largest etd34 step as a fraction of the contact period 2 pi / contact_frequency
+#: largest etd34 step as a fraction of the contact period 2 pi / Parameters.contact_frequency
 HMAX_FRACTION = 0.1
-
-
-def contact_frequency(p: Parameters) -> float:
-    """Omega_c [rad s-1], see Parameters.contact_frequency."""
-    return p.contact_frequency
 
 
 def _check_times(times, t_start, t_end):
@@ -456,7 +451,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     # first step: short enough that the tension (~ t^3.5 from first touch) crossed inside it is
     # far below any yield strain of interest; later steps grow at most 10% a step from it
     h_init = min(1e-6 * (t_end - t_start), 1e-5 * p.time_scale)
-    h_max = HMAX_FRACTION * 2 * np.pi / contact_frequency(p)
+    h_max = HMAX_FRACTION * 2 * np.pi / p.contact_frequency
     levels = np.ascontiguousarray(np.atleast_1d(np.asarray(locate_eps_Y, dtype=float)))
     level_t = np.full((2, levels.size), np.nan)
     level_x = np.full((2, levels.size), np.nan)
@@ -466,8 +461,6 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init,
             s.bottoming_gap, until_separation)
         records = {"upper": up, "lower": lo}
-        for rec in records.values():
-            rec[:, kn.R_X] += tab.origin                 # kernel coordinates -> x on the plate
         contact_record = np.empty((0, 2))
     else:
         ctrl = kn.make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
@@ -477,11 +470,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
             series, diag, level_t, level_x)
         # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
         records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
-        for rec in records.values():
-            rec[:, kn.R_X] += tab.origin                 # kernel coordinates -> x on the plate
         contact_record = cont[:n_cont].copy()
         fail = ""
     wall = _time.perf_counter() - started
+    for rec in records.values():
+        rec[:, kn.R_X] += tab.origin                     # kernel coordinates -> x on the plate
 
     status = kn.STATUS_NAMES[code]
     t_reached = float(diag[kn.D_T_REACHED])

@@ -272,12 +272,13 @@ class Parameters:
         """Refuse values that are each allowed but give no finite time scale or impact stage,
         or a stage too short to resolve (MIN_STAGE_RESPONSE): one line naming the keys."""
         with np.errstate(all="ignore"):
-            added = float(water_added_mass(self.rho_w, np.pi / self.L, self.H))
             try:
                 t_sc = float(self.time_scale)
             except (OverflowError, ZeroDivisionError):
                 t_sc = math.nan
-        if not (math.isfinite(added) and math.isfinite(t_sc) and t_sc > 0.0):
+        if not (math.isfinite(t_sc) and t_sc > 0.0):
+            with np.errstate(all="ignore"):
+                added = float(water_added_mass(self.rho_w, np.pi / self.L, self.H))
             cause = (f"the water depth H = {self.H!r} m makes the water's added mass infinite" if not
                      math.isfinite(added) else "from hi, L, E, nu, rho_i, rho_w, g and H")
             raise ParameterError(f"these parameters give no finite time scale 1/omega_1 (t_sc = {t_sc!r} s): "

@@ -112,8 +112,8 @@ class _Observer:
                 self.stop_t, self.depth = t, s
             if not np.isnan(self.stop_t) and np.isnan(self.separation_t) and U < 0.0 and contacts == 0:
                 self.separation_t, self.separation_speed = t, -U
-            balance = p.body_mass * (0.5 * (U**2 - p.V**2) - p.body_g * s) + work
-            self.body_residual = max(self.body_residual, abs(balance))
+            deficits = np.array([p.V * t - s, p.V - U])         # the kernels' body state (d, u)
+            self.body_residual = max(self.body_residual, abs(kn.body_residual(tab.lay, t, deficits, work)))
             self.previous_speed = U
 
     def finish(self, diag):
