@@ -17,8 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from solver import Parameters, Settings, compile_kernels, kernels as kn, solve
-from solver.core import _Tables
+from solver import Parameters, Settings, compile_kernels, solve
+from solver.model.basis import strain_nodes
+from solver.model.contact import count_contacts
+from solver.model.layer import layer_energy, layer_forcing
+from solver.model.assemble import Tables
 
 
 def snapshots(p):
@@ -32,14 +35,14 @@ def rel(a, b):
 def dop853_run(p, times, x, rtol):
     """scipy DOP853 on the same right-hand side (numba forcing, Python callback)."""
     from scipy.integrate import solve_ivp
-    tab = _Tables(p, 1000)
+    tab = Tables(p, 1000)
     N = p.Nmod
     J = tab.xq.size
     delta, fvals, P = np.empty(J), np.empty(J), np.empty(N)
     om2 = tab.omega**2
 
     def rhs(t, y):
-        kn.layer_forcing(t, y[:N], tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
+        layer_forcing(tab.model, t, np.ascontiguousarray(y[:N]), delta, fvals, P)
         return np.concatenate([y[N:], -om2 * y[:N] + P])
 
     start = time.perf_counter()
@@ -52,18 +55,18 @@ def dop853_run(p, times, x, rtol):
 
 def profile_step(p, repeats=2000):
     """Microseconds per call of the pieces of one etd34 step, on a late state (t~ = 3.8)."""
-    tab = _Tables(p, 1000)
+    tab = Tables(p, 1000)
     r = solve(p, Settings(tolerance=1e-10), times=[3.8 * p.time_scale], fields=())
     a, t = r.amplitudes[0], r.times[0]
     J = tab.xq.size
     delta, fvals, P, eps = np.empty(J), np.empty(J), np.empty(p.Nmod), np.empty(J)
-    args = (t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
-    _, _, jmax = kn.layer_forcing(*args)
+    args = (tab.model, t, a, delta, fvals, P)
+    _, _, jmax = layer_forcing(*args)
     out = {}
-    for name, fn in [("forcing (one stage)", lambda: kn.layer_forcing(*args)),
-                     ("strain at the nodes (in the loop: the last stage's second pass over the table)", lambda: kn.strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
-                     ("layer energy (diagnostics)", lambda: kn.layer_energy(delta, jmax, tab.dx, p.K, p.he, 2.0)),
-                     ("contact intervals", lambda: kn.count_contacts(delta, jmax, 2.0))]:
+    for name, fn in [("forcing (one stage)", lambda: layer_forcing(*args)),
+                     ("strain at the nodes (in the loop: the last stage's second pass over the table)", lambda: strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
+                     ("layer energy (diagnostics)", lambda: layer_energy(tab.model, delta, jmax)),
+                     ("contact intervals", lambda: count_contacts(delta, jmax, 2.0))]:
         fn()
         t0 = time.perf_counter()
         for _ in range(repeats):

@@ -1,7 +1,9 @@
 """Are the solver's results bit for bit those of another git revision? (make bit-for-bit)
 
-Runs seven cases that cover the solver's paths (the reference case, rk4, a case that bottoms
-out, one that crushes the layer, located crack onsets, finite depth, a fixed step; plus DOP853)
+Runs fifteen cases that cover the solver's paths (the reference case, rk4, a case that bottoms
+out, one that crushes the layer, located crack onsets, finite depth, a fixed step, DOP853, a
+light free body to its separation, a heavy one, an off-centre body, viscoelastic ice and layer,
+a wedge, a flat-bottomed power-law body, rk4 on shallow water with a located crack onset)
 in a git worktree of the base revision and in the working tree, each in its own process, and
 compares every output array (fields, amplitudes, series, diagnostics, tension and contact
 records) exactly. Exit 0 when all are identical; else 1, with one line per difference. For a
@@ -38,6 +40,14 @@ cases = {
     "finite_depth": (Parameters(Nmod=30, H=0.5), quiet, {}),
     "fixed_step": (Parameters(Nmod=20), Settings(fixed_step=0.01, error_estimate=False), {}),
     "dop853": (Parameters(Nmod=20), Settings(integrator="dop853", tolerance=1e-9, error_estimate=False), {}),
+    "free_body": (Parameters(Nmod=20, body_mass=300.0), quiet, {"until_separation": True, "t_end": 0.3}),
+    "heavy_body": (Parameters(Nmod=20, body_mass=3000.0), quiet, {}),
+    "off_centre": (Parameters(Nmod=20, x0=1.0), quiet, {}),
+    "viscoelastic": (Parameters(Nmod=20, tau=1e-3, layer_tau=1e-3), quiet, {}),
+    "wedge": (Parameters(Nmod=20, deadrise=5.0), quiet, {}),
+    "power_flat": (Parameters(Nmod=20, body_p=4.0, flat_width=0.2), quiet, {}),
+    "shallow_rk4": (Parameters(Nmod=20, H=0.3), Settings(integrator="rk4", error_estimate=False),
+                    {"locate_eps_Y": [2e-5]}),
 }
 out = {}
 for name, (p, s, kw) in cases.items():

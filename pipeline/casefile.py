@@ -1,4 +1,4 @@
-"""Cases -> batch files: run a batch of cases on a worker and write one file for all of them.
+"""Batch files: the arrays of a batch of cases, written as one file and read back by checksum.
 
 A batch file ``batches/<sha256>.nc`` holds the cases of one task along a ``case`` dimension
 (coordinate: the case ids), each with everything a case produces:
@@ -23,84 +23,23 @@ import hashlib
 import json
 import os
 import time
-from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
-from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, STATUS_INFO
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO
+from solver.parameters import CHOICES
 
 from . import provenance
-from .study import SCHEMA_VERSION, Case, x_fractions, x_positions
-
-#: variable name -> (long_name, units) for the per-case series and run records
-SERIES_INFO = {
-    "time": ("time since first touch", "s"),
-    "contact_intervals": ("number of disjoint contact intervals on -L..L", "1"),
-    "force": ("force on the body per unit width", "N m-1"),
-}
-#: series of a study with a free body (finite body_mass in some case): left out otherwise
-BODY_SERIES_INFO = {
-    "body_position": ("penetration s of the body below first touch: its lowest point is at he - s "
-                      "(V t for the paper's body at constant speed)", "m"),
-    "body_speed": ("downward speed U of the body (V for the paper's body)", "m s-1"),
-}
-RECORD_INFO = {
-    "t_sc": ("time scale 1/omega_1 of the case", "s"),
-    "stage_duration": ("impact stage of the case, b_mean / V (L^2/(6 R V) for the paper's parabola)", "s"),
-    "time_reached": ("time the integration reached", "s"),
-    "run_time": ("wall time of the solver for this case (the integration alone)", "s"),
-    "error_estimate_run_time": ("wall time of the error estimate's companion run (0: none)", "s"),
-    "steps": ("accepted time steps", "1"),
-    "rejected_steps": ("rejected time steps", "1"),
-    "smallest_step": ("smallest accepted time step", "s"),
-}
-TEXT_INFO = {
-    "status": " | ".join([*STATUS_INFO, "error"]),
-    "message": "what went wrong, empty when status is ok",
-}
-#: the running-maximum tension record of each surface (solver.fracture), ragged along
-#: tension_node; crack onset for any eps_Y follows from it
-TENSION_RECORD_INFO = {
-    "tension_record_time": ("time of a node of the running-maximum tension record", "s"),
-    "tension_record_value": ("peak tension over x at the node (upper: +strain, lower: -strain)", "1"),
-    "tension_record_rate": ("time derivative of the peak tension at the node", "s-1"),
-    "tension_record_x": ("position of the peak at the node (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
-    "tension_record_join": ("1: the node continues the previous one (a Hermite piece between them)", "1"),
-}
-CONTACT_RECORD_INFO = {
-    "contact_change_time": ("time at which the number of contact intervals changed (first entry: "
-                            "first touch)", "s"),
-    "contact_change_count": ("number of contact intervals on -L..L from that time on", "1"),
-}
-SURFACES = ("upper", "lower")
-#: statuses of a run that covered what it was asked to: ok, and a free body's ends
-COMPLETE = ("ok", "separated", "stopped")
-#: statuses of a case that ended by the model itself (not ok), and numerical failures
-ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped")
-NUMERICAL_FAILURES = ("nonfinite", "step_limit", "energy_violation", "error")
-#: what --rerun-failed computes again (a free body's end is a result, not a failure)
-FAILED = ("layer_bottomed_out",) + NUMERICAL_FAILURES
-
+from .study import SCHEMA_VERSION, Case, x_fractions
+from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
+                     TEXT_INFO)
 
 class CaseWriteError(OSError):
     """A batch file could not be written (disk full, permissions): the study stops (exit 74)."""
 
 
-#: record status of a batch whose file could not be written (not a case status: no file exists)
-WRITE_FAILED = "write_failed"
 BATCH_TITLE = "floe-impact batch"
-
-
-def compute_case(case: Case):
-    """Run the solver on one case; times past the end of its run are not integrated."""
-    from solver import solve
-    t_sec = case.times_seconds()
-    inside = t_sec <= case.t_end * (1 + 1e-12)
-    times = np.minimum(t_sec[inside], case.t_end)
-    x = x_positions(case.x_points, case.parameters.L)
-    return solve(case.parameters, case.settings, times=times, fields=case.fields, x=x, t_end=case.t_end,
-                 until_separation=case.end == "separation")
 
 
 def _or_nan(compute, size=None):
@@ -196,7 +135,8 @@ def batch_dataset(cases: list, arrays: list) -> dict:
     data["solver_settings"] = (("case",), np.array([a["solver_settings"] for a in arrays], dtype=object),
                                _attrs("solver settings of the case (JSON)"))
     for key, (long_name, units) in PARAMETER_INFO.items():
-        data[key] = (("case",), np.array([a[key] for a in arrays]), _attrs(long_name, units))
+        values = np.array([a[key] for a in arrays], dtype=object if key in CHOICES else None)
+        data[key] = (("case",), values, _attrs(long_name, None if key in CHOICES else units))
     counts = np.array([[r.shape[0] for r in a["tension_records"]] for a in arrays], dtype=np.int64).reshape(n, 2)
     data["tension_record_count"] = (("case", "surface"), counts,
                                     {**_attrs("nodes of the case's tension record on the surface", "1"),
@@ -250,9 +190,6 @@ def write_netcdf(spec: dict, path: Path) -> None:
         nc.setncatts(spec["attrs"])
 
 
-
-
-
 def _fsync_dir(directory: Path) -> None:
     dfd = os.open(directory, os.O_RDONLY)
     try:
@@ -295,56 +232,6 @@ def write_batch(ds: dict, batches_dir: Path) -> dict:
     _fsync_dir(batches_dir)
     st = path.stat()
     return {"file": path.name, "sha256": sha, "size": st.st_size, "mtime_ns": st.st_mtime_ns}
-
-
-@lru_cache(maxsize=4)
-def _worker_study(text: str, name: str):
-    """The study on a worker, parsed once per study text (a grid's cases are built on demand)."""
-    from .study import load_study_text
-    return load_study_text(text, name)
-
-
-def run_batch(study_text: str, study_name: str, items: list, batches_dir: str, reduce=None) -> dict:
-    """Worker entry point: run the cases ``items`` ([case_id, position or -1]) of a study,
-    write their batch file, return its ledger entry; with ``reduce`` (combine.stream_spec),
-    also what study.nc stores for them, under "reduced".
-
-    A numerical failure is a status, and so is an exception in the solver ('error'); every
-    case is written. A failure to write the file returns status WRITE_FAILED, on which the
-    runner stops the study.
-    """
-    study = _worker_study(study_text, study_name)
-    cases, arrays = [], []
-    for case_id, position in items:
-        case = study.case(position) if position >= 0 else study.run(case_id)
-        if case.case_id != case_id:
-            raise RuntimeError(f"case {case_id}: the worker's study gives id {case.case_id}")
-        try:
-            result = compute_case(case)
-            values = case_arrays(case, result)
-        except Exception as err:                   # a bug in one case must not stop the study
-            values = case_arrays(case, None, status="error", message=f"{type(err).__name__}: {err}")
-        cases.append(case)
-        arrays.append(values)
-    spec = batch_dataset(cases, arrays)
-    try:
-        entry = write_batch(spec, Path(batches_dir))
-    except Exception as err:                       # netCDF reports a full disk as "HDF error"
-        import shutil
-        try:
-            free = f"{shutil.disk_usage(batches_dir).free // 2**20} MiB free"
-        except OSError:
-            free = "free space unknown"
-        # returned, not raised: the runner stops the study (a raised error would be logged by
-        # the dask worker with its traceback)
-        return {"status": WRITE_FAILED, "message": f"cannot write a batch file in {batches_dir} ({free}): "
-                                                   f"{type(err).__name__}: {err}"}
-    entry["cases"] = [[c.case_id, a["status"], a["message"], float(a["run_time"])] for c, a in zip(cases, arrays)]
-    if reduce is not None:                         # study.nc's slice, from memory (no re-read)
-        from .combine import reduce_arrays
-        data = {name: np.asarray(arr) for name, (_, arr, _) in spec["data"].items()}
-        entry["reduced"] = reduce_arrays(data, np.arange(len(cases)), *reduce)
-    return entry
 
 
 class DamagedFile(Exception):

@@ -25,14 +25,15 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
+from solver.parameters import CHOICES
 
 from . import provenance
-from .casefile import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES,
-                       TENSION_RECORD_INFO, TEXT_INFO, DamagedFile, read_batch_arrays, tension_records,
-                       time_coordinate_attrs)
+from .casefile import DamagedFile, read_batch_arrays, tension_records, time_coordinate_attrs
 from .fracture import CRACK_INFO, onset_from_records
 from .ledger import BATCHES, write_sidecar
 from .study import SCHEMA_VERSION, Study, x_fractions, x_positions
+from .tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES,
+                     TENSION_RECORD_INFO, TEXT_INFO)
 
 ERROR_INFO = {
     "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
@@ -48,9 +49,9 @@ FLUSH_BYTES = 16 * 2**20
 
 
 def _parameter_coord(key, values):
-    if key == "integrator":
-        return np.asarray(values, dtype=object), {"long_name": SETTING_INFO[key][0]}
     long_name, units = PARAMETER_INFO[key] if key in PARAMETER_INFO else SETTING_INFO[key]
+    if key == "integrator" or key in CHOICES:           # names, not numbers
+        return np.asarray(values, dtype=object), {"long_name": long_name}
     if key == "error_estimate":
         return np.asarray(values, dtype=np.int8), {"long_name": long_name, "units": "1"}
     dtype = np.int64 if key in ("Nmod", "subintervals", "max_steps") else np.float64
@@ -309,6 +310,11 @@ class StudyWriter:
             constant = [k for k in PARAMETER_INFO if k not in varying]
         for key in constant:                        # constant over the study: 0-d, with units
             long_name, units = PARAMETER_INFO[key]
+            if key in CHOICES:                      # a name: a string, with no units
+                var = nc.createVariable(key, str, ())
+                var[...] = np.array(getattr(first.parameters, key), dtype=object)
+                var.setncatts({"long_name": long_name})
+                continue
             var = nc.createVariable(key, "i8" if key == "Nmod" else "f8", ())
             var.assignValue(getattr(first.parameters, key))
             var.setncatts({"long_name": long_name, "units": units})

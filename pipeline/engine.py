@@ -21,7 +21,9 @@ from distributed import Client, LocalCluster, as_completed
 
 from solver import compile_kernels
 
-from .casefile import COMPLETE, ENDED_EARLY, WRITE_FAILED, CaseWriteError, run_batch
+from .casefile import CaseWriteError
+from .tables import COMPLETE, ENDED_EARLY, WRITE_FAILED
+from .worker import run_batch
 
 SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
                      "NUMBA_NUM_THREADS": "1"}
@@ -153,8 +155,8 @@ class Progress:
 def kernels_loaded() -> bool:
     """On a worker: are the solver's kernels compiled or loaded from numba's cache?"""
     import sys as _sys
-    kernels = _sys.modules.get("solver.kernels")
-    return kernels is not None and len(kernels.integrate.signatures) > 0
+    loop = _sys.modules.get("solver.loop")
+    return loop is not None and len(loop.integrate.signatures) > 0
 
 
 def warm_workers(client, one_at_a_time: bool = False) -> None:

@@ -1,4 +1,6 @@
-"""Exceptions of the runner (standard library only, so the CLI can fail fast)."""
+"""Exceptions of the runner and its exit statuses (standard library only, so the CLI can fail fast)."""
+import shutil
+from pathlib import Path
 
 
 class StudyError(ValueError):
@@ -7,3 +9,26 @@ class StudyError(ValueError):
 
 #: studies with more cases than this need --yes
 LARGE_STUDY = 10_000
+
+#: exit statuses of python -m pipeline (pipeline.cli)
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_IO, EXIT_LOCKED, EXIT_INTERRUPTED = 0, 1, 2, 74, 75, 130
+
+
+class ResultsIOError(Exception):
+    """Reading or writing results failed (permissions, full disk): exit 74."""
+
+
+def free_space(path: Path) -> str:
+    """The free space of the filesystem that holds path (or its nearest existing parent)."""
+    path = Path(path).absolute()
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    try:
+        return f"{shutil.disk_usage(path).free // 2**20} MiB free on its filesystem"
+    except OSError:
+        return "free space unknown"
+
+
+def write_failed(what: Path, err: BaseException) -> ResultsIOError:
+    detail = getattr(err, "strerror", None) or str(err) or type(err).__name__
+    return ResultsIOError(f"cannot write {what} ({free_space(Path(what).parent)}): {detail}; finished cases are kept")

@@ -21,7 +21,8 @@ import xarray as xr
 
 from solver import EPS_Y_INFO, crack_onset as _from_record, default_eps_Y
 
-from .casefile import SURFACES, TENSION_RECORD_INFO, ragged_offsets, tension_records
+from .casefile import ragged_offsets, tension_records
+from .tables import SURFACES, TENSION_RECORD_INFO
 
 #: variable -> (long_name, units), each along eps_Y
 CRACK_INFO = {

@@ -16,7 +16,8 @@ import xarray as xr  # noqa: E402
 
 from solver import PAPER_EPS_Y, PARAMETER_INFO, SETTING_INFO  # noqa: E402
 
-from .casefile import COMPLETE, temporary_path  # noqa: E402
+from .casefile import temporary_path  # noqa: E402
+from .tables import COMPLETE  # noqa: E402
 
 DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper surface"),
@@ -74,6 +75,11 @@ def _save_text(path, text: str) -> None:
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _tick(value) -> str:
+    """A key's value as a tick label: a name as it is, a number in %g."""
+    return value if isinstance(value, str) else f"{value:g}"
 
 
 def _label(key, value):
@@ -186,11 +192,11 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
         fig.colorbar(mesh, ax=row[-1], label=title if name != "crack_onset_time" else f"{title}, εY = {eps_y:g}")
     for ax in axes[-1]:
         ticks = np.unique(np.linspace(0, ds.sizes[first] - 1, 4).round().astype(int))
-        ax.set_xticks(ticks, [f"{v:g}" for v in ds[first].values[ticks]])
+        ax.set_xticks(ticks, [_tick(v) for v in ds[first].values[ticks]])
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]")
     for ax in axes[:, 0]:
         ticks = np.unique(np.linspace(0, ds.sizes[second] - 1, 5).round().astype(int))
-        ax.set_yticks(ticks, [f"{v:g}" for v in ds[second].values[ticks]])
+        ax.set_yticks(ticks, [_tick(v) for v in ds[second].values[ticks]])
         ax.set_ylabel(f"{second} [{ds[second].attrs.get('units', '1')}]")
     title = "\n".join(textwrap.wrap(ds.attrs.get("description") or ds.attrs.get("study_name", ""), 140))
     title += f"\n{int(np.prod([ds.sizes[d] for d in dims]))} cases; × : the case did not end ok (see status)"
@@ -230,11 +236,14 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
     styles = _line_styles(len(combos))
     all_x = ds[first].values
+    names = all_x.dtype.kind not in "iuf"           # a key that takes names (layer_law, integrator)
+    if names:
+        labels_x, all_x = [str(v) for v in all_x], np.arange(all_x.size, dtype=float)
     on_axis = np.isfinite(all_x) if all_x.dtype.kind == "f" else np.ones(all_x.size, bool)
     if all_x.dtype.kind == "f" and np.any(all_x == 0) and _log_spaced(all_x[on_axis & (all_x > 0)]):
         on_axis &= all_x > 0             # a sweep over decades and its neutral 0 (tau = 0)
     xvals = all_x[on_axis]               # an infinite key value (H, body_mass), or that 0: a dashed line
-    log_x = _log_spaced(xvals)
+    log_x = not names and _log_spaced(xvals)
     for ax, (name, title) in zip(axes.flat, DIAGNOSTICS):
         unbounded = []
         for (color, marker), combo in zip(styles, combos):
@@ -258,7 +267,10 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         else:
             span = float(np.max(xvals) - np.min(xvals)) or 1.0
             ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
-            ax.ticklabel_format(axis="x", useOffset=False)
+            if names:
+                ax.set_xticks(all_x, labels_x)
+            else:
+                ax.ticklabel_format(axis="x", useOffset=False)
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]")
         if name in ("max_strain", "max_strain_lower", "energy_residual", "run_time", "max_force"):

@@ -125,7 +125,8 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
     lines = [f"case {case_id} of {study.name}: " + ", ".join(
         f"{k}={case.value(k):g}" if not isinstance(case.value(k), str) else f"{k}={case.value(k)}"
         for k in study.varying_keys)]
-    lines.append("parameters: " + ", ".join(f"{k}={v:g}" for k, v in p.as_dict().items()))
+    lines.append("parameters: " + ", ".join(f"{k}={v if isinstance(v, str) else format(v, 'g')}"
+                                            for k, v in p.as_dict().items()))
     lines.append(f"time scale t_sc = {p.time_scale * 1e3:.4g} ms, {stage_text(p)} (b_mean: the body's mean "
                  f"height over the plate)")
     records = None

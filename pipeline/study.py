@@ -36,7 +36,7 @@ import numpy as np
 
 from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings,
                     default_eps_Y)
-from solver.parameters import check_combination
+from solver.parameters import CHOICES, check_combination
 from solver.axes import linear_axis, log_axis, round_significant
 
 from .errors import StudyError
@@ -263,6 +263,13 @@ def x_positions(x_points: int, L: float) -> np.ndarray:
     return round_significant(x_fractions(x_points) * L)
 
 
+def _choice(where: str, key: str, value):
+    """A parameter that takes one of a few names (solver.parameters.CHOICES)."""
+    if not isinstance(value, str) or value not in CHOICES[key]:
+        raise StudyError(f"{where} must be one of {', '.join(CHOICES[key])}, got {value!r}")
+    return value
+
+
 def _number(where: str, value, integer=False):
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise StudyError(f"{where} must be a number, got {value!r}")
@@ -283,7 +290,9 @@ def _check_parameters(where: str, table: dict, settings=False, reference=False) 
             if not isinstance(value, str):
                 raise StudyError(f"{where}.group must be a string label")
             continue
-        if key in PARAMETER_INFO:
+        if key in CHOICES:
+            _choice(f"{where}.{key}", key, value)
+        elif key in PARAMETER_INFO:
             _number(f"{where}.{key}", value)
         elif settings and key in SETTING_INFO:
             if key == "integrator":
@@ -539,7 +548,9 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
         if not isinstance(values, list) or not values:
             raise StudyError(f"[grid] {key} must be a non-empty list of values")
         for v in values:
-            if key == "integrator":
+            if key in CHOICES:
+                _choice(f"[grid] {key} value", key, v)
+            elif key == "integrator":
                 if not isinstance(v, str):
                     raise StudyError(f"[grid] integrator values must be names, got {v!r}")
             elif key == "error_estimate":

@@ -1,6 +1,7 @@
 """The one Python entry point of the solver: :func:`solve` adapts a case to the kernels.
 
-It builds the quadrature tables, calls :func:`solver.kernels.integrate`, and turns the modal
+It validates the case, assembles its Model (solver.model.assemble), calls
+:func:`solver.loop.integrate`, and turns the modal
 amplitudes at the output times into the fields the caller asked for. It raises only for bad
 input (:class:`solver.parameters.ParameterError`); a numerical failure is a status.
 """
@@ -12,7 +13,13 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import kernels as kn
+from . import layout as kn
+from .control import ENERGY_BOUND, ENERGY_JUMP, make_control
+from .diagnostics import Outputs
+from .layout import ETD34, RK4
+from .loop import integrate
+from .model.assemble import Tables
+from .model.layer import pressure_at
 from .fracture import crack_onset, thin_record
 from .parameters import Parameters, ParameterError, Settings, check_combination
 from .scipy_reference import integrate_dop853
@@ -166,94 +173,9 @@ class Result:
         return crack_onset(self.tension_record[surface], eps_Y)
 
 
-class _Tables:
-    """Per-case arrays the kernels need (modal constants and quadrature weights).
-
-    The centred impact (x0 = 0, or full_plate False) is solved on the symmetric half plate
-    0 <= x <= L: modes cos(lambda_n x), lambda_n = pi n / L, integrals over 0..L doubled
-    (mirror = 2). An off-centre impact (full_plate True) is solved on the full plate in the
-    kernel coordinate xi = x + L in 0..2L: the sliding-wall modes cos(k pi xi / 2L),
-    k = 1..2 Nmod (even k = 2n: (-1)^n cos(lambda_n x), the symmetric modes; odd k = 2m - 1:
-    (-1)^m sin((m - 1/2) pi x / L), the antisymmetric ones), integrals over 0..2L (mirror = 1),
-    twice the nodes at the same dx. Everything the kernels see has the same form on both.
-    """
-
-    def __init__(self, p: Parameters, subintervals: int, full_plate: bool | None = None):
-        full = p.off_centre if full_plate is None else bool(full_plate)
-        self.full_plate = full
-        if full:
-            lam = np.pi * np.arange(1, 2 * p.Nmod + 1) / (2.0 * p.L)
-            self.origin = -p.L                       # x of the kernel's xi = 0
-        else:
-            lam = p.wavenumbers
-            self.origin = 0.0
-        M, self.omega, damping = p.mode_constants(lam)
-        self.coef = (-1.0 if full else -2.0) / (p.L * M)
-        self.lam = lam
-        self.damping = damping
-        self.LM = p.L * M
-        self.strain_coef = 0.5 * p.hi * lam**2
-        self.dx = p.L / subintervals
-        xq = self.dx * np.arange((2 if full else 1) * subintervals + 1)
-        self.xq = xq                                 # the nodes in kernel coordinates
-        self.x_nodes = xq + self.origin              # and on the plate
-        self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, xq)))            # (N, J)
-        sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                      # np.sinc(u) = sin(pi u)/(pi u)
-        self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
-        half_c = 0.5 * damping                       # Kelvin-Voigt: 0 for the paper's elastic ice
-        over = half_c > self.omega                   # overdamped modes: two real decay rates
-        wd = np.sqrt(np.abs(self.omega - half_c) * (self.omega + half_c))
-        # a mode within 1e-12 of critical damping is taken as underdamped with omega_d = 1e-6
-        # omega (its rates move by 1e-12; a from z loses at most 1e-10 to the small omega_d)
-        near = (half_c > 0) & (wd < CRITICAL_GAP * self.omega)
-        over = over & ~near
-        wd = np.where(half_c == 0.0, self.omega, np.where(near, CRITICAL_GAP * self.omega, wd))
-        self.modes = np.ascontiguousarray(np.stack([self.omega, self.coef, self.strain_coef, self.LM, half_c, wd,
-                                                    over.astype(float)]))
-        assert self.modes.shape[0] == kn.N_MODE_ROWS
-        free = p.free_body
-        if full:
-            body = p.body_profile(self.x_nodes)                                      # b(x_j - x0)
-        else:
-            body = xq * xq * (0.5 / p.R) if p.parabola else p.body_profile(xq)      # b(x_j)
-        self.lay = np.concatenate([[lam[0], self.dx, p.V, p.R, p.he, p.K, 1.0 / p.body_mass if free else 0.0,
-                                    p.body_g if free else 0.0, p.body_p, p.flat_width, p.tan_deadrise,
-                                    p.layer_tau, 1.0 if full else 2.0, p.L + p.x0 if full else 0.0,
-                                    self.LM[1] if full else self.LM[0]], body])
-        assert self.lay.size == kn.N_LAY + xq.size
-
-    def kernel_x(self, x):
-        """Kernel coordinates of plate positions x [m]: |x| on the half plate, x + L on the full."""
-        x = np.asarray(x, dtype=float)
-        return x - self.origin if self.full_plate else np.abs(x)
-
-    def to_kernel(self, symmetric, antisymmetric=None):
-        """Modal amplitudes in the kernel's order from those of cos(lambda_n x) (and of
-        sin((m - 1/2) pi x / L) on the full plate): the last axis has Nmod entries each."""
-        symmetric = np.asarray(symmetric, dtype=float)
-        if not self.full_plate:
-            return symmetric
-        n = symmetric.shape[-1]
-        out = np.zeros(symmetric.shape[:-1] + (2 * n,))
-        sign = (-1.0) ** np.arange(1, n + 1)
-        out[..., 1::2] = sign * symmetric
-        if antisymmetric is not None:
-            out[..., 0::2] = sign * np.asarray(antisymmetric, dtype=float)
-        return out
-
-    def from_kernel(self, amplitudes):
-        """(symmetric, antisymmetric) amplitudes of cos(lambda_n x) and sin((m - 1/2) pi x / L)
-        from the kernel's; on the half plate the antisymmetric ones are 0 (NaN where the
-        symmetric are)."""
-        if not self.full_plate:
-            return amplitudes, np.where(np.isnan(amplitudes), np.nan, 0.0)
-        n = amplitudes.shape[-1] // 2
-        sign = (-1.0) ** np.arange(1, n + 1)
-        return sign * amplitudes[..., 1::2], sign * amplitudes[..., 0::2]
+_Tables = Tables     # the name the tests have used
 
 
-#: a damped mode is kept at least this far (omega_d or kappa over omega) from critical damping
-CRITICAL_GAP = 1e-6
 #: largest etd34 step as a fraction of the contact period 2 pi / Parameters.contact_frequency
 HMAX_FRACTION = 0.1
 
@@ -277,28 +199,13 @@ def _layer_pressure(p, tables, a, s, x, adot=None, U=None):
     """K f at positions x from f at the quadrature nodes, linear between nodes, split as in the
     kernel, the body at penetration s [m]; a viscoelastic layer scales f by
     max(1 + layer_tau d(delta)/dt, 0) at the compressed nodes (from adot [m/s] and the body's
-    speed U).
-
-    This is exactly the reaction the modes feel (the forcing integrates the same function).
-    """
+    speed U). This is exactly the reaction the modes feel (solver.model.layer.pressure_at: the
+    same law the forcing integrates)."""
     delta = (a @ tables.cosq + s - p.body_profile(tables.x_nodes)) / p.he  # (J,)
-    f = np.where(delta > 0, delta / (1 - np.where(delta > 0, delta, 0.0)), 0.0)
-    if p.layer_tau > 0:
-        rate = (adot @ tables.cosq + U) / p.he
-        f = np.where(delta > 0, f * np.maximum(1.0 + p.layer_tau * rate, 0.0), 0.0)
+    rate = (adot @ tables.cosq + U) / p.he if p.layer_tau > 0 else None
     ax = tables.kernel_x(x)
     j = np.minimum((ax / tables.dx).astype(int), delta.size - 2)
-    theta = ax / tables.dx - j
-    d0, d1 = delta[j], delta[j + 1]
-    f0, f1 = f[j], f[j + 1]
-    both = (d0 > 0) & (d1 > 0)
-    out = np.where(both, f0 + theta * (f1 - f0), 0.0)
-    # split subintervals: f continued by delta for delta <= 0, linear, positive part kept
-    g0 = np.where(d0 > 0, f0, d0)
-    g1 = np.where(d1 > 0, f1, d1)
-    split = (d0 > 0) != (d1 > 0)
-    out = np.where(split, np.maximum(g0 + theta * (g1 - g0), 0.0), out)
-    return p.K * out
+    return pressure_at(tables.model, delta, rate, ax / tables.dx - j, j)
 
 
 #: error of etd34 against its tolerance, e ~ tol^p: measured p = 0.45..0.71 over the
@@ -347,20 +254,20 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
 
 
 def _energy_bound_message(p: Parameters, diagnostics: dict) -> str:
-    """Which energy balance ended the run above kn.ENERGY_BOUND: the ice's, or a free body's
+    """Which energy balance ended the run above ENERGY_BOUND: the ice's, or a free body's
     own (with its round-off floor when the body is so heavy that M V^2 x 1e-16 is not small
     against the work)."""
     plate, body = diagnostics["energy_residual"], diagnostics["body_energy_residual"]
-    if not plate > kn.ENERGY_BOUND and body > kn.ENERGY_BOUND:
+    if not plate > ENERGY_BOUND and body > ENERGY_BOUND:
         text = (f"energy identity broken: the free body's balance |M (U^2 - V^2)/2 - M body_g s + W| reached "
-                f"{body:.2e} of the work (bound {kn.ENERGY_BOUND:g}; the ice's residual is {plate:.2e})")
+                f"{body:.2e} of the work (bound {ENERGY_BOUND:g}; the ice's residual is {plate:.2e})")
         floor = 1e-16 * p.body_mass * p.V**2 / max(diagnostics["work"], 1e-300)
-        if floor > 1e-2 * kn.ENERGY_BOUND:
+        if floor > 1e-2 * ENERGY_BOUND:
             text += (f"; at body_mass = {p.body_mass:g} kg/m its round-off alone, M V^2 x 1e-16, is {floor:.1e} of "
                      f"the work: a body this heavy is the paper's body (body_mass = inf)")
         return text
     return (f"energy identity broken: the residual |E_plate + E_layer + D - W| reached {plate:.2e} of the work "
-            f"(bound {kn.ENERGY_BOUND:g}; more subintervals or a tighter tolerance may mend it)")
+            f"(bound {ENERGY_BOUND:g}; more subintervals or a tighter tolerance may mend it)")
 
 
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
@@ -438,8 +345,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     a0 = tab.to_kernel(a0)
     v0 = tab.to_kernel(v0)
     N = tab.lam.size                                 # the kernel's modes: 2 Nmod on the full plate
-    method = kn.ETD34 if s.integrator == "etd34" else kn.RK4
-    if method == kn.RK4:
+    method = ETD34 if s.integrator == "etd34" else RK4
+    if method == RK4:
         fixed = s.rk4_step_fraction * 2 * np.pi / tab.omega[-1]
     else:
         fixed = s.fixed_step * p.time_scale
@@ -463,11 +370,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         records = {"upper": up, "lower": lo}
         contact_record = np.empty((0, 2))
     else:
-        ctrl = kn.make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
+        control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
                                s.max_steps, s.bottoming_gap, until_separation)
-        code, n_out, up, n_up, lo, n_lo, cont, n_cont = kn.integrate(
-            method, tab.modes, tab.lay, tab.cosq, tab.wq, ctrl, times, a0, v0, levels, out_a, out_adot,
-            series, diag, level_t, level_x)
+        code, n_out, (up, n_up, lo, n_lo, cont, n_cont) = integrate(
+            method, tab.model, control, times, a0, v0, levels, Outputs(out_a, out_adot, series, diag, level_t, level_x))
         # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
         records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
         contact_record = cont[:n_cont].copy()
@@ -558,7 +464,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
                        f"largest delta reached {max_delta:.6g}")
         elif kind == kn.FAIL_ENERGY_JUMP:
             message = (f"energy identity broken {where}: a step changed E_plate + E_layer + D - W by more "
-                       f"than {kn.ENERGY_JUMP:g} of the energy in play, and " +
+                       f"than {ENERGY_JUMP:g} of the energy in play, and " +
                        ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
         elif kind == kn.FAIL_ENERGY_BOUND:
             message = _energy_bound_message(p, diagnostics) + (f"; the run reached t = {t_reached:.6g} s "

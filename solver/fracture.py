@@ -18,7 +18,8 @@ import numpy as np
 from numba import njit
 
 from .axes import log_axis
-from .kernels import R_JOIN, R_RATE, R_T, R_VALUE, R_X, cubic_first_reach, cubic_max, hermite
+from .cubic import cubic_first_reach, cubic_max, hermite
+from .layout import R_JOIN, R_RATE, R_T, R_VALUE, R_X
 
 #: record nodes whose places differ by more than this [m] belong to two different peaks
 PEAK_JUMP = 0.05

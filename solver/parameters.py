@@ -23,6 +23,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .model.layer import LAW_CODES
+
 #: key -> (long_name, units) for every physical parameter.
 PARAMETER_INFO = {
     "K": ("rigidity of the elastic layer", "Pa"),
@@ -53,12 +55,18 @@ PARAMETER_INFO = {
     "layer_tau": ("retardation time of the viscoelastic layer: pressure K f(delta) max(1 + layer_tau "
                   "d(delta)/dt, 0) where compressed (0: elastic, the paper's)", "s"),
     "x0": ("horizontal position of the body's centre, -L < x0 < L (0: the paper's centred impact)", "m"),
+    "layer_law": ("law of the layer's pressure K f(delta): paper, f = delta / (1 - delta); linear, the "
+                  "classical Winkler layer f = delta", ""),
 }
+
+#: parameters that take one of a few names: key -> the names (each module of solver.model that
+#: reads one declares its names)
+CHOICES = {"layer_law": tuple(LAW_CODES)}
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
-                  "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0}
+                  "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0, "layer_law": "paper"}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -77,7 +85,7 @@ def outside_physical_range(values: dict) -> str | None:
     """A one-line reason if a parameter lies outside PHYSICAL_RANGES (or hi > L), else None."""
     for key, value in values.items():
         lo, hi = PHYSICAL_RANGES.get(key, (None, None))
-        if key in PAPER_DEFAULTS and float(value) == PAPER_DEFAULTS[key]:
+        if key in CHOICES or (key in PAPER_DEFAULTS and float(value) == PAPER_DEFAULTS[key]):
             continue                                       # H = inf: deep water; M = inf
         if lo is not None and not lo <= float(value) <= hi:
             unit = PARAMETER_INFO[key][1]
@@ -218,6 +226,9 @@ class Parameters:
         "Off-centre impact"). 0 (the default) is the
         paper's centred impact on the symmetric modes; any other value is solved on the full
         plate, Nmod symmetric and Nmod antisymmetric modes.
+    layer_law : the law of the layer's pressure K f(delta) (docs/model.md, "Layer law"): "paper"
+        (the default), f = delta / (1 - delta), stiffening without bound as the layer is crushed;
+        "linear", the classical Winkler layer f = delta.
     """
 
     K: float = 8e6
@@ -241,10 +252,15 @@ class Parameters:
     tau: float = 0.0
     layer_tau: float = 0.0
     x0: float = 0.0
+    layer_law: str = "paper"
 
     def __post_init__(self):
         for f in fields(self):
             value = getattr(self, f.name)
+            if f.name in CHOICES:
+                if not isinstance(value, str) or value not in CHOICES[f.name]:
+                    raise ParameterError(f"{f.name} must be one of {', '.join(CHOICES[f.name])}, got {value!r}")
+                continue
             number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
             if f.name in BEYOND_BOUNDS:
                 _check_bound(f.name, value, *BEYOND_BOUNDS[f.name])

@@ -1,6 +1,7 @@
 """scipy's DOP853 on the same right-hand side: the outside reference users would reach for.
 
-Same equations and forcing kernel as :mod:`solver.kernels`, written as a first-order system
+Same equations and the same model functions as the kernels (solver.model: the layer's forcing,
+the modes' acceleration and damping, the body's deceleration), written as a first-order system
 y = (a_n, da_n/dt, W), and a free body's penetration s and speed U (for the paper's body s = V t)
 and stepped with :class:`scipy.integrate.DOP853` at rtol = tolerance,
 atol = tolerance * 1e-3, first step that of etd34 (scipy's own guess can jump from first
@@ -19,7 +20,13 @@ import math
 
 import numpy as np
 
-from . import kernels as kn
+from . import layout as kn
+from .control import BOTTOM_GAP
+from .cubic import cubic_max, hermite
+from .model.body import body_accel, body_residual
+from .model.contact import count_contacts, gap_peak
+from .model.layer import layer_energy, layer_forcing_at
+from .model.plate import mode_acceleration
 
 
 class _StageDeltaOne(Exception):
@@ -58,7 +65,7 @@ def _record_max(rec):
     for i in np.flatnonzero(rec[1:, kn.R_JOIN] == 1.0):
         a, b = rec[i], rec[i + 1]
         h = b[kn.R_T] - a[kn.R_T]
-        value, th = kn.cubic_max(*kn.hermite(a[kn.R_VALUE], b[kn.R_VALUE], a[kn.R_RATE], b[kn.R_RATE], h))
+        value, th = cubic_max(*hermite(a[kn.R_VALUE], b[kn.R_VALUE], a[kn.R_RATE], b[kn.R_RATE], h))
         if value > best[0]:
             best = (value, a[kn.R_T] + th * h, a[kn.R_X] + th * (b[kn.R_X] - a[kn.R_X]))
     return best
@@ -113,7 +120,7 @@ class _Observer:
             if not np.isnan(self.stop_t) and np.isnan(self.separation_t) and U < 0.0 and contacts == 0:
                 self.separation_t, self.separation_speed = t, -U
             deficits = np.array([p.V * t - s, p.V - U])         # the kernels' body state (d, u)
-            self.body_residual = max(self.body_residual, abs(kn.body_residual(tab.lay, t, deficits, work)))
+            self.body_residual = max(self.body_residual, abs(body_residual(tab.model.body, t, deficits, work)))
             self.previous_speed = U
 
     def finish(self, diag):
@@ -142,9 +149,9 @@ class _Observer:
 
 
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
-                     bottom_gap=kn.BOTTOM_GAP, until_separation=False):
+                     bottom_gap=BOTTOM_GAP, until_separation=False):
     """Returns (status, n_out, out_a, out_adot, out_series, diag, failure, records) with the meaning of
-    :func:`solver.kernels.integrate` (the error column all NaN: DOP853 gives no local error
+    :func:`solver.loop.integrate` (the error column all NaN: DOP853 gives no local error
     estimates back); failure names what stopped it, or "". A free body's run that asks to end
     at separation ends at the first step after which it is off the ice, moving up."""
     try:
@@ -157,13 +164,13 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     J = tab.xq.size
     delta, fvals, P = np.empty(J), np.empty(J), np.empty(N)
     om2 = tab.omega**2
-    ones = np.ones(N)
+    model = tab.model
+    accel = np.empty(N)
     gap = np.empty(3)
     nfev = [0]
     level = 1.0 - bottom_gap
 
     free = p.free_body
-    damp = tab.damping                                # Kelvin-Voigt c_n (0: elastic ice)
     damped = p.tau > 0 or p.layer_tau > 0             # D: the plate's and the layer's dissipation
     n_extra = 3 if free else 1
 
@@ -174,29 +181,28 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         return y[2 * N + 2] if free else p.V
 
     def forcing(t, y):
-        return kn.layer_forcing_at(position(t, y), speed(y), np.ascontiguousarray(y[:N]),
-                                   np.ascontiguousarray(y[N:2 * N]), tab.coef, tab.cosq, tab.wq, tab.lay, delta,
-                                   fvals, P)
+        return layer_forcing_at(model, position(t, y), speed(y), np.ascontiguousarray(y[:N]),
+                                np.ascontiguousarray(y[N:2 * N]), delta, fvals, P)
 
     def rhs(t, y):
         nfev[0] += 1
         st, F, _, layer_power = forcing(t, y)
         if st != 0:
             raise _StageDeltaOne(t)
-        v = y[N:2 * N]
-        accel = -om2 * y[:N] - damp * v + P if damped else -om2 * y[:N] + P
-        tail = [np.sum(tab.LM * damp * v * v) + layer_power] if damped else []
+        v = np.ascontiguousarray(y[N:2 * N])
+        power = mode_acceleration(model.plate, np.ascontiguousarray(y[:N]), v, P, accel)
+        tail = [power + layer_power] if damped else []
         if free:
             U = y[2 * N + 2]
-            return np.concatenate([v, accel, [F * U, U, p.body_g - F / p.body_mass], tail])
+            return np.concatenate([v, accel, [F * U, U, -body_accel(model.body, F)], tail])
         return np.concatenate([v, accel, [p.V * F], tail])
 
     def largest_delta(t, y):
         st, _, jmax, _ = forcing(t, y)
         if st != 0:
             return np.inf
-        kn.gap_peak(position(t, y), speed(y), delta, jmax, np.ascontiguousarray(y[:N]),
-                    np.ascontiguousarray(y[N:2 * N]), ones, tab.lay, gap)
+        gap_peak(model, position(t, y), speed(y), delta, jmax, np.ascontiguousarray(y[:N]),
+                 np.ascontiguousarray(y[N:2 * N]), gap)
         return gap[0]
 
     T = times.size
@@ -213,10 +219,10 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         a, v, work = y[:N], y[N:2 * N], y[2 * N]
         st, F, jmax, _ = forcing(t, y)
         out_a[k], out_v[k] = a, v
-        series[k, kn.S_CONTACTS] = kn.count_contacts(delta, jmax, tab.lay[kn.L_MIRROR])
+        series[k, kn.S_CONTACTS] = count_contacts(delta, jmax, model.basis.mirror)
         series[k, kn.S_FORCE] = F
         series[k, kn.S_E_PLATE] = 0.5 * np.sum(tab.LM * (v**2 + om2 * a**2))
-        series[k, kn.S_E_LAYER] = kn.layer_energy(delta, jmax, tab.dx, p.K, p.he, tab.lay[kn.L_MIRROR])
+        series[k, kn.S_E_LAYER] = layer_energy(model, delta, jmax)
         series[k, kn.S_WORK] = work
         series[k, kn.S_BODY_POSITION] = position(t, y)
         series[k, kn.S_BODY_SPEED] = speed(y)
@@ -227,7 +233,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
 
     def observe(t, y):
         st, F, jmax, _ = forcing(t, y)
-        contacts = kn.count_contacts(delta, jmax, tab.lay[kn.L_MIRROR])
+        contacts = count_contacts(delta, jmax, model.basis.mirror)
         observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, largest_delta(t, y), position(t, y),
                         speed(y))
 
@@ -276,7 +282,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
             if math.isnan(diag[kn.D_STOP_T]):
                 diag[kn.D_STOP_T] = t_old          # bracketed to the step only
             st, F, jmax, _ = forcing(solver.t, solver.y)
-            if kn.count_contacts(delta, jmax, tab.lay[kn.L_MIRROR]) == 0:
+            if count_contacts(delta, jmax, model.basis.mirror) == 0:
                 while k < T and times[k] <= t_stop:
                     record(times[k], dense(times[k]))
                 t_reached = t_stop

@@ -9,8 +9,11 @@ import pytest
 
 from pipeline.study import load_study_text
 from solver import ParameterError, Parameters, Settings, solve
-from solver import kernels as kn
-from solver.core import _Tables
+from solver import layout as kn
+from solver.control import BOTTOM_GAP, make_control
+from solver.diagnostics import Outputs
+from solver.loop import integrate
+from solver.model.assemble import Tables
 from dop853_check import against_dop853
 from test_pipeline import pipeline
 
@@ -77,17 +80,16 @@ def test_free_flight_is_exact():
     """Kernel level, the layer off: s = V t + g t^2 / 2 and U = V + g t, to round-off (the
     body's update integrates a constant acceleration exactly), the plate at rest."""
     p = Parameters(Nmod=6, body_mass=10.0, body_g=9.81)
-    tab = _Tables(p, 32)
-    lay = tab.lay.copy()
-    lay[kn.L_K] = 0.0
+    model = Tables(p, 32).model
+    model = model._replace(layer=model.layer._replace(K=0.0))          # the layer switched off
     t_end = 0.5
     times = np.linspace(0.0, t_end, 11)
     series = np.full((times.size, kn.N_SERIES), np.nan)
     out_a, out_v = np.full((times.size, 6), np.nan), np.full((times.size, 6), np.nan)
-    ctrl = kn.make_control(0.0, t_end, 1e-8, 0.0, 1e-6, 1e-15, 0.01, 10**6, kn.BOTTOM_GAP)
-    status, n_out, *_ = kn.integrate(kn.ETD34, tab.modes, lay, tab.cosq, tab.wq, ctrl, times, np.zeros(6),
-                                     np.zeros(6), np.empty(0), out_a, out_v, series, np.full(kn.N_DIAG, np.nan),
-                                     np.empty((2, 0)), np.empty((2, 0)))
+    control = make_control(0.0, t_end, 1e-8, 0.0, 1e-6, 1e-15, 0.01, 10**6, BOTTOM_GAP)
+    status, n_out, _ = integrate(kn.ETD34, model, control, times, np.zeros(6), np.zeros(6), np.empty(0),
+                                 Outputs(out_a, out_v, series, np.full(kn.N_DIAG, np.nan), np.empty((2, 0)),
+                                         np.empty((2, 0))))
     assert status == kn.OK and n_out == times.size
     np.testing.assert_allclose(series[:, kn.S_BODY_POSITION], p.V * times + 0.5 * 9.81 * times**2, rtol=1e-13,
                                atol=1e-15)

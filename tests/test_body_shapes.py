@@ -9,8 +9,9 @@ import pytest
 
 from pipeline.study import load_study_text
 from solver import Parameters, Settings, solve
-from solver import kernels as kn
-from solver.core import _Tables
+from solver.model.assemble import Tables
+from solver.model.body import body_extent, body_profile, body_slope_curvature
+from solver.model.contact import contact_bound
 from dop853_check import against_dop853
 from test_pipeline import pipeline
 
@@ -21,9 +22,9 @@ SHAPES = [{"body_p": 1.5}, {"body_p": 4.0}, {"deadrise": 10.0}, {"flat_width": 0
 def test_the_parabola_is_the_papers_body_bit_for_bit():
     p = Parameters(Nmod=20)
     assert p.parabola and (p.body_p, p.flat_width, p.deadrise) == (2.0, 0.0, 0.0)
-    tab = _Tables(p, 1000)
+    tab = Tables(p, 1000)
     x = tab.dx * np.arange(1001)
-    assert np.array_equal(tab.lay[kn.N_LAY:], x * x * (0.5 / p.R))       # the kernel's old expression
+    assert np.array_equal(tab.model.body.profile, x * x * (0.5 / p.R))       # the kernel's old expression
     assert np.array_equal(p.body_profile(x), x**2 / (2 * p.R))
     assert p.stage_duration == p.L**2 / (6.0 * p.R * p.V)
     a = solve(p, Settings(error_estimate=False), fields=("compression",))
@@ -35,9 +36,9 @@ def test_the_parabola_is_the_papers_body_bit_for_bit():
 @pytest.mark.parametrize("shape", SHAPES)
 def test_profile_inverse_and_derivatives(shape):
     p = Parameters(Nmod=4, **shape)
-    lay = _Tables(p, 64).lay
+    body = Tables(p, 64).model.body
     x = np.linspace(0.0, p.L, 301)
-    kernel = np.array([kn.body_profile(v, lay) for v in x])
+    kernel = np.array([body_profile(v, body) for v in x])
     np.testing.assert_allclose(kernel, p.body_profile(x), rtol=1e-14, atol=1e-300)
     c = p.flat_width
     # written out independently of both
@@ -45,13 +46,13 @@ def test_profile_inverse_and_derivatives(shape):
     by_hand = u * math.tan(math.radians(p.deadrise)) if p.deadrise else u**p.body_p / (p.body_p * p.R ** (p.body_p - 1))
     np.testing.assert_allclose(kernel, by_hand, rtol=1e-13, atol=1e-300)
     beyond = x[x > c + 1e-3]
-    back = np.array([kn.body_extent(kn.body_profile(v, lay), lay) for v in beyond])
+    back = np.array([body_extent(body_profile(v, body), body) for v in beyond])
     np.testing.assert_allclose(back, beyond, rtol=1e-12)
     h = 1e-4
     for v in beyond[beyond > c + 0.1][::25]:
-        slope, curv = kn.body_slope_curvature(v, lay)
-        fd1 = (kn.body_profile(v + h, lay) - kn.body_profile(v - h, lay)) / (2 * h)
-        fd2 = (kn.body_profile(v + h, lay) - 2 * kn.body_profile(v, lay) + kn.body_profile(v - h, lay)) / h**2
+        slope, curv = body_slope_curvature(v, body)
+        fd1 = (body_profile(v + h, body) - body_profile(v - h, body)) / (2 * h)
+        fd2 = (body_profile(v + h, body) - 2 * body_profile(v, body) + body_profile(v - h, body)) / h**2
         assert slope == pytest.approx(fd1, rel=2e-6, abs=1e-12)
         assert curv == pytest.approx(fd2, rel=1e-5, abs=1e-7)
 
@@ -104,12 +105,12 @@ def test_wedge_agrees_with_dop853():
 @pytest.mark.parametrize("shape", [{}, *SHAPES])
 def test_no_node_beyond_the_contact_bound_touches(shape):
     p = Parameters(Nmod=12, **shape)
-    tab = _Tables(p, 400)
+    tab = Tables(p, 400)
     rng = np.random.default_rng(7)
     for _ in range(20):
         a = rng.normal(scale=0.01, size=12)
         s = rng.uniform(0.0, 0.3)
-        jmax = kn.contact_bound(s, a, tab.cosq, tab.lay, np.empty(tab.xq.size))
+        jmax = contact_bound(tab.model, s, a, np.empty(tab.xq.size))
         delta = (a @ tab.cosq + s - p.body_profile(tab.xq)) / p.he
         assert np.all(delta[jmax:] < 0)
 

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from solver import FIELDS, ParameterError, Parameters, Settings, kernels as kn, solve
+from solver import FIELDS, ParameterError, Parameters, Settings, solve
+from solver.model.contact import count_contacts
 
 
 @pytest.mark.parametrize("delta, expected", [
@@ -16,7 +17,7 @@ from solver import FIELDS, ParameterError, Parameters, Settings, kernels as kn, 
 ])
 def test_contact_interval_count(delta, expected):
     d = np.array(delta, dtype=float)
-    assert kn.count_contacts(d, d.size, 2.0) == expected
+    assert count_contacts(d, d.size, 2.0) == expected
 
 
 @pytest.mark.parametrize("delta, expected", [([1, 1, 1, 1], 1), ([-1, 1, -1, -1], 1), ([1, -1, 1, -1, 1], 3),
@@ -24,7 +25,7 @@ def test_contact_interval_count(delta, expected):
 def test_contact_interval_count_on_the_full_plate(delta, expected):
     """An off-centre run's nodes cover -L..L: every interval counts once, the end nodes too."""
     d = np.array(delta, dtype=float)
-    assert kn.count_contacts(d, d.size, 1.0) == expected
+    assert count_contacts(d, d.size, 1.0) == expected
 
 
 @pytest.fixture(scope="module")

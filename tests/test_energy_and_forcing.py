@@ -2,8 +2,10 @@
 import numpy as np
 import pytest
 
-from solver import Parameters, Settings, kernels as kn, solve
-from solver.core import _layer_pressure, _Tables
+from solver import Parameters, Settings, solve
+from solver.core import _layer_pressure
+from solver.model.assemble import Tables
+from solver.model.layer import layer_forcing
 
 
 def test_energy_residual_small_at_default_settings(reference60):
@@ -52,10 +54,10 @@ def _state(p, t_tilde):
 def test_forcing_matches_brute_force_integral(t_tilde):
     """P_n from exact segment integrals equals a fine numerical integral of the same f."""
     p = Parameters(Nmod=20)
-    tab = _Tables(p, 1000)
+    tab = Tables(p, 1000)
     a, t = _state(p, t_tilde)
     delta, fvals, P = np.empty(1001), np.empty(1001), np.empty(20)
-    st, force, jmax = kn.layer_forcing(t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
+    st, force, jmax = layer_forcing(tab.model, t, a, delta, fvals, P)
     assert st == 0
     x = np.linspace(0, p.L, 600_001)
     pressure = _layer_pressure(p, tab, a, p.V * t, x)    # K f on the half plate, numpy
@@ -68,7 +70,7 @@ def test_forcing_matches_brute_force_integral(t_tilde):
 def test_forcing_is_C1_when_contact_boundaries_cross_nodes():
     """Second differences of P(t) at fixed a shrink like step^2 (a C0 kink would give step^1)."""
     p = Parameters(Nmod=20)
-    tab = _Tables(p, 200)                                  # coarse: boundaries cross nodes often
+    tab = Tables(p, 200)                                  # coarse: boundaries cross nodes often
     a, t0 = _state(p, 0.5)
     delta, fvals, P = np.empty(201), np.empty(201), np.empty(20)
     span = 0.3 * p.he / p.V                                # the body presses 0.3 he further
@@ -76,7 +78,7 @@ def test_forcing_is_C1_when_contact_boundaries_cross_nodes():
     def sweep(n):
         values, in_contact = [], []
         for t in t0 + np.linspace(0, span, n + 1):
-            st, _, jmax = kn.layer_forcing(t, a, tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
+            st, _, jmax = layer_forcing(tab.model, t, a, delta, fvals, P)
             assert st == 0
             values.append(P.copy())
             in_contact.append(int(np.sum(delta[:jmax] > 0)))

@@ -4,7 +4,8 @@ bottoming time, the energy guard, and no delta >= 1 in valid data."""
 import numpy as np
 import pytest
 
-from solver import FIELDS, Parameters, Settings, crack_onset, default_eps_Y, kernels as kn, solve
+from solver import FIELDS, Parameters, Settings, crack_onset, default_eps_Y, solve
+from solver import control as kn
 
 LEVELS = np.logspace(-5, -1, 10)
 

@@ -5,7 +5,8 @@ studies/extremes.toml has the full list (docs/model.md, "Statuses")."""
 import numpy as np
 import pytest
 
-from solver import FIELDS, Parameters, Settings, kernels as kn, solve
+from solver import FIELDS, Parameters, Settings, solve
+from solver import control as kn
 
 FAST = {
     "fast V=40": {"V": 40.0},

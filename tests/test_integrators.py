@@ -4,8 +4,13 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from conftest import relative_l2, snapshot_times
-from solver import Parameters, Settings, kernels as kn, solve
-from solver.core import _Tables
+from solver import Parameters, Settings, solve
+from solver import layout as kn
+from solver.control import BOTTOM_GAP, make_control
+from solver.diagnostics import Outputs
+from solver.loop import integrate
+from solver.model.assemble import Tables
+from solver.model.layer import layer_forcing
 
 
 @pytest.fixture(scope="module")
@@ -16,12 +21,12 @@ def case20():
 
 def _dop853_strain(p, times, x, rtol):
     """scipy DOP853 on the same right-hand side (a_n, da_n/dt), strain at the snapshots."""
-    tab = _Tables(p, 1000)
+    tab = Tables(p, 1000)
     N = p.Nmod
     delta, fvals, P = np.empty(1001), np.empty(1001), np.empty(N)
 
     def rhs(t, y):
-        kn.layer_forcing(t, y[:N], tab.coef, tab.cosq, tab.wq, tab.lay, delta, fvals, P)
+        layer_forcing(tab.model, t, np.ascontiguousarray(y[:N]), delta, fvals, P)
         return np.concatenate([y[N:], -tab.omega**2 * y[:N] + P])
 
     sol = solve_ivp(rhs, (0, p.stage_duration), np.zeros(2 * N), method="DOP853",
@@ -97,13 +102,10 @@ def _free_oscillation(method, fraction, times, t_end, p, tab, n):
     series = np.full((T, kn.N_SERIES), np.nan)
     diag = np.full(kn.N_DIAG, np.nan)
     fixed = 0.0 if method == kn.ETD34 else fraction * 2 * np.pi / tab.omega[-1]
-    lay = tab.lay.copy()
-    lay[kn.L_K] = 0.0                                   # the layer switched off
-    no_levels = np.empty(0)
-    ctrl = kn.make_control(0.0, t_end, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, kn.BOTTOM_GAP)
-    status, n_out, *_ = kn.integrate(method, tab.modes, lay, tab.cosq, tab.wq, ctrl, times, a0,
-                                     np.zeros(p.Nmod), no_levels, out_a, out_v, series, diag,
-                                     np.empty((2, 0)), np.empty((2, 0)))
+    model = tab.model._replace(layer=tab.model.layer._replace(K=0.0))   # the layer switched off
+    control = make_control(0.0, t_end, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, BOTTOM_GAP)
+    status, n_out, _ = integrate(method, model, control, times, a0, np.zeros(p.Nmod), np.empty(0),
+                                 Outputs(out_a, out_v, series, diag, np.empty((2, 0)), np.empty((2, 0))))
     assert status == kn.OK and n_out == T
     return out_a, out_v, series[:, kn.S_E_PLATE:kn.S_WORK + 1], fixed
 
@@ -116,7 +118,7 @@ def test_layer_off_free_oscillation_is_cos_omega_t(method):
     exactly at each requested time.
     """
     p = Parameters(Nmod=8)
-    tab = _Tables(p, 64)
+    tab = Tables(p, 64)
     n = 5
     t_end = 3.0 * 2 * np.pi / tab.omega[0]
     times = np.r_[0.0, np.sort(np.random.default_rng(1).uniform(0, t_end, 15)), t_end]
@@ -134,7 +136,7 @@ def test_layer_off_free_oscillation_is_cos_omega_t(method):
 def test_rk4_is_the_classical_scheme():
     """At a coarse step RK4 must match its amplification factor 1 + z + z^2/2 + z^3/6 + z^4/24."""
     p = Parameters(Nmod=8)
-    tab = _Tables(p, 64)
+    tab = Tables(p, 64)
     n = 5
     t_end = 2 * np.pi / tab.omega[0]
     times = np.array([0.0, 0.3 * t_end, 0.71 * t_end, t_end])

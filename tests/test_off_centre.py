@@ -8,7 +8,7 @@ import pytest
 from dop853_check import against_dop853
 from neutral_ids import assert_ids_hold_at_neutral, run_swept_study
 from solver import ParameterError, Parameters, Settings, solve
-from solver.core import _Tables
+from solver.model.assemble import Tables
 
 FIELDS = ("deflection", "strain", "layer_pressure", "compression")
 X = np.linspace(-6.0, 6.0, 97)                     # symmetric about 0: X[::-1] == -X
@@ -21,9 +21,9 @@ def rel(a, b):
 
 def test_centred_impact_keeps_the_symmetric_path():
     p = Parameters()
-    assert p.x0 == 0.0 and not p.off_centre and not _Tables(p, 100).full_plate
-    assert _Tables(p.replace(x0=0.5), 100).full_plate
-    tab = _Tables(p.replace(Nmod=8), 100, full_plate=True)
+    assert p.x0 == 0.0 and not p.off_centre and not Tables(p, 100).full_plate
+    assert Tables(p.replace(x0=0.5), 100).full_plate
+    tab = Tables(p.replace(Nmod=8), 100, full_plate=True)
     assert tab.lam.size == 16 and tab.xq.size == 201 and tab.lam[-1] == pytest.approx(p.wavenumbers[7])
     with pytest.raises(ParameterError, match="off-centre body"):
         solve(p.replace(x0=0.5), full_plate=False)

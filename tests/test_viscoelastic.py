@@ -10,17 +10,20 @@ import numpy as np
 import pytest
 
 from solver import ParameterError, Parameters, Settings, solve
-from solver import kernels as kn
-from solver.core import _Tables
+from solver import layout as kn
+from solver.control import BOTTOM_GAP, make_control
+from solver.diagnostics import Outputs
+from solver.loop import integrate
+from solver.model.assemble import Tables
 from dop853_check import against_dop853
 from test_pipeline import pipeline
 
 
 def test_elastic_ice_is_the_papers_bit_for_bit():
     p = Parameters(Nmod=20)
-    tab = _Tables(p, 100)
-    assert p.tau == 0.0 and np.all(tab.modes[kn.M_HALF_C] == 0.0)
-    assert np.array_equal(tab.modes[kn.M_WD], tab.omega) and np.all(tab.modes[kn.M_KIND] == 0.0)
+    plate = Tables(p, 100).model.plate
+    assert p.tau == 0.0 and np.all(plate.half_c == 0.0)
+    assert np.array_equal(plate.wd, plate.omega) and np.all(plate.kind == 0.0)
     a = solve(p, Settings(error_estimate=False), fields=("strain",))
     b = solve(p.replace(tau=0.0), Settings(error_estimate=False), fields=("strain",))
     assert np.array_equal(a.fields["strain"], b.fields["strain"]) and a.steps == b.steps
@@ -29,19 +32,18 @@ def test_elastic_ice_is_the_papers_bit_for_bit():
 
 def _free_plate(p, n, t_end, T=13):
     """Kernel level, the layer off: mode n released from a_n = 1 at rest."""
-    tab = _Tables(p, 64)
-    lay = tab.lay.copy()
-    lay[kn.L_K] = 0.0
+    tab = Tables(p, 64)
+    model = tab.model._replace(layer=tab.model.layer._replace(K=0.0))     # the layer switched off
     N = p.Nmod
     a0 = np.zeros(N)
     a0[n] = 1.0
     times = np.linspace(0.0, t_end, T)
     series = np.full((T, kn.N_SERIES), np.nan)
     out_a, out_v = np.full((T, N), np.nan), np.full((T, N), np.nan)
-    ctrl = kn.make_control(0.0, t_end, 1e-10, 0.0, 1e-6 * t_end, 1e-15, t_end / 50, 10**6, kn.BOTTOM_GAP)
-    status, n_out, *_ = kn.integrate(kn.ETD34, tab.modes, lay, tab.cosq, tab.wq, ctrl, times, a0, np.zeros(N),
-                                     np.empty(0), out_a, out_v, series, np.full(kn.N_DIAG, np.nan),
-                                     np.empty((2, 0)), np.empty((2, 0)))
+    control = make_control(0.0, t_end, 1e-10, 0.0, 1e-6 * t_end, 1e-15, t_end / 50, 10**6, BOTTOM_GAP)
+    status, n_out, _ = integrate(kn.ETD34, model, control, times, a0, np.zeros(N), np.empty(0),
+                                 Outputs(out_a, out_v, series, np.full(kn.N_DIAG, np.nan), np.empty((2, 0)),
+                                         np.empty((2, 0))))
     assert status == kn.OK and n_out == T
     return tab, times, out_a, out_v, series
 
@@ -62,7 +64,7 @@ def test_free_damped_plate_decays_as_the_damped_oscillator(n):
     p = Parameters(Nmod=20, tau=2e-4)
     omega, c = p.frequencies[n], p.damping[n]
     tab, times, out_a, out_v, series = _free_plate(p, n, 3.0 * 2 * np.pi / omega)
-    kind = tab.modes[kn.M_KIND, n]
+    kind = tab.model.plate.kind[n]
     assert kind == (1.0 if c / 2 > omega else 0.0)
     a, v = _oscillator(c, omega, times)
     np.testing.assert_allclose(out_a[:, n], a, atol=1e-13)
@@ -75,7 +77,7 @@ def test_free_damped_plate_decays_as_the_damped_oscillator(n):
 
 def test_both_kinds_of_modes_in_one_plate():
     p = Parameters(Nmod=20, tau=2e-4)
-    kinds = _Tables(p, 64).modes[kn.M_KIND]
+    kinds = Tables(p, 64).model.plate.kind
     assert 0 < kinds.sum() < 20                       # underdamped low modes, overdamped high ones
 
 
@@ -124,7 +126,7 @@ def test_energy_identity_with_the_dissipated_energy():
 
 def test_damped_impact_agrees_with_dop853():
     p = Parameters(Nmod=20, tau=1e-4)
-    kinds = _Tables(p, 64).modes[kn.M_KIND]
+    kinds = Tables(p, 64).model.plate.kind
     assert kinds.any()                                  # overdamped modes among them
     a, b = against_dop853(p, 0.3 * p.stage_duration)
     assert a.dissipated_energy[-1] == pytest.approx(b.dissipated_energy[-1], rel=1e-5)

@@ -1,0 +1,83 @@
+"""What a study has done, as a table: its cases, the keys that vary, each case's state (from the
+ledger alone), and one-line summaries. Used by ``status``, by a dry run and by a run's report."""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+
+def ledger_states(study, out_dir: Path, ledger=None) -> dict:
+    """case_id -> 'ok' | failed status | 'pending', from the study's ledger alone (no result
+    file is opened)."""
+    from .ledger import Ledger
+    ledger = ledger if ledger is not None else Ledger.load(out_dir)
+    recorded = ledger.states()
+    return {cid: recorded.get(cid, "pending") for cid in study.run_ids}
+
+
+#: the case table lists at most this many rows unless --all
+TABLE_ROWS = 200
+
+
+def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
+    if flat is not None and study.grid:
+        import numpy as np
+        idx = np.unravel_index(flat, study.shape)
+        return [_fmt(study.grid[k][int(j)]) for k, j in zip(keys, idx)]
+    case = study.run(cid)
+    return [_fmt(case.value(k)) for k in keys]
+
+
+def print_table(study, states: dict, stream=sys.stdout, all_rows: bool = False, only=None,
+                summary: bool = True) -> None:
+    """The case table (case_id, the keys that vary, state, and a role column when the study
+    has reference runs) and a one-line summary. only: the run ids to list (default all)."""
+    keys = study.varying_keys
+    first = study.first_position
+    with_role = len(study.run_ids) > len(study.case_id_set)
+    header = ["case_id", *keys, "state", *(["role"] if with_role else [])]
+    listed = study.run_ids if only is None else only
+    ids = listed if all_rows else listed[:TABLE_ROWS]
+    rows = []
+    for cid in ids:
+        flat = first.get(cid)
+        role = ["reference" if flat is None else "case"] if with_role else []
+        rows.append([cid, *_row_values(study, cid, flat, keys), states[cid], *role])
+    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(len(header))]
+    for r in [header, *rows]:
+        stream.write("  ".join(str(v).ljust(w) for v, w in zip(r, widths)).rstrip() + "\n")
+    if len(ids) < len(listed):
+        stream.write(f"... {len(listed) - len(ids)} more rows (--all lists them)\n")
+    if with_role:
+        stream.write("role: case = a point of the study; reference = a converged run ([reference]) that "
+                     "the cases' errors are measured against\n")
+    if summary:
+        counts = {}
+        for s in states.values():
+            counts[s] = counts.get(s, 0) + 1
+        text = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+        stream.write(f"{study.name}: {_count(study)}: {text}\n")
+
+
+def _count(study) -> str:
+    """'N cases' with the distinct runs and reference runs where they differ."""
+    n_ref = len(study.run_ids) - len(study.case_id_set)
+    distinct = len(study.case_id_set)
+    text = f"{study.n_cases} cases"
+    if distinct != study.n_cases:
+        text += f" ({distinct} distinct runs)"
+    if n_ref:
+        text += f" and {n_ref} reference runs"
+    return text
+
+
+def _fmt(value) -> str:
+    return value if isinstance(value, str) else f"{value:g}"
+
+
+def _label(study, cid: str) -> str:
+    if cid not in study.case_id_set:
+        return "reference run"
+    flat = study.first_position[cid]
+    keys = list(study.grid) if study.grid else [k for k in study.case_list[flat] if k not in ("reference", "group")]
+    return ", ".join(f"{k}={v}" for k, v in zip(keys, _row_values(study, cid, flat, keys))) or f"case {flat}"

@@ -1,0 +1,359 @@
+"""A study's run, in the order it happens (study file -> cases -> workers -> batch files + ledger
+-> study.nc -> figures -> report): plan the cases still to compute, compute them on dask workers
+while each batch's slice streams into study.nc, combine, draw the figures, and report the cases
+that did not end ok. :func:`run_study` is the whole of it; ``python -m pipeline run`` parses its
+command line into :class:`RunOptions` and maps what it returns or raises to an exit status.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from .errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, write_failed
+from .lock import StudyLock
+from .report import _count, _label, ledger_states, print_table
+
+
+@dataclass
+class RunOptions:
+    """How to run a study (the command line's options, by the same names)."""
+
+    workers: int = 2                 # local worker processes
+    scheduler: str | None = None     # address of an existing dask scheduler (then no local workers)
+    batch_seconds: float = 1.0       # solver time per batch of cases, one file each
+    rerun_failed: bool = False       # compute again the cases that failed before
+    no_plots: bool = False           # skip the figures
+    force: bool = False              # use an output directory that holds something else
+    dry_run: bool = False            # say what a run would do; run nothing
+    all: bool = False                # with dry_run: list every case to run
+
+
+def run_study(study, out_dir: Path, options: RunOptions | None = None) -> int:
+    """Run a loaded study into out_dir: EXIT_OK when every case is ok or ended by the model itself,
+    EXIT_FAILED when some failed numerically. Raises StudyError (bad input, before anything is
+    written), ResultsIOError (the results cannot be written; finished cases are kept),
+    StudyLocked, KeyboardInterrupt (finished cases are kept; the same call resumes)."""
+    options = options or RunOptions()
+    if options.workers < 1:
+        raise StudyError(f"--workers must be >= 1, got {options.workers}")
+    if not 0.0 < options.batch_seconds <= 3600.0:
+        raise StudyError(f"--batch-seconds must be in (0, 3600], got {options.batch_seconds}")
+    out_dir = Path(out_dir)
+    if options.scheduler:                              # unreachable: bad input, refused before writing
+        from .engine import probe_scheduler
+        probe_scheduler(options.scheduler)
+    if options.dry_run:
+        return _dry_run(study, out_dir, options.all, options.rerun_failed)
+    _refuse_foreign_directory(out_dir, options.force)
+    _refuse_what_cannot_fit(study, out_dir)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        lock = StudyLock(out_dir)
+        lock.__enter__()
+    except OSError as err:
+        raise ResultsIOError(f"cannot use the results directory {out_dir}: {err.strerror or err}") from None
+    try:
+        return _run_locked(options, study, out_dir)
+    finally:
+        lock.__exit__()
+
+
+def _prepare_dirs(out_dir: Path) -> Path:
+    from .ledger import BATCHES, LEDGER
+    batches = out_dir / BATCHES
+    batches.mkdir(parents=True, exist_ok=True)
+    for stale in [*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
+                  *out_dir.glob(".study.nc.inputs.tmp-*"), *out_dir.glob(f".{LEDGER}.tmp-*"),
+                  *out_dir.glob(".study.toml.tmp-*")]:
+        if stale.is_file() and not stale.is_symlink():     # killed writers
+            stale.unlink(missing_ok=True)
+    return batches
+
+
+#: what makes a directory a floe-impact results directory
+RESULTS_MARKERS = {"ledger.jsonl", "batches", ".lock"}
+
+
+def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
+    """What a run would do: the cases it would compute, what is done, and the output size."""
+    states = ledger_states(study, out_dir)
+    items, _ = _todo(study, states, rerun_failed)
+    todo = [cid for cid, _ in items]
+    from .tables import FAILED
+    failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
+    print(f"{study.name}: {_count(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
+          f"-> {out_dir}")
+    if todo:
+        print(f"would run ({len(todo)}):")
+        print_table(study, states, all_rows=all_rows, only=todo, summary=False)
+    memory, disk = output_size(study)
+    print(f"estimated output: {_size(disk * len(todo) / max(len(study.run_ids), 1))} to write for these "
+          f"(batch files and study.nc), {_size(disk)} for the whole study; {_size(memory)} of worker memory "
+          f"per case")
+    if failed:
+        print(f"{failed} case(s) failed before and are not run again (--rerun-failed runs them)")
+    print("nothing was run (--dry-run)")
+    return EXIT_OK
+
+
+def _size(n: float) -> str:
+    for unit, scale in (("GiB", 2**30), ("MiB", 2**20), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.1f} {unit}"
+    return f"{n:.0f} B"
+
+
+def _refuse_foreign_directory(out_dir: Path, force: bool) -> None:
+    """--out must be new, empty, or a results directory: the runner writes study.nc, figures
+    and a lock there, and would overwrite files of the same names."""
+    if out_dir.is_symlink() and not out_dir.exists():
+        raise ResultsIOError(f"cannot use the results directory {out_dir}: it is a symbolic link to "
+                         f"{os.readlink(out_dir)}, which does not exist")
+    if force or not out_dir.exists():
+        return
+    if not out_dir.is_dir():
+        raise ResultsIOError(f"cannot use the results directory {out_dir}: it is not a directory")
+    try:
+        entries = {p.name for p in out_dir.iterdir()}
+    except OSError as err:
+        raise ResultsIOError(f"cannot use the results directory {out_dir}: {err.strerror or err}") from None
+    if entries and not entries & RESULTS_MARKERS:
+        raise StudyError(f"--out {out_dir} is a non-empty directory that holds no floe-impact results "
+                         f"({len(entries)} entries); give a new or empty directory, or add --force")
+
+
+#: bytes a case stores besides its fields: series, diagnostics, and the event records
+#: (measured: 800-3100 record nodes of 5 doubles per surface; 50 kB is the high end)
+CASE_OVERHEAD = 50_000
+
+
+def output_size(study) -> tuple:
+    """(bytes one case holds in a worker's memory, bytes the study writes to disk), estimated
+    from the output request: each field is times x x_points doubles."""
+    times = study.case(0).requested_times().size
+    fields = len(study.output["fields"]) * times * study.output["x_points"] * 8
+    per_case = fields + 3 * times * 8 + CASE_OVERHEAD
+    memory = 4 * fields + CASE_OVERHEAD                   # the solver's, the case's and the batch's copies
+    disk = 2 * per_case * len(study.run_ids)              # batch files and study.nc
+    return memory, disk
+
+
+def _refuse_what_cannot_fit(study, out_dir: Path) -> None:
+    memory, disk = output_size(study)
+    total_memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    if memory > total_memory / 4:
+        raise StudyError(f"one case's output needs about {memory / 2**30:.1f} GiB of memory ([output] fields x "
+                         f"times x x_points), more than a quarter of this machine's {total_memory / 2**30:.0f} GiB; "
+                         f"ask for fewer fields, times or x_points")
+    if (out_dir / "ledger.jsonl").exists():               # a resume: much of it is written already
+        return
+    base = out_dir.absolute()
+    while not base.exists() and base != base.parent:
+        base = base.parent
+    free = shutil.disk_usage(base).free
+    if disk > free:
+        raise StudyError(f"the study would write about {disk / 2**30:.1f} GiB, more than the "
+                         f"{free / 2**30:.1f} GiB free under {base}; ask for fewer fields, times or x_points")
+
+
+def _identity(out_dir: Path) -> tuple:
+    st = os.stat(out_dir)
+    return st.st_dev, st.st_ino
+
+
+def _still_ours(out_dir: Path, identity: tuple) -> None:
+    """Stop if the results directory was removed (make clean) or replaced during the run: its
+    lock went with it, and another runner may now be using a new directory of that name."""
+    try:
+        same = _identity(out_dir) == identity
+    except FileNotFoundError:
+        same = False
+    if not same:
+        raise ResultsIOError(f"the results directory {out_dir} was removed or replaced during the run; "
+                         f"stopping (run the same command again to start over)")
+
+
+def _todo(study, states: dict, rerun_failed: bool) -> tuple:
+    """The runs to compute as (items [case_id, position or -1], signatures)."""
+    from .tables import FAILED
+    first = study.first_position
+    items, signature = [], []
+    for cid in study.run_ids:
+        if states[cid] == "pending" or (rerun_failed and states[cid] in FAILED):
+            position = first.get(cid, -1)
+            items.append([cid, position])
+            signature.append(0 if position >= 0 else 1)
+    return items, signature
+
+
+def _run_locked(args, study, out_dir: Path) -> int:
+    """Plan, compute and stream, combine (again, where a batch file turned out damaged), figures,
+    report; args: the RunOptions."""
+    from .tables import NUMERICAL_FAILURES
+    from .interrupts import check
+    from .ledger import reconcile
+    batches = _prepare_dirs(out_dir)
+    from .study import keep_study_copy
+    keep_study_copy(study, out_dir)
+    notes = []
+    ledger = reconcile(out_dir, notes)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+    states = ledger_states(study, out_dir, ledger)
+    items, signature = _todo(study, states, args.rerun_failed)
+    from .study import cases_past_their_stage
+    past = cases_past_their_stage(study)
+    if past:
+        print(f"note: {past} of {study.n_cases} cases have output times past their impact stage "
+              f"(b_mean/V: L^2/(6RV) for the paper's parabola); those times are not integrated and stay NaN",
+              file=sys.stderr)
+    skipped = len(study.run_ids) - len(items)
+    print(f"{study.name}: {_count(study)}, {len(items)} to run, {skipped} already done "
+          f"-> {out_dir}", file=sys.stderr)
+    if items and study.n_cases > 1000 and "error_estimate" not in study.solver and "error_estimate" not in study.grid:
+        print("note: every case also runs the error estimate's companion (0.79x the integration, measured); "
+              "[solver] error_estimate = \"sample\" runs it on about 1 case in 10", file=sys.stderr)
+    from .session import Session
+    from .combine import open_writer, stream_spec
+    items_run = list(items)
+    identity = _identity(out_dir)
+    with Session(args.workers, args.scheduler) as session:
+        for attempt in range(3):
+            writer = None
+            try:
+                if items:
+                    # each batch's slice of study.nc comes back with its ledger entry and goes
+                    # into study.nc at once; the combine then reads only older batch files
+                    spec = stream_spec(study)
+
+                    def on_batch(entry, batch):
+                        nonlocal writer
+                        reduced = entry.pop("reduced", None)
+                        _still_ours(out_dir, identity)
+                        try:
+                            ledger.append(entry)
+                        except OSError as err:
+                            raise write_failed(ledger.path, err) from None
+                        for cid, status, _, _ in entry["cases"]:
+                            states[cid] = status
+                        if reduced is not None:
+                            writer = writer or open_writer(study, out_dir)
+                            writer.write([position for _, position in batch], reduced)
+                    try:
+                        lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids),
+                                           skipped, args.batch_seconds, spec)
+                    except OSError:
+                        _still_ours(out_dir, identity)   # a batch write failing because the directory went
+                        raise
+                    for record in lost:
+                        print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
+                              file=sys.stderr)
+                check()
+                fresh = _combine(args, study, out_dir, ledger, states, session, bool(items), writer)
+            except BaseException:
+                if writer is not None:
+                    writer.abandon()
+                raise
+            if fresh is not None:                      # done: no damaged batch file
+                break
+            states = ledger_states(study, out_dir, ledger)
+            items, signature = _todo(study, states, False)
+            items_run += items
+            skipped = len(study.run_ids) - len(items)
+        else:
+            raise ResultsIOError("batch files keep failing their checksums; is the disk healthy?")
+    _plots(args, study, out_dir, fresh)
+    _summary(study, ledger, states, computed={cid for cid, _ in items_run})
+    if any(states[cid] in NUMERICAL_FAILURES or states[cid] == "pending" for cid in study.run_ids):
+        return EXIT_FAILED
+    return EXIT_OK
+
+
+def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
+    """Write study.nc if its inputs changed; True if written, False if up to date, None if a
+    damaged batch file was found (set aside and dropped from the ledger)."""
+    from .ledger import inputs_fingerprint, is_up_to_date, set_aside
+    index = ledger.index()
+    fingerprint = inputs_fingerprint(study, index)
+    path = out_dir / "study.nc"
+    if not computed and is_up_to_date(out_dir, fingerprint):
+        print(f"nothing new: {path} is up to date", file=sys.stderr)
+        return False
+    streamed = writer.seen if writer is not None else None
+    n_files = len({index[cid][0]["file"] for i, cid in enumerate(study.case_ids)
+                   if cid in index and (streamed is None or not streamed[i])})
+    from .combine import write_study
+    mapper = session.mapper() if session.is_open or n_files > 50 else None
+    started = time.monotonic()
+    try:
+        written, damaged = write_study(study, out_dir, index, states, mapper, fingerprint, writer)
+    except (OSError, RuntimeError) as err:          # netCDF reports a full disk as "HDF error"
+        raise write_failed(path, err) from None
+    if damaged:
+        for name in damaged:
+            victim = out_dir / "batches" / name
+            if victim.exists():
+                aside = set_aside(victim)
+                print(f"note: batch file {name} failed its checksum; moved to {aside.name}; its cases are "
+                      f"computed again", file=sys.stderr)
+            ledger.drop(name)
+        try:
+            ledger.rewrite()
+        except OSError as err:
+            raise write_failed(ledger.path, err) from None
+        return None
+    print(f"wrote {written} ({time.monotonic() - started:.1f} s)", file=sys.stderr)
+    return True
+
+
+def _plots(args, study, out_dir: Path, fresh: bool) -> None:
+    from .study import PLOT_FILES
+    figures = [out_dir / f for kind in study.plots for f in PLOT_FILES[kind]]
+    if args.no_plots or not (fresh or not all(f.exists() for f in figures)):
+        return
+    import xarray as xr
+
+    from .casefile import file_sha256
+    from .ledger import sidecar
+    from .plots import make_plots
+    path = out_dir / "study.nc"
+    record = sidecar(out_dir)
+    if not record or record.get("sha256") != file_sha256(path):
+        print(f"note: {path} does not match its checksum; run again to rebuild it", file=sys.stderr)
+        return
+    try:
+        with xr.open_dataset(path) as ds:
+            written, notes = make_plots(ds, study.dims, study.plots, out_dir)
+    except OSError as err:
+        raise write_failed(Path(err.filename) if getattr(err, "filename", None) else out_dir / "figures", err) from None
+    for p in written:
+        print(f"wrote {p}", file=sys.stderr)
+    for note in notes:
+        print(f"note: {note}", file=sys.stderr)
+
+
+def _summary(study, ledger, states: dict, computed: set) -> None:
+    """The cases that did not end ok: listed (30 at most) when this run computed them, one
+    line when they are old news (status lists them)."""
+    index = ledger.index()
+    from .tables import COMPLETE
+    not_ok = [cid for cid in study.run_ids if states[cid] not in COMPLETE]
+    if not not_ok:
+        return
+    new = [cid for cid in not_ok if cid in computed]
+    if not new:
+        print(f"{len(not_ok)} of {len(study.run_ids)} cases did not end ok, as before "
+              f"(python -m pipeline status {study.path} lists them)", file=sys.stderr)
+        return
+    print(f"{len(not_ok)} of {len(study.run_ids)} cases did not end ok ({len(new)} computed in this run):",
+          file=sys.stderr)
+    for cid in new[:30]:
+        entry = index.get(cid)
+        msg = entry[0]["cases"][entry[1]][2] if entry else "no result yet"
+        print(f"  {cid} ({_label(study, cid)}): {states[cid]}: {msg}", file=sys.stderr)
+    if len(new) > 30:
+        print(f"  ... and {len(new) - 30} more (python -m pipeline status {study.path})", file=sys.stderr)

@@ -1,0 +1,57 @@
+"""The variables a case and a study store, declared once: name -> (long_name, units) of the series,
+run records and event records, the text variables, and the statuses grouped by what they mean
+to the runner. Imported by the batch files (casefile), study.nc (combine), the figures and the
+runner; it imports nothing of the pipeline."""
+from solver import STATUS_INFO
+
+#: variable name -> (long_name, units) for the per-case series and run records
+SERIES_INFO = {
+    "time": ("time since first touch", "s"),
+    "contact_intervals": ("number of disjoint contact intervals on -L..L", "1"),
+    "force": ("force on the body per unit width", "N m-1"),
+}
+#: series of a study with a free body (finite body_mass in some case): left out otherwise
+BODY_SERIES_INFO = {
+    "body_position": ("penetration s of the body below first touch: its lowest point is at he - s "
+                      "(V t for the paper's body at constant speed)", "m"),
+    "body_speed": ("downward speed U of the body (V for the paper's body)", "m s-1"),
+}
+RECORD_INFO = {
+    "t_sc": ("time scale 1/omega_1 of the case", "s"),
+    "stage_duration": ("impact stage of the case, b_mean / V (L^2/(6 R V) for the paper's parabola)", "s"),
+    "time_reached": ("time the integration reached", "s"),
+    "run_time": ("wall time of the solver for this case (the integration alone)", "s"),
+    "error_estimate_run_time": ("wall time of the error estimate's companion run (0: none)", "s"),
+    "steps": ("accepted time steps", "1"),
+    "rejected_steps": ("rejected time steps", "1"),
+    "smallest_step": ("smallest accepted time step", "s"),
+}
+TEXT_INFO = {
+    "status": " | ".join([*STATUS_INFO, "error"]),
+    "message": "what went wrong, empty when status is ok",
+}
+#: the running-maximum tension record of each surface (solver.fracture), ragged along
+#: tension_node; crack onset for any eps_Y follows from it
+TENSION_RECORD_INFO = {
+    "tension_record_time": ("time of a node of the running-maximum tension record", "s"),
+    "tension_record_value": ("peak tension over x at the node (upper: +strain, lower: -strain)", "1"),
+    "tension_record_rate": ("time derivative of the peak tension at the node", "s-1"),
+    "tension_record_x": ("position of the peak at the node (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
+    "tension_record_join": ("1: the node continues the previous one (a Hermite piece between them)", "1"),
+}
+CONTACT_RECORD_INFO = {
+    "contact_change_time": ("time at which the number of contact intervals changed (first entry: "
+                            "first touch)", "s"),
+    "contact_change_count": ("number of contact intervals on -L..L from that time on", "1"),
+}
+SURFACES = ("upper", "lower")
+#: statuses of a run that covered what it was asked to: ok, and a free body's ends
+COMPLETE = ("ok", "separated", "stopped")
+#: statuses of a case that ended by the model itself (not ok), and numerical failures
+ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped")
+NUMERICAL_FAILURES = ("nonfinite", "step_limit", "energy_violation", "error")
+#: what --rerun-failed computes again (a free body's end is a result, not a failure)
+FAILED = ("layer_bottomed_out",) + NUMERICAL_FAILURES
+
+#: record status of a batch whose file could not be written (not a case status: no file exists)
+WRITE_FAILED = "write_failed"

@@ -1,0 +1,148 @@
+r"""The step policy: which step to try, whether to accept it, and the next one (docs/model.md,
+"Numerics": error control and the energy guard).
+
+A step is rejected and retried smaller when its local error exceeds the tolerance in the energy
+norm (``error_ratio``), a stage reached delta >= 1 or the state is not finite, or the energy
+identity E_plate + E_layer + D - W - E(t_start) = 0 jumps by more than ``energy_allowance``.
+Accepted steps grow by PI control (Gustafsson), at most by GROWTH (t - t_start) after the first,
+and land exactly on every output time. The run's :data:`Control` is built once per run.
+
+Benchmark (tests/test_error_estimate.py, tests/test_energy_and_forcing.py): the run's error
+falls with the tolerance as its estimate says; the energy residual shrinks with the tolerance
+and as dx^2 with the quadrature.
+"""
+import math
+from collections import namedtuple
+
+from numba import njit
+
+from .layout import B_D, B_U
+from .model.basis import mode_sum
+from .model.plate import mode_a
+
+#: default bottoming threshold (Settings.bottoming_gap): the layer has bottomed out when its
+#: gap he (1 - delta) closes to bottom_gap he anywhere on the plate; the pressure there is
+#: K / bottom_gap = 1000 K (8 GPa for the paper's layer: crushed). A larger threshold is less
+#: sensitive to grazing approaches: with 1e-6 a bounce whose smallest gap was 1.05e-6 at
+#: tolerance 1e-8 crossed it at 1e-9 (N = 40, V = 10 m/s, hi = 1 m)
+BOTTOM_GAP = 1e-3
+#: energy guard: a step may change the residual E_plate + E_layer - W by at most
+#:     ENERGY_JUMP max(W, E_plate + E_layer) + min(1, (RESOLVED_NODES / n_c)^2) |dW|,
+#: n_c the compressed nodes: the quadrature's own mismatch is about |dW| (dx / width)^2, O(1)
+#: of the tiny energies of first touch. Normal runs (reference case, thin and thick ice, stiff
+#: and thin layers, fast impacts; etd34 and rk4) use at most 10% of this allowance.
+ENERGY_JUMP = 1e-3
+RESOLVED_NODES = 4
+#: an adaptive step is at most GROWTH (t - t_start) (after a first step h_init): the tension
+#: grows like t^3.5 from first touch, and a cubic Hermite interpolant of t^a over a step h at
+#: time t misplaces a level by about 0.005 (h/t)^4 of t, 5e-7 at GROWTH = 0.1
+GROWTH = 0.1
+#: when the layer is within GAP_WATCH of bottoming, a step's local error of delta at the gap
+#: must stay below GAP_ACCURACY times the gap 1 - delta
+GAP_WATCH = 1e-2
+GAP_ACCURACY = 0.1
+#: a run whose energy residual ends above this fraction of the work ends energy_violation
+ENERGY_BOUND = 1e-3
+
+#: the run's control: t_start, t_end [s]; tolerance (relative error per step in the energy norm,
+#: ETD34 adaptive); fixed_step [s] (> 0: RK4 always, ETD34 without error control); h_init, h_min,
+#: h_max [s] (first trial, smallest and largest step; h_max must resolve the contact oscillation:
+#: in free flight the forcing and hence the error estimate vanish, and only h_max stops a step
+#: from jumping deep into a new contact); max_steps (attempted steps before STEP_LIMIT);
+#: bottom_gap (the layer bottoms out when its gap closes to this fraction of he);
+#: until_separation (a free body's run ends when it separates)
+Control = namedtuple("Control", "t_start t_end tolerance fixed_step h_init h_min h_max max_steps bottom_gap "
+                                "until_separation")
+
+
+def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
+                 until_separation=False):
+    """The :data:`Control` of a run (plain Python: built once per run)."""
+    return Control(float(t_start), float(t_end), float(tolerance), float(fixed_step), float(h_init), float(h_min),
+                   float(h_max), float(max_steps), float(bottom_gap), bool(until_separation))
+
+
+@njit(cache=True, nogil=True)
+def error_ratio(model, control, start, new, gap, scratch):
+    """Local error (new.err, new.errb) over tolerance in the energy norm: the plate's error and a
+    free body's velocity error M err_U^2, against the plate's energy at the step's start or end
+    (docs/model.md, "A body of finite mass"); near bottoming (gap: the largest delta, its rate and
+    place at the start) also the error of delta at the gap against the gap itself."""
+    err, errb, z, znew = new.err, new.errb, start.z, new.z
+    LM = model.plate.LM
+    num = 0.0
+    den_old = 0.0
+    den_new = 0.0
+    for n in range(z.shape[0]):
+        num += LM[n] * (err[n].real ** 2 + err[n].imag ** 2)
+        den_old += LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
+        den_new += LM[n] * (znew[n].real ** 2 + znew[n].imag ** 2)
+    im = model.body.inv_mass
+    if im > 0.0:
+        # the body's error in the same energy units, measured against the plate's energy,
+        # not against the body's own kinetic energy M U^2 / 2: that grows with M and would
+        # loosen the plate's control as M -> inf, where the paper's body is the limit
+        num += errb[B_U] ** 2 / im
+    floor = model.body.V * math.sqrt(model.plate.lm_floor)
+    ratio = math.sqrt(num) / (control.tolerance * max(math.sqrt(max(den_old, den_new)), floor))
+    he = model.layer.he
+    if model.layer.K > 0.0 and gap[0] > 1.0 - max(GAP_WATCH, 10.0 * control.bottom_gap):
+        # near bottoming the local error of delta at the gap must be small against the
+        # gap itself, or a grazing approach crosses the threshold in one run and not in
+        # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
+        for n in range(z.shape[0]):
+            scratch[n] = mode_a(err[n], n, model.plate)
+        e_delta = abs(mode_sum(model.plate.ones, scratch, model.basis.lam1, gap[2]) - errb[B_D]) / he
+        ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap[0])))
+    if not math.isfinite(ratio):
+        ratio = 1e10
+    return ratio
+
+
+@njit(cache=True, nogil=True)
+def energy_allowance(delta_new, jm5, e_new, w_new, e0, work, mirror):
+    """How much one step may change the residual E_plate + E_layer - W (see ENERGY_JUMP); the
+    compressed nodes counted as on the half plate (mirror / 2 of them on the full plate)."""
+    compressed = 0
+    for j in range(jm5):
+        if delta_new[j] > 0.0:
+            compressed += 1
+    under = min(1.0, (RESOLVED_NODES / max(compressed * (0.5 * mirror), 1.0)) ** 2)
+    return ENERGY_JUMP * max(e_new, w_new, e0) + under * abs(w_new - work)
+
+
+@njit(cache=True, nogil=True)
+def next_step(control, t, target, h, fixed):
+    """The step to try from t towards the next output time: (h_step, t_new, landing).
+    fixed = [target the fixed step was chosen for, that step] (updated)."""
+    remaining = target - t
+    fixed_step = control.fixed_step
+    if fixed_step > 0.0:
+        # one step size per output interval, fixed for the whole interval (the ETD
+        # coefficients are then computed once per interval); the last step lands on target
+        if target != fixed[0]:
+            fixed[0] = target
+            n_sub = math.ceil(remaining / fixed_step * (1.0 - 1e-12))
+            fixed[1] = remaining / max(n_sub, 1)
+        landing = remaining <= 1.5 * fixed[1]
+        h_step = remaining if landing else fixed[1]
+    else:
+        h_step = min(h, max(control.h_init, GROWTH * (t - control.t_start)))
+        if h_step >= remaining * (1.0 - 1e-12) or remaining - h_step < 0.01 * h_step:
+            h_step = remaining
+        landing = h_step >= remaining * (1.0 - 1e-12)
+    t_new = target if landing else t + h_step
+    return h_step, t_new, landing
+
+
+@njit(cache=True, nogil=True)
+def grown_step(control, ratio, expo, prev_ratio, h_step, h, landing):
+    """The next step after an accepted one, by PI control (Gustafsson: damps the accept/reject
+    oscillation of a plain I step): (h, the ratio to remember)."""
+    r_now = max(ratio, 1e-10)
+    fac = 0.9 * r_now ** (-0.7 * expo) * prev_ratio ** (0.4 * expo)
+    fac = min(5.0, max(0.2, fac))
+    h_next = h_step * fac
+    if landing and h_step < h:
+        h_next = max(h_next, h)   # a step shortened to land keeps the old proposal
+    return min(h_next, control.h_max), r_now

@@ -1,0 +1,128 @@
+r"""What a run reports: the rows at the output times, and the diagnostics vector from its start to
+its summary at the end (layout D_*, S_*; their names and units are solver.core.DIAGNOSTIC_INFO).
+
+The energy identity E_plate + E_layer + D - W = E(t_start) is tracked step by step by the loop; a
+run that ended well but whose residual ends above ENERGY_BOUND of the largest work is reported
+energy_violation here, never ok (docs/model.md, "Statuses").
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .control import ENERGY_BOUND
+from .layout import (D_BODY_RESIDUAL, D_BOTTOM_SPEED, D_BOTTOM_T, D_BOTTOM_X, D_ENERGY_JUMPS,
+                     D_ENERGY_RESIDUAL, D_FAIL_KIND, D_FAIL_T, D_H_MAX, D_H_MIN, D_MAX_ABS, D_MAX_ABS_T,
+                     D_MAX_ABS_X, D_MAX_CONTACTS, D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_FORCE, D_MAX_FORCE_T,
+                     D_MAX_LOWER, D_MAX_LOWER_T, D_MAX_LOWER_X, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X,
+                     D_REJECTED, D_RHS, D_STEPS, D_T_REACHED, D_WORK, ENERGY_VIOLATION, FAIL_ENERGY_BOUND,
+                     FAIL_LOCATED, FAIL_NONE, LAYER_BOTTOMED_OUT, N_DIAG, OK, S_BODY_POSITION, S_BODY_SPEED,
+                     S_CONTACTS, S_DISSIPATED, S_ERR, S_E_LAYER, S_E_PLATE, S_FORCE, S_WORK, SEPARATED, STOPPED)
+from .model.body import body_position, body_speed
+from .model.contact import count_contacts
+from .model.layer import layer_energy
+from .model.plate import _plus_plate_energy
+
+#: what a run fills (arrays made by the caller): a, adot (T, N) and series (T, N_SERIES) at the
+#: output times reached; diag (N_DIAG,); level_t, level_x (2, levels) NaN on entry, the located
+#: time and place at which the upper (row 0) and lower (row 1) tension first reaches each level
+Outputs = namedtuple("Outputs", "a adot series diag level_t level_x")
+
+
+@njit(cache=True, nogil=True)
+def start_diagnostics(diag, t_start):
+    """The diagnostics before the first step: NaN but for the counts and running maxima."""
+    for i in range(N_DIAG):
+        diag[i] = np.nan
+    diag[D_MAX_CONTACTS] = 0.0
+    diag[D_MAX_FORCE] = 0.0
+    diag[D_MAX_FORCE_T] = t_start
+    diag[D_H_MIN] = np.inf
+    diag[D_H_MAX] = 0.0
+    diag[D_FAIL_KIND] = FAIL_NONE
+    diag[D_ENERGY_JUMPS] = 0.0
+
+
+@njit(cache=True, nogil=True)
+def record_output(model, out, k, t, state, jmax, carried, err_sum):
+    """Row k of the outputs: the state at t (an output time the steps have landed on), with the
+    carried force, work and dissipated energy and the summed local error err_sum."""
+    for n in range(state.z.shape[0]):
+        out.a[k, n] = state.a[n]
+        out.adot[k, n] = state.adot[n]
+    series = out.series
+    series[k, S_CONTACTS] = count_contacts(state.delta, jmax, model.basis.mirror)
+    series[k, S_FORCE] = carried.force
+    series[k, S_E_PLATE] = _plus_plate_energy(0.0, model.plate, state.z)
+    series[k, S_DISSIPATED] = carried.dissipated
+    series[k, S_E_LAYER] = layer_energy(model, state.delta, jmax)
+    series[k, S_WORK] = carried.work
+    series[k, S_ERR] = err_sum
+    series[k, S_BODY_POSITION] = body_position(model.body, t, state.yb)
+    series[k, S_BODY_SPEED] = body_speed(model.body, state.yb)
+
+
+@njit(cache=True, nogil=True)
+def running_maxima(diag, t, force, gap):
+    """The largest force and compression so far, after an accepted step."""
+    if force > diag[D_MAX_FORCE]:
+        diag[D_MAX_FORCE] = force
+        diag[D_MAX_FORCE_T] = t
+    if gap[0] > diag[D_MAX_DELTA]:
+        diag[D_MAX_DELTA] = gap[0]
+        diag[D_MAX_DELTA_T] = t
+
+
+@njit(cache=True, nogil=True)
+def bottomed_at(diag, t, gap, he):
+    """The located bottoming event at t (gap: the largest delta, its rate and place)."""
+    diag[D_FAIL_T] = t
+    diag[D_FAIL_KIND] = FAIL_LOCATED
+    diag[D_BOTTOM_T] = t
+    diag[D_BOTTOM_X] = gap[2]
+    diag[D_BOTTOM_SPEED] = he * gap[1]
+    diag[D_MAX_FORCE] = np.inf      # K f(delta) is unbounded as the gap closes
+    diag[D_MAX_FORCE_T] = t
+
+
+@njit(cache=True, nogil=True)
+def failed_at(diag, t, kind):
+    """The run stopped early at t for the reason kind (a FAIL_* code, as a float: numba would
+    compile a copy for each literal integer)."""
+    diag[D_FAIL_T] = t
+    diag[D_FAIL_KIND] = kind
+
+
+@njit(cache=True, nogil=True)
+def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
+    """The run's summary diagnostics at its end; returns the final status. residuals = (the
+    largest work over the run, the largest energy residual, the largest body residual); the
+    residuals are reported relative to that work: the final work for the paper's body (W only
+    grows), the work at the deepest point for a body that rebounds and takes its energy back.
+    counts = (steps, rejected steps, forcing evaluations)."""
+    peak_work, max_residual, max_body_residual = residuals
+    if status == LAYER_BOTTOMED_OUT and math.isnan(diag[D_BOTTOM_T]):
+        diag[D_BOTTOM_T] = t                # not located: the last state the steps reached
+        diag[D_BOTTOM_X] = gap[2]
+        diag[D_BOTTOM_SPEED] = he * gap[1]
+    diag[D_T_REACHED] = t
+    diag[D_WORK] = work
+    diag[D_ENERGY_RESIDUAL] = max_residual / peak_work if peak_work > 0.0 else 0.0
+    if not math.isnan(diag[D_BODY_RESIDUAL]):
+        diag[D_BODY_RESIDUAL] = max_body_residual / peak_work if peak_work > 0.0 else 0.0
+    ended_well = status == OK or status == LAYER_BOTTOMED_OUT or status == SEPARATED or status == STOPPED
+    if ended_well and max(diag[D_ENERGY_RESIDUAL], diag[D_BODY_RESIDUAL] if not math.isnan(
+            diag[D_BODY_RESIDUAL]) else 0.0) > ENERGY_BOUND:
+        status = ENERGY_VIOLATION
+        diag[D_FAIL_T] = t
+        diag[D_FAIL_KIND] = FAIL_ENERGY_BOUND
+    up, lo = diag[D_MAX_UPPER], diag[D_MAX_LOWER]
+    diag[D_MAX_ABS] = max(up, lo)
+    diag[D_MAX_ABS_X] = diag[D_MAX_UPPER_X] if up >= lo else diag[D_MAX_LOWER_X]
+    diag[D_MAX_ABS_T] = diag[D_MAX_UPPER_T] if up >= lo else diag[D_MAX_LOWER_T]
+    steps, rejected, rhs_count = counts
+    diag[D_STEPS] = steps
+    diag[D_REJECTED] = rejected
+    diag[D_RHS] = rhs_count
+    return status

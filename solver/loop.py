@@ -1,0 +1,335 @@
+r"""The integration loop: step, judge, locate, observe, shift (docs/model.md, "Numerics").
+
+Each pass of :func:`integrate` records the outputs due at the current time, tries one step
+(solver.step) of the size the step policy chooses (solver.control), judges it (finite, its local
+error, the energy identity), locates bottoming inside it on true sub-steps, and then calls the
+observers at one fixed point, on the step's two end states and its dense output: the tension
+records, levels of tension located for verification, the contact intervals, a free body's stop
+and separation (solver.observe). The two states swap roles at the end of a step.
+
+What crosses: the Model (solver.model.assemble), the run's Control, the output times, the
+initial modal state, tension levels to locate, and the Outputs to fill (solver.diagnostics).
+"""
+import math
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from .control import energy_allowance, error_ratio, grown_step, next_step
+from .cubic import cubic_max, hermite
+from .diagnostics import (bottomed_at, failed_at, finish_diagnostics, record_output, running_maxima,
+                          start_diagnostics)
+from .layout import (B_D, B_U, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS, D_MAX_DELTA,
+                     D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T, D_T_REACHED,
+                     ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP, FAIL_MAX_STEPS,
+                     FAIL_NONFINITE, FAIL_STEP_UNDERFLOW, LAYER_BOTTOMED_OUT, N_REC, NONFINITE, OK, SEPARATED,
+                     STEP_LIMIT, STOPPED)
+from .model.basis import strain_nodes
+from .model.body import body_coefficients, body_position, body_residual, body_speed
+from .model.contact import count_contacts, gap_peak
+from .model.layer import layer_energy, layer_forcing_at
+from .model.plate import _plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
+from .observe.body import observe_body
+from .observe.contacts import contact_work, observe_contacts
+from .observe.events import locate_event
+from .observe.record import append_row
+from .observe.tension import Dense, global_state, observe_tensions, tension_work
+from .step import Carried, Coefficients, State, StepWork, Stepper, etd_coefficients, take_step
+
+#: the loop's work space besides its two states: the sub-steps' state, the stepper of sub-steps
+#: (its own coefficients, the step's scratch), the observers' work, the gap (largest delta, its
+#: rate and place) at the step's two ends, an event's value (3,), the tension peaks at the
+#: step's start (2, 4), and the fixed step's [target, step]
+Workspace = namedtuple("Workspace", "sub stepper tension contact gap0 gap1 value peaks0 fixed")
+
+#: a trial step's verdict
+ACCEPT, RETRY, STOP = 0, 1, 2
+
+
+@njit(cache=True, nogil=True)
+def new_state(N, J):
+    """A State for N modes and J nodes (the body at d = u = 0)."""
+    return State(np.empty(N, np.complex128), np.empty(N), np.empty(N), np.empty(N), np.empty(J), np.empty(J),
+                 np.zeros(2), np.empty(N, np.complex128), np.zeros(2), np.zeros(2))
+
+
+@njit(cache=True, nogil=True)
+def _workspace(method, model, N, J):
+    work = StepWork(np.empty((2, N), np.complex128), np.empty((5, N)), np.empty(J), np.zeros(6), np.zeros(6),
+                    np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6))
+    stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))), work)
+    return Workspace(new_state(N, J), stepper, tension_work(N, J), contact_work(J), np.empty(3), np.empty(3),
+                     np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
+
+
+@njit(cache=True, nogil=True)
+def _initial(model, ws, cur, t, a0, adot0, records, diag):
+    """The state at t_start and its observers: (status, force, jmax, layer power, contacts,
+    records); status 1 if the layer is bottomed out already."""
+    plate = model.plate
+    for n in range(a0.shape[0]):
+        cur.z[n] = mode_z(a0[n], adot0[n], n, plate)
+        cur.a[n] = a0[n]
+        cur.adot[n] = adot0[n]
+    s, U = body_position(model.body, t, cur.yb), body_speed(model.body, cur.yb)
+    st, force, jmax, lp = layer_forcing_at(model, s, U, cur.a, cur.adot, cur.delta, ws.stepper.work.fvals,
+                                           cur.forcing)
+    if st != 0:
+        return st, force, jmax, lp, 0, records
+    contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
+    rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
+    rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
+    diag[D_MAX_CONTACTS] = contacts
+    strain_nodes(cur.a, plate.strain, model.basis.cosq, cur.eps)
+    tw = ws.tension
+    for s_ in range(2):
+        global_state(model, cur.eps, 1.0 - 2.0 * s_, cur.a, cur.adot, tw.peaks[s_])
+        tw.run_max[s_] = tw.peaks[s_, 0]
+        diag[D_MAX_UPPER + 3 * s_] = tw.peaks[s_, 0]
+        diag[D_MAX_UPPER_X + 3 * s_] = tw.peaks[s_, 2]
+        diag[D_MAX_UPPER_T + 3 * s_] = t
+    gap_peak(model, s, U, cur.delta, jmax, cur.a, cur.adot, ws.gap0)
+    diag[D_MAX_DELTA] = ws.gap0[0]
+    diag[D_MAX_DELTA_T] = t
+    return 0, force, jmax, lp, contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c)
+
+
+@njit(cache=True, nogil=True)
+def _finite_state(st, w_new, new):
+    if not (st == 0 and math.isfinite(w_new)):
+        return False
+    for n in range(new.z.shape[0]):
+        if not (math.isfinite(new.z[n].real) and math.isfinite(new.z[n].imag)):
+            return False
+    return math.isfinite(new.yb[B_D]) and math.isfinite(new.yb[B_U])
+
+
+@njit(cache=True, nogil=True)
+def _residual(model, state, jm, w_new, e0):
+    """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state."""
+    e_new = _plus_plate_energy(layer_energy(model, state.delta, jm), model.plate, state.z)
+    return e_new, e_new + state.acc[0] - w_new - e0
+
+
+@njit(cache=True, nogil=True)
+def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
+    """The verdict on a trial step, trial = (status, W(t_new), jmax, h, error exponent), energies =
+    (E(t_start), the residual at t, W(t)): (verdict, h to retry with, error ratio, residual at
+    t_new, run status, rejections counted). A non-finite state or a stage at delta >= 1 retries
+    at h/4, an error above the tolerance at the controller's h, a jump of the energy identity at
+    h/4; below h_min, or for a fixed step, the run stops with its reason."""
+    st, w_new, jm5, h_step, expo = trial
+    e0, resid, work = energies
+    if not _finite_state(st, w_new, new):
+        if not adaptive:
+            failed_at(diag, t, float(FAIL_FIXED_STEP))
+            return STOP, h_step, 0.0, 0.0, NONFINITE, 0
+        h = 0.25 * h_step
+        if h < control.h_min:
+            failed_at(diag, t, float(FAIL_BOTTOMED if st != 0 else FAIL_NONFINITE))
+            return STOP, h, 0.0, 0.0, LAYER_BOTTOMED_OUT if st != 0 else NONFINITE, 1
+        return RETRY, h, 0.0, 0.0, OK, 1
+    ratio = 0.0
+    if adaptive:
+        ratio = error_ratio(model, control, cur, new, ws.gap0, ws.stepper.work.rows[0])
+        if ratio > 1.0:
+            h = h_step * max(0.2, 0.9 * ratio ** -expo)
+            if h < control.h_min:
+                if ws.gap0[0] > 1.0 - 10.0 * control.bottom_gap:
+                    failed_at(diag, t, float(FAIL_BOTTOMED))
+                    return STOP, h, ratio, 0.0, LAYER_BOTTOMED_OUT, 1
+                failed_at(diag, t, float(FAIL_STEP_UNDERFLOW))
+                return STOP, h, ratio, 0.0, STEP_LIMIT, 1
+            return RETRY, h, ratio, 0.0, OK, 1
+    e_new, resid_new = _residual(model, new, jm5, w_new, e0)
+    if not abs(resid_new - resid) <= energy_allowance(new.delta, jm5, e_new, w_new, e0, work, model.basis.mirror):
+        diag[D_ENERGY_JUMPS] += 1.0
+        h = 0.25 * h_step
+        if not adaptive or h < control.h_min:
+            failed_at(diag, t, float(FAIL_ENERGY_JUMP))
+            return STOP, h, ratio, resid_new, ENERGY_VIOLATION, 1
+        return RETRY, h, ratio, resid_new, OK, 1
+    return ACCEPT, h_step, ratio, resid_new, OK, 0
+
+
+@njit(cache=True, nogil=True)
+def _gap_at(model, t, state, jm, gap):
+    """a, a' of a state from its z, and its gap (gap_peak) into gap."""
+    plate = model.plate
+    for n in range(state.z.shape[0]):
+        state.a[n] = mode_a(state.z[n], n, plate)
+        state.adot[n] = mode_adot(state.z[n], state.a[n], n, plate)
+    gap_peak(model, body_position(model.body, t, state.yb), body_speed(model.body, state.yb), state.delta, jm,
+             state.a, state.adot, gap)
+
+
+@njit(cache=True, nogil=True)
+def _may_bottom(model, control, gap0, gap1, h):
+    """The gap may close to bottom_gap inside the step: at its end, or by the cubic Hermite of the
+    largest delta and its rate between the ends."""
+    level = 1.0 - control.bottom_gap
+    c0, c1, c2, c3 = hermite(gap0[0], gap1[0], gap0[1], gap1[1], h)
+    return model.layer.K > 0.0 and (gap1[0] >= level or cubic_max(c0, c1, c2, c3)[0] >= level)
+
+
+@njit(cache=True, nogil=True)
+def _strain_error(model, err):
+    """The local error of a step in strain amplitude (the error of a and of a' / omega)."""
+    plate = model.plate
+    e_step = 0.0
+    if plate_damped(plate):
+        for n in range(err.shape[0]):
+            ea = mode_a(err[n], n, plate)
+            ev = mode_adot(err[n], ea, n, plate) / plate.omega[n]
+            e_step += plate.strain[n] ** 2 * (ea * ea + ev * ev)
+    else:
+        for n in range(err.shape[0]):
+            e_step += (plate.strain[n] / plate.omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
+    return math.sqrt(e_step)
+
+
+@njit(cache=True, nogil=True)
+def _locate_levels(ws, levels, out, cur, carried, t, h):
+    """Tension levels first reached in the accepted step, located on true sub-steps (for
+    verification): their time and place into out.level_t, out.level_x."""
+    for s in range(2):
+        rm = ws.tension.run_max[s]
+        for i in range(levels.shape[0]):
+            if math.isnan(out.level_t[s, i]) and levels[i] <= rm:
+                lo, hi, _, _, _, found = locate_event(ws.stepper, 1.0 - 2.0 * s, levels[i], cur, carried, t, h,
+                                                      ws.peaks0[s], ws.sub, ws.value)
+                if found:
+                    out.level_t[s, i] = t + 0.5 * (lo + hi)
+                    out.level_x[s, i] = ws.value[2]
+
+
+@njit(cache=True, nogil=True)
+def _observe(model, ws, cur, new, carried, t, h, ends, records, diag):
+    """The observers on the accepted step [t, t + h] from cur to new, at one fixed point: ends =
+    (jmax at t, jmax and F at t + h). Returns (contacts at t + h, records, a free body left the
+    ice)."""
+    jmax, jm5, F5 = ends
+    rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
+    ws.peaks0[:, :] = ws.tension.peaks
+    ws.tension.dense[0] = not h > 0.0             # computed on demand by the tension observer
+    dz = Dense(cur.z, cur.forcing, ws.stepper.work.rows[2], new.forcing)
+    rec_up, n_up, rec_lo, n_lo = observe_tensions(model, ws.tension, t, h, cur, new, dz,
+                                                  (rec_up, n_up, rec_lo, n_lo), diag)
+    contacts, (rec_c, n_c), largest = observe_contacts(model, ws.contact, t, h, cur, jmax, new, jm5,
+                                                       carried.contacts, (rec_c, n_c))
+    if largest > diag[D_MAX_CONTACTS]:
+        diag[D_MAX_CONTACTS] = largest
+    left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
+    return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c), left
+
+
+@njit(cache=True, nogil=True)
+def integrate(method, model, control, t_out, a0, adot0, levels, out):
+    """Integrate the mode equations (and a free body's motion) from control.t_start to t_end,
+    landing on every t_out (sorted, in [t_start, t_end]); a0, adot0: a_n [m] and a_n' [m s-1] at
+    t_start; levels: tension levels to locate exactly on sub-steps (verification; usually
+    empty); out: the Outputs to fill. Returns (status, the number of output times filled,
+    records = (upper, n_upper, lower, n_lower, contacts, n_contacts)): the tension records of
+    both surfaces (rows R_T..R_JOIN, first n valid) and the contact record (rows (t, count))."""
+    N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
+    start_diagnostics(diag, control.t_start)
+    ws = _workspace(method, model, N, J)
+    cur, new = new_state(N, J), new_state(N, J)
+    coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
+    t = control.t_start
+    none = np.int64(0)                  # (not a literal 0: numba would compile the observers twice)
+    records = (np.empty((256, N_REC)), none, np.empty((256, N_REC)), none, np.empty((64, 2)), none)
+    st, force, jmax, lp, contacts, records = _initial(model, ws, cur, t, a0, adot0, records, diag)
+    if st != 0:
+        diag[D_T_REACHED] = t
+        failed_at(diag, t, float(FAIL_BOTTOMED))
+        return LAYER_BOTTOMED_OUT, 0, records
+    e0 = _residual(model, cur, jmax, 0.0, 0.0)[0]
+    work = diss = err_sum = resid = max_residual = max_body_residual = peak_work = 0.0
+    free_body = model.body.inv_mass > 0.0
+    body_resid0 = body_residual(model.body, t, cur.yb, work)
+    if free_body:
+        diag[D_BODY_RESIDUAL] = 0.0
+    k, status, steps, rejected, rhs_count = 0, OK, 0, 0, 1
+    h, h_coeffs, prev_ratio = min(control.h_init, control.h_max), -1.0, 1.0
+    bottomed = separated = False
+    adaptive = method == ETD34 and control.fixed_step <= 0.0
+    while True:
+        carried = Carried(force, work, diss, lp, contacts)
+        while k < T and t_out[k] <= t:                       # outputs due at the current time
+            record_output(model, out, k, t, cur, jmax, carried, err_sum)
+            k += 1
+        if bottomed or separated or t >= control.t_end:
+            break
+        if steps + rejected >= control.max_steps:
+            status = STEP_LIMIT
+            failed_at(diag, t, float(FAIL_MAX_STEPS))
+            break
+        h_step, t_new, landing = next_step(control, t, t_out[k] if k < T else control.t_end, h, ws.fixed)
+        if h_step != h_coeffs:
+            etd_coefficients(model.plate, h_step, coeffs.C)
+            body_coefficients(h_step, coeffs.Cb)
+            h_coeffs = h_step
+        st, F5, jm5, w_new, event = take_step(method, model, coeffs, ws.stepper.work, cur, carried, t, t_new,
+                                              h_step, new)
+        rhs_count += 4
+        expo = 1.0 / 3.0 if event else 0.25
+        verdict, h_try, ratio, resid_new, status, counted = _judge(adaptive, model, control, ws, cur, new, t,
+                                                                   (st, w_new, jm5, h_step, expo),
+                                                                   (e0, resid, work), diag)
+        rejected += counted
+        if verdict != ACCEPT:
+            h = h_try
+            if verdict == STOP:
+                break
+            continue
+        # ----- bottoming: the gap closes to bottom_gap inside the step
+        _gap_at(model, t_new, new, jm5, ws.gap1)
+        h_eff = h_step
+        if _may_bottom(model, control, ws.gap0, ws.gap1, h_step):
+            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, cur, carried,
+                                                             t, h_step, ws.gap0, new, ws.gap1)
+            if found:                        # the state is the search's last sub-step
+                bottomed, h_eff, t_new, F5, jm5, w_new = True, s_lo, t + s_lo, F_b, jm_b, w_b
+                resid_new = _residual(model, new, jm5, w_new, e0)[1]
+            else:
+                # the interpolant's crossing was not real: the search overwrote the step's
+                # buffers, so take the accepted step again (same size and coefficients, same result)
+                st, F5, jm5, w_new, event = take_step(method, model, coeffs, ws.stepper.work, cur, carried, t,
+                                                      t_new, h_step, new)
+                _gap_at(model, t_new, new, jm5, ws.gap1)
+        # ----- accepted: observers on [t, t + h_eff], then the states swap
+        steps += 1
+        if not bottomed:
+            err_sum += _strain_error(model, new.err)
+            diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
+            diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
+        else:
+            strain_nodes(new.a, model.plate.strain, model.basis.cosq, new.eps)
+        contacts, records, left = _observe(model, ws, cur, new, carried, t, h_eff, (jmax, jm5, F5), records, diag)
+        # exact crossings of the levels, for verification: after the observers (the search's
+        # sub-steps overwrite the scratch the dense output reads)
+        _locate_levels(ws, levels, out, cur, carried, t, h_eff)
+        separated = left and control.until_separation
+        cur, new = new, cur
+        ws.gap0[:] = ws.gap1
+        t, work, diss, lp, force, jmax, resid = t_new, w_new, cur.acc[0], cur.acc[1], F5, jm5, resid_new
+        max_residual = max(max_residual, abs(resid))
+        peak_work = max(peak_work, work)
+        if free_body:
+            max_body_residual = max(max_body_residual, abs(body_residual(model.body, t, cur.yb, work) - body_resid0))
+        running_maxima(diag, t, force, ws.gap0)
+        if bottomed:
+            status = LAYER_BOTTOMED_OUT
+            bottomed_at(diag, t, ws.gap0, model.layer.he)
+        elif separated:
+            status = SEPARATED
+        elif adaptive:
+            h, prev_ratio = grown_step(control, ratio, expo, prev_ratio, h_step, h, landing)
+    if status == OK and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
+        status = STOPPED                     # stopped, and still on the ice at the window's end
+    out.diag[D_DISSIPATED] = diss
+    status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), ws.gap0,
+                                model.layer.he, (steps, rejected, rhs_count))
+    return status, k, records

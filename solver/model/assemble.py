@@ -1,0 +1,113 @@
+r"""Parameters -> the Model tuple the kernels take, built once per case (plain Python).
+
+The centred impact (x0 = 0, or full_plate False) is solved on the symmetric half plate
+0 <= x <= L: modes cos(lambda_n x), lambda_n = pi n / L, integrals over 0..L doubled
+(mirror = 2). An off-centre impact (full_plate True) is solved on the full plate in the
+kernel coordinate xi = x + L in 0..2L: the sliding-wall modes cos(k pi xi / 2L),
+k = 1..2 Nmod (even k = 2n: (-1)^n cos(lambda_n x), the symmetric modes; odd k = 2m - 1:
+(-1)^m sin((m - 1/2) pi x / L), the antisymmetric ones), integrals over 0..2L (mirror = 1),
+twice the nodes at the same dx. Everything the kernels see has the same form on both
+(docs/model.md, "Off-centre impact").
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .basis import Basis
+from .body import Body
+from .layer import LAW_CODES, Layer
+from .plate import Plate
+
+#: what the kernels take for one case: Plate, Basis, Body, Layer (each defined by its module)
+Model = namedtuple("Model", "plate basis body layer")
+
+#: a damped mode is kept at least this far (omega_d or kappa over omega) from critical damping
+CRITICAL_GAP = 1e-6
+
+
+class Tables:
+    """A case's Model, and the Python side of its basis: the wavenumbers lam, the nodes in kernel
+    coordinates xq and on the plate x_nodes, the plate's origin in kernel coordinates, and the
+    maps between the kernel's modal order and the symmetric and antisymmetric amplitudes."""
+
+    def __init__(self, p, subintervals: int, full_plate: bool | None = None):
+        full = p.off_centre if full_plate is None else bool(full_plate)
+        self.full_plate = full
+        if full:
+            lam = np.pi * np.arange(1, 2 * p.Nmod + 1) / (2.0 * p.L)
+            self.origin = -p.L                       # x of the kernel's xi = 0
+        else:
+            lam = p.wavenumbers
+            self.origin = 0.0
+        M, self.omega, self.damping = p.mode_constants(lam)
+        self.lam = lam
+        self.dx = p.L / subintervals
+        self.xq = self.dx * np.arange((2 if full else 1) * subintervals + 1)   # the nodes in kernel coordinates
+        self.x_nodes = self.xq + self.origin                                  # and on the plate
+        plate = self._plate(p, M, full)
+        self.coef, self.LM, self.strain_coef = plate.coef, plate.LM, plate.strain
+        self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, self.xq)))       # (N, J)
+        sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                     # np.sinc(u) = sin(pi u)/(pi u)
+        self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
+        basis = Basis(float(lam[0]), float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
+                      float(self.dx * (self.xq.size - 1)))
+        self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
+                                                                    LAW_CODES[p.layer_law]))
+
+    def _plate(self, p, M, full):
+        """The Plate table: the modes' constants and the Kelvin-Voigt damping."""
+        half_c = 0.5 * self.damping                  # Kelvin-Voigt: 0 for the paper's elastic ice
+        over = half_c > self.omega                   # overdamped modes: two real decay rates
+        wd = np.sqrt(np.abs(self.omega - half_c) * (self.omega + half_c))
+        # a mode within 1e-12 of critical damping is taken as underdamped with omega_d = 1e-6
+        # omega (its rates move by 1e-12; a from z loses at most 1e-10 to the small omega_d)
+        near = (half_c > 0) & (wd < CRITICAL_GAP * self.omega)
+        over = over & ~near
+        wd = np.where(half_c == 0.0, self.omega, np.where(near, CRITICAL_GAP * self.omega, wd))
+        LM = p.L * M
+        c = np.ascontiguousarray
+        return Plate(c(self.omega, dtype=float), c((-1.0 if full else -2.0) / (p.L * M)),
+                     c(0.5 * p.hi * self.lam**2), c(LM), c(half_c, dtype=float), c(wd, dtype=float),
+                     c(over.astype(float)), np.ones(self.lam.size), float(LM[1] if full else LM[0]))
+
+    def _body(self, p, full):
+        """The Body: its motion, its shape, and its profile at the nodes."""
+        if full:
+            profile = p.body_profile(self.x_nodes)                                  # b(x_j - x0)
+        else:
+            profile = self.xq * self.xq * (0.5 / p.R) if p.parabola else p.body_profile(self.xq)   # b(x_j)
+        free = p.free_body
+        return Body(float(p.V), 1.0 / p.body_mass if free else 0.0, float(p.body_g) if free else 0.0, float(p.R),
+                    float(p.body_p), float(p.flat_width), float(p.tan_deadrise), float(p.L + p.x0) if full else 0.0,
+                    np.ascontiguousarray(profile, dtype=float))
+
+    def kernel_x(self, x):
+        """Kernel coordinates of plate positions x [m]: |x| on the half plate, x + L on the full."""
+        x = np.asarray(x, dtype=float)
+        return x - self.origin if self.full_plate else np.abs(x)
+
+    def to_kernel(self, symmetric, antisymmetric=None):
+        """Modal amplitudes in the kernel's order from those of cos(lambda_n x) (and of
+        sin((m - 1/2) pi x / L) on the full plate): the last axis has Nmod entries each."""
+        symmetric = np.asarray(symmetric, dtype=float)
+        if not self.full_plate:
+            return symmetric
+        n = symmetric.shape[-1]
+        out = np.zeros(symmetric.shape[:-1] + (2 * n,))
+        sign = (-1.0) ** np.arange(1, n + 1)
+        out[..., 1::2] = sign * symmetric
+        if antisymmetric is not None:
+            out[..., 0::2] = sign * np.asarray(antisymmetric, dtype=float)
+        return out
+
+    def from_kernel(self, amplitudes):
+        """(symmetric, antisymmetric) amplitudes of cos(lambda_n x) and sin((m - 1/2) pi x / L)
+        from the kernel's; on the half plate the antisymmetric ones are 0 (NaN where the
+        symmetric are)."""
+        if not self.full_plate:
+            return amplitudes, np.where(np.isnan(amplitudes), np.nan, 0.0)
+        n = amplitudes.shape[-1] // 2
+        sign = (-1.0) ** np.arange(1, n + 1)
+        return sign * amplitudes[..., 1::2], sign * amplitudes[..., 0::2]

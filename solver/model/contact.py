@@ -1,0 +1,187 @@
+r"""Where body and ice touch: bounds on the contact region, the contact intervals, and the gap
+(docs/model.md, "Events": contacts and bottoming).
+
+Geometry only, the same for every layer law: the layer is compressed where delta =
+(w + s - b(x)) / he > 0 (the body at penetration s, its profile b, the ice at w). The forcing's
+passes over the node table stop at a bound ``contact_bound`` proves no node beyond can touch
+(its bound on w from the first four modes exactly and the rest by their sum of |a_n|); the
+observers' bound over a whole step is ``reach_in_step``. The gap between body and ice is
+he (1 - delta), smallest where delta is largest over the continuous plate (``gap_peak``: a
+parabola through the nodes refined by Newton on the modes and the body's profile).
+
+Benchmarks (tests/test_kernel_pieces.py): contact_bound is within a few nodes of the true
+contact edge and never inside it; reach_in_step bounds every node that changes sign within a
+step; the contact observer on the bounded nodes equals the observer on every node.
+"""
+import numpy as np
+from numba import njit
+
+from .basis import (NEWTON_STOP, _newton_move, argmax_node, continuous_peak, modal_sum_range, mode_sum,
+                    mode_sums, refine)
+from .body import body_extent, body_profile, body_slope_curvature, is_parabola
+
+#: modes taken exactly in contact_bound's node-by-node bound on the deflection
+BOUND_MODES = 4
+
+
+@njit(cache=True, nogil=True)
+def contact_bound(model, s, a, work):
+    """jmax such that no node j >= jmax - 1 touches: delta_j < 0 there.
+
+    Two bounds on the deflection w = sum_n a_n cos(lambda_n x). The coarse one, w <= sum |a_n|,
+    limits contact to the nodes j < jc with b(x) <= s + sum |a_n|. On those, each node's own
+        w_j <= sum_{n < 4} a_n cos(lambda_n x_j) + sum_{n >= 4} |a_n|
+    (last_reachable): scanning from the last node down, the first where b(x_j) - s is within
+    it is the last that can touch, j*, and jmax = j* + 2 (the pair (j*, j* + 1) is where the
+    layer's split subinterval can lie). The amplitudes fall fast with n, so j* is close to the
+    true contact edge: on the reference case jmax is 3.5 nodes beyond it on average, where
+    the coarse bound left 295, and the forcing's passes over the table shrink with it. A
+    relative 1e-9 of sum |a_n| is added to the bound against rounding. work (J,) is scratch
+    (the caller's delta, which the forcing overwrites below jmax); J = work.shape[0].
+    """
+    J = work.shape[0]
+    N = a.shape[0]
+    m = min(BOUND_MODES, N)
+    head = 0.0
+    tail = 0.0
+    for n in range(N):
+        if n < m:
+            head += abs(a[n])
+        else:
+            tail += abs(a[n])
+    reach = s + head + tail
+    if reach <= 0.0:
+        return 1
+    jc = min(J, int(body_extent(reach, model.body) / model.basis.dx) + 2)
+    j = last_reachable(model, a, m, s + tail + 1e-9 * (head + tail), work, 0, jc)
+    return min(J, j + 2)
+
+
+@njit(cache=True, nogil=True)
+def last_reachable(model, c, m, lift, work, j0, j1):
+    """The last node j0 <= j < j1 with b(x_j) <= lift + sum_{n < m} c_n cos(lambda_n x_j), or
+    j0 - 1 if there is none: m + 1 vectorised passes over work (scratch), then a scan down."""
+    profile = model.body.profile
+    cosq = model.basis.cosq
+    for j in range(j0, j1):
+        work[j] = profile[j] - lift
+    for n in range(m):
+        cn = c[n]
+        row = cosq[n]
+        for j in range(j0, j1):
+            work[j] -= cn * row[j]
+    for j in range(j1 - 1, j0 - 1, -1):
+        if work[j] <= 0.0:
+            return j
+    return j0 - 1
+
+
+@njit(cache=True, nogil=True)
+def count_contacts(delta, jmax, mirror):
+    """Disjoint intervals of delta > 0 on -L..L from the nodes of 0..L (central one once;
+    mirror = 2), or from the nodes of the full plate (mirror = 1: each once)."""
+    count = 0
+    inside = False
+    away = 2 if mirror == 2.0 else 1
+    for j in range(jmax):
+        if delta[j] > 0.0:
+            if not inside:
+                count += 1 if j == 0 else away
+                inside = True
+        else:
+            inside = False
+    return count
+
+
+@njit(cache=True, nogil=True)
+def reach_in_step(model, jm, a0, a1, s0, s1, drift, work):
+    """jm' >= jm such that no node j >= jm' can be in contact at any time of a step.
+
+    Given: at both ends delta < 0 at the nodes j >= jm (contact_bound), and delta moves at most
+    drift / he over half the step, so delta(t) <= (delta_0 + delta_1) / 2 + drift / he at every
+    t in it. Each end's delta is bounded as in contact_bound, w_j <= sum_{n < 4} a_n
+    cos(lambda_n x_j) + sum_{n >= 4} |a_n| (last_reachable on the mean of the ends' first
+    modes), on the nodes up to the coarse limit
+    b(x_j) <= max(s0, s1) + max(sum |a0_n|, sum |a1_n|) + drift. work (J,) is scratch.
+    """
+    N = a0.shape[0]
+    J = work.shape[0]
+    m = min(BOUND_MODES, N)
+    A0 = 0.0
+    A1 = 0.0
+    T = 0.0
+    for n in range(N):
+        A0 += abs(a0[n])
+        A1 += abs(a1[n])
+        if n >= m:
+            T += abs(a0[n]) + abs(a1[n])
+    reach = max(s0, s1) + max(A0, A1) + drift
+    if reach <= 0.0:
+        return jm
+    jc = min(J, int(body_extent(reach, model.body) / model.basis.dx) + 2)
+    if jc <= jm:
+        return jm
+    mean = np.empty(m)
+    for n in range(m):
+        mean[n] = 0.5 * (a0[n] + a1[n])
+    lift = 0.5 * (s0 + s1 + T) + drift + 1e-9 * (A0 + A1)
+    return max(jm, last_reachable(model, mean, m, lift, work, jm, jc) + 1)
+
+
+@njit(cache=True, nogil=True)
+def node_deltas(model, a, s, delta, j0, j1):
+    """delta = (w + s - b(x_j)) / he at the nodes j0 <= j < j1 (as node_reaction has it)."""
+    if j1 <= j0:
+        return
+    modal_sum_range(a, model.basis.cosq, delta, j0, j1)
+    for j in range(j0, j1):
+        delta[j] = (delta[j] + s - model.body.profile[j]) / model.layer.he
+
+
+@njit(cache=True, nogil=True)
+def shape_peak(model, delta, j, n, a, s):
+    """continuous_peak of delta = (w + s - b(x)) / he for any body shape: Newton on delta'
+    with b', b'' from body_slope_curvature, kept within [x_{j-1}, x_{j+1}]. Returns (value, x)."""
+    dx = model.basis.dx
+    lam1 = model.basis.lam1
+    he = model.layer.he
+    ones = model.plate.ones
+    if j == 0 or j == n - 1:
+        return delta[j], j * dx
+    v, x = refine(delta, 1.0, j, n, dx)
+    xlo = (j - 1) * dx
+    xhi = (j + 1) * dx
+    for _ in range(8):
+        s0, s1, s2 = mode_sums(ones, a, lam1, x)
+        b1, b2 = body_slope_curvature(x, model.body)
+        x, done = _newton_move(x, s1 - b1, s2 - b2, xlo, xhi, NEWTON_STOP * dx)
+        if done:
+            break
+    s0, s1, s2 = mode_sums(ones, a, lam1, x)
+    value = (s0 + s - body_profile(x, model.body)) / he
+    if value < delta[j]:                 # a corner the iteration could not settle on: the node
+        return delta[j], j * dx
+    return value, x
+
+
+@njit(cache=True, nogil=True)
+def gap_peak(model, s, U, delta, jm, a, adot, out):
+    """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x), the
+    body at penetration s moving down at U.
+
+    delta holds the nodes j < jm (beyond them delta < 0); the peak is refined on the modes.
+    """
+    he = model.layer.he
+    ones = model.plate.ones
+    n = jm if jm < delta.shape[0] else delta.shape[0]
+    j = argmax_node(delta, 1.0, n)
+    if j == n - 1 and n < delta.shape[0]:
+        v, x = delta[j], j * model.basis.dx     # the next node is outside the computed range
+    elif is_parabola(model.body):
+        v, x = continuous_peak(delta, 1.0, j, n, model.basis, ones, a, 1.0 / he,
+                               -0.5 / (model.body.R * he), s / he)
+    else:
+        v, x = shape_peak(model, delta, j, n, a, s)
+    out[0] = v
+    out[1] = (mode_sum(ones, adot, model.basis.lam1, x) + U) / he
+    out[2] = x

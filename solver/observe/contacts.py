@@ -1,0 +1,146 @@
+r"""The contact intervals: every change of their number inside an accepted step (docs/model.md,
+"Events": contacts).
+
+delta at a node near the contact boundary is interpolated by the cubic Hermite of its end values
+and rates, delta_t = (w_t + U) / he; every sign change is an event, applied in time order to the
+sign pattern, which is recounted. An interval that opens and closes within the step is seen too.
+
+Benchmark (tests/test_events.py, test_short_lived_contact_interval_is_counted; and
+tests/test_kernel_pieces.py): an interval shorter than a step is counted, and the observer on the
+nodes bounded by reach_in_step equals the observer on every node.
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..cubic import cubic_sign_changes, hermite
+from ..model.basis import modal_sum_range
+from ..model.body import body_position, body_speed
+from ..model.contact import count_contacts, node_deltas, reach_in_step
+from .record import append_row
+
+#: candidate nodes at most this far apart share one pass over the table rows (observe_contacts)
+RUN_GAP = 4
+
+#: the contact observer's scratch: sgn (J,), the events' times ev_th and nodes ev_j (4 J + 16,)
+ContactWork = namedtuple("ContactWork", "sgn ev_th ev_j")
+
+
+@njit(cache=True, nogil=True)
+def contact_work(J):
+    """A ContactWork for J nodes (allocated once per run)."""
+    return ContactWork(np.empty(J), np.empty(4 * J + 16), np.empty(4 * J + 16))
+
+
+@njit(cache=True, nogil=True)
+def _candidates(model, t0, h, s0, jm0, s1, jm1, speed, sgn):
+    """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
+    <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; s0.delta,
+    s1.delta are filled up to that range): (candidate nodes, their count, the range jm)."""
+    body = model.body
+    he = model.layer.he
+    S0, S1 = body_position(body, t0, s0.yb), body_position(body, t0 + h, s1.yb)
+    jm = reach_in_step(model, max(jm0, jm1), s0.a, s1.a, S0, S1, 0.5 * speed * h * he, sgn)
+    node_deltas(model, s0.a, S0, s0.delta, jm0, jm)     # nodes outside an end's computed range
+    node_deltas(model, s1.a, S1, s1.delta, jm1, jm)
+    cand = np.empty(jm, dtype=np.int64)
+    nc = 0
+    for j in range(jm):
+        d0 = s0.delta[j]
+        d1 = s1.delta[j]
+        sgn[j] = 1.0 if d0 > 0.0 else -1.0
+        mid = 0.5 * (d0 + d1)
+        if (d0 > 0.0) == (d1 > 0.0):
+            if d0 > 0.0 and mid - 0.5 * speed * h > 0.0:
+                continue
+            if not d0 > 0.0 and mid + 0.5 * speed * h <= 0.0:
+                continue
+        cand[nc] = j
+        nc += 1
+    return cand, nc, jm
+
+
+@njit(cache=True, nogil=True)
+def _sign_changes(model, cw, h, s0, s1, cand, nc, jm):
+    """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
+    step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
+    candidate nodes. Returns the number of events."""
+    he = model.layer.he
+    cosq = model.basis.cosq
+    U0, U1 = body_speed(model.body, s0.yb), body_speed(model.body, s1.yb)
+    ev_th, ev_j = cw.ev_th, cw.ev_j
+    rate0 = np.empty(jm)
+    rate1 = np.empty(jm)
+    i = 0
+    while i < nc:
+        lo = cand[i]
+        while i + 1 < nc and cand[i + 1] <= cand[i] + RUN_GAP:
+            i += 1
+        hi = cand[i] + 1
+        modal_sum_range(s0.adot, cosq, rate0, lo, hi)
+        modal_sum_range(s1.adot, cosq, rate1, lo, hi)
+        i += 1
+    n_ev = 0
+    roots = np.empty(3)
+    for i in range(nc):
+        j = cand[i]
+        c0, c1, c2, c3 = hermite(s0.delta[j], s1.delta[j], (rate0[j] + U0) / he, (rate1[j] + U1) / he, h)
+        k = cubic_sign_changes(c0, c1, c2, c3, roots)
+        for r in range(k):
+            if n_ev < ev_th.shape[0]:
+                ev_th[n_ev] = roots[r]
+                ev_j[n_ev] = j
+                n_ev += 1
+    for i in range(1, n_ev):            # insertion sort by time
+        th = ev_th[i]
+        jj = ev_j[i]
+        m = i - 1
+        while m >= 0 and ev_th[m] > th:
+            ev_th[m + 1] = ev_th[m]
+            ev_j[m + 1] = ev_j[m]
+            m -= 1
+        ev_th[m + 1] = th
+        ev_j[m + 1] = jj
+    return n_ev
+
+
+@njit(cache=True, nogil=True)
+def observe_contacts(model, cw, t0, h, s0, jm0, s1, jm1, contacts, record):
+    """Changes of the number of contact intervals inside the step [t0, t0 + h], between the states
+    s0 and s1 (their nodes computed up to jm0, jm1). record = (rows (t, count after the change),
+    count of rows). Returns (contacts at t1, record, largest count in the step)."""
+    rec, n = record
+    he = model.layer.he
+    U0, U1 = body_speed(model.body, s0.yb), body_speed(model.body, s1.yb)
+    Ub = max(abs(U0), abs(U1))
+    if model.body.inv_mass > 0.0:
+        Ub *= 2.0                       # a free body's speed may swing between the step's ends
+    r0 = 0.0
+    r1 = 0.0
+    for k in range(s0.adot.shape[0]):
+        r0 += abs(s0.adot[k])
+        r1 += abs(s1.adot[k])
+    speed = (2.0 * max(r0, r1) + Ub) / he   # a bound on |d delta / dt| within the step
+    cand, nc, jm = _candidates(model, t0, h, s0, jm0, s1, jm1, speed, cw.sgn)
+    n_ev = _sign_changes(model, cw, h, s0, s1, cand, nc, jm)
+    largest = contacts
+    if n_ev == 0:
+        return contacts, (rec, n), largest
+    mirror = model.basis.mirror
+    for i in range(n_ev):
+        j = int(cw.ev_j[i])
+        cw.sgn[j] = -cw.sgn[j]
+        c = count_contacts(cw.sgn, jm, mirror)
+        if c != contacts:
+            rec, n = append_row(rec, n, t0 + cw.ev_th[i] * h, c, 0.0, 0.0, 0.0)
+            contacts = c
+            if c > largest:
+                largest = c
+    final = count_contacts(s1.delta, jm, mirror)
+    if final != contacts:               # the end pattern is exact: it wins
+        rec, n = append_row(rec, n, t0 + h, final, 0.0, 0.0, 0.0)
+        contacts = final
+        if final > largest:
+            largest = final
+    return contacts, (rec, n), largest

@@ -1,0 +1,19 @@
+"""Growable records (rows of floats) that the observers append to inside the kernels."""
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def append_row(buf, n, row0, row1, row2, row3, row4):
+    """Append a row (the first columns of it) to a growable record; returns (buf, n)."""
+    if n == buf.shape[0]:
+        bigger = np.empty((2 * buf.shape[0], buf.shape[1]))
+        bigger[:n] = buf[:n]
+        buf = bigger
+    buf[n, 0] = row0
+    buf[n, 1] = row1
+    if buf.shape[1] > 2:
+        buf[n, 2] = row2
+        buf[n, 3] = row3
+        buf[n, 4] = row4
+    return buf, n + 1

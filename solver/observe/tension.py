@@ -1,0 +1,246 @@
+r"""The tension records: the running maximum of the peak tension on each surface over time
+(docs/model.md, "Events": crack onset for any eps_Y from one run).
+
+The peak of sign * eps over x (sign +1: the upper surface's tension, -1: the lower's) is followed
+through each accepted step: d/dt max_x eps = eps_t at the peak (envelope theorem), so its value
+and rate are known exactly at both ends, and between samples the record is their cubic Hermite.
+Inside a step the peak is sampled on the exponential dense output (solver.step.dense_states),
+which resolves modes that oscillate within the step. A step is stored when it raises the
+running maximum; rows (t, value, rate, x, join), join = 1 when the row continues the previous
+one (layout R_*). Where the global peak passes from one local peak to another within a step,
+the global peak itself is sampled. Crack onset for eps_Y is then the first crossing of eps_Y by
+the record (solver.fracture), for every eps_Y from the one run.
+
+Benchmark (tests/test_events.py): the record's crossing agrees with the crossing located on
+true sub-steps of the integrator (test_record_answers_any_eps_Y_as_exact_location), and one
+record answers ten eps_Y as ten separate runs would.
+"""
+from collections import namedtuple
+
+import numpy as np
+from numba import njit
+
+from ..cubic import cubic_max, hermite
+from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
+from ..model.basis import NEWTON_STOP, _newton_move, climb, global_peak, mode_sum, mode_sums, strain_nodes
+from ..step import dense_states
+from .record import append_row
+
+#: the peak tension is sampled at TENSION_SAMPLES - 1 points inside each step, from the
+#: exponential dense output: modes that oscillate within a step (omega h ~ 5 at N = 60) give
+#: the peak a 3e-4 wobble inside the step that the step ends alone cannot see (a step with
+#: omega_N h <= 0.4, such as rk4's, resolves every mode and is not sampled)
+TENSION_SAMPLES = 8
+#: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
+#: it (the wobble inside a step is ~3e-4): it is not sampled
+RIPPLE = 1e-2
+#: samples of the global peak in a step where it passes from one local peak to another
+SWITCH_SAMPLES = 32
+#: a peak that moves more than SWITCH_DISTANCE nodes within one step is taken for a switch
+SWITCH_DISTANCE = 10
+
+#: the tension observer's state and scratch: peaks (2, 4) each surface's (value, rate, x, node)
+#: at the current time; p0, p1, piece (4,) a step's start, end and one piece's (max, time, x);
+#: best (3,) the step's; samples (TENSION_SAMPLES + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense
+#: states, dense (1,) bool (computed this step), back (3,); A2, AD2, eps, samples2 the same for a
+#: switch of peaks (SWITCH_SAMPLES); joinable (2,) bool and run_max (2,) per surface
+TensionWork = namedtuple("TensionWork", "peaks p0 p1 piece best samples A AD dense back A2 AD2 eps samples2 "
+                                        "joinable run_max")
+#: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
+Dense = namedtuple("Dense", "z0 N1 Nm N5")
+
+
+@njit(cache=True, nogil=True)
+def tension_work(N, J):
+    """A TensionWork for N modes and J nodes (allocated once per run)."""
+    return TensionWork(np.empty((2, 4)), np.empty(4), np.empty(4), np.empty(4), np.empty(3),
+                       np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
+                       np.empty((TENSION_SAMPLES - 1, N)), np.zeros(1, np.bool_), np.empty(3),
+                       np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
+                       np.empty((SWITCH_SAMPLES + 1, 3)), np.zeros(2, np.bool_), np.empty(2))
+
+
+@njit(cache=True, nogil=True)
+def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
+    """Peak of sign * sum_n w_n a_n cos(lambda_n x) near x (Newton, kept in [xlo, xhi]) and its
+    rate sign * sum_n w_n a_n' cos(lambda_n x*): track[:3] = (value, rate, x)."""
+    for _ in range(8):
+        s0, s1, s2 = mode_sums(w, a, lam1, x)
+        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
+        if done:
+            break
+    s0, s1, s2 = mode_sums(w, a, lam1, x)
+    track[0] = sign * s0
+    track[1] = sign * mode_sum(w, adot, lam1, x)
+    track[2] = x
+
+
+@njit(cache=True, nogil=True)
+def global_state(model, eps, sign, a, adot, track):
+    """The global peak of sign * eps over continuous x (global_peak) and its time derivative
+    d/dt = sign * eps_t at the peak (envelope theorem): track[:] = (value, rate, x, node)."""
+    strain = model.plate.strain
+    v, x, j = global_peak(eps, sign, model.basis, strain, a)
+    track[0] = v
+    track[1] = sign * mode_sum(strain, adot, model.basis.lam1, x)
+    track[2] = x
+    track[3] = j
+
+
+@njit(cache=True, nogil=True)
+def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
+    """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
+    receives the (max, time, x) of the Hermite pieces between samples; the samples are stored
+    as consecutive record rows when that maximum rises above run_max. Returns (rec, n, stored)."""
+    hk = h / K
+    best[0] = -np.inf
+    for k in range(K):
+        c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
+        vmax, th = cubic_max(c0, c1, c2, c3)
+        if vmax > best[0]:
+            best[0] = vmax
+            best[1] = t0 + (k + th) * hk
+            best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
+    if not best[0] > run_max:
+        return rec, n, False
+    if not joinable:
+        rec, n = append_row(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
+    for k in range(1, K + 1):
+        rec, n = append_row(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
+    return rec, n, True
+
+
+@njit(cache=True, nogil=True)
+def _tension_piece(model, tw, s, t0, h, dz, rec, n):
+    """The peak of surface s over the step: from tw.p0 (t0) to tw.p1 (t0 + h), each (value,
+    rate, x), through the dense-output states inside the step (computed from dz when tw.dense[0]
+    is False; samples[k] receives the larger of the peaks followed forward from x0 and backward
+    from x1). Stored as consecutive record rows when it rises above the running maximum; tw.piece
+    receives (max, time, x) of the piece. Returns (rec, n, stored)."""
+    p0, p1, best, samples = tw.p0, tw.p1, tw.piece, tw.samples
+    joinable, run_max = tw.joinable[s], tw.run_max[s]
+    sign = 1.0 - 2.0 * s
+    K = tw.A.shape[0] + 1
+    c0, c1, c2, c3 = hermite(p0[0], p1[0], p0[1], p1[1], h)
+    vmax, th = cubic_max(c0, c1, c2, c3)
+    best[0] = vmax                               # from the ends; refined by the samples below
+    best[1] = t0 + th * h
+    best[2] = p0[2] + th * (p1[2] - p0[2])
+    if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
+        return rec, n, False
+    omega = model.plate.omega
+    if omega[omega.shape[0] - 1] * h <= 0.4:     # every mode resolved by the step: its ends suffice
+        if not vmax > run_max:
+            return rec, n, False
+        if not joinable:
+            rec, n = append_row(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
+        rec, n = append_row(rec, n, t0 + h, p1[0], p1[1], p1[2], 1.0)
+        return rec, n, True
+    if not tw.dense[0]:                          # the step's dense states, once per step
+        dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A, tw.AD)
+        tw.dense[0] = True
+    # follow the peak forward from p0 and backward from p1, each sample by Newton near the
+    # previous one; keep the larger (the global peak may pass from one local peak to another)
+    strain, lam1, dx, L = model.plate.strain, model.basis.lam1, model.basis.dx, model.basis.length
+    xf = p0[2]
+    for k in range(1, K):
+        peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, strain, tw.A[k - 1], tw.AD[k - 1],
+                  lam1, samples[k])
+        xf = samples[k, 2]
+    xb = p1[2]
+    back = tw.back
+    for k in range(K - 1, 0, -1):
+        peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, strain, tw.A[k - 1], tw.AD[k - 1],
+                  lam1, back)
+        xb = back[2]
+        if back[0] > samples[k, 0]:
+            samples[k, :3] = back
+    samples[0, :3] = p0[:3]
+    samples[K, :3] = p1[:3]
+    return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
+
+
+@njit(cache=True, nogil=True)
+def _global_piece(model, tw, s, t0, h, dz, rec, n):
+    """The global peak over a step in which it passes from one local peak to another (a new
+    peak may emerge inside the step, where no track can follow it): at SWITCH_SAMPLES - 1
+    points of the dense output the strain is evaluated at every node and the global peak
+    searched among all local peaks (global_peak). Stored like _tension_piece."""
+    p0, p1, best, samples = tw.p0, tw.p1, tw.piece, tw.samples2
+    joinable, run_max = tw.joinable[s], tw.run_max[s]
+    sign = 1.0 - 2.0 * s
+    K = SWITCH_SAMPLES
+    if max(p0[0], p1[0]) < run_max - RIPPLE * abs(run_max):   # far below the record: not needed
+        best[0] = max(p0[0], p1[0])
+        best[1] = t0 if p0[0] >= p1[0] else t0 + h
+        best[2] = p0[2] if p0[0] >= p1[0] else p1[2]
+        return rec, n, False
+    dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
+    samples[0, :3] = p0[:3]
+    samples[K, :3] = p1[:3]
+    strain = model.plate.strain
+    for k in range(1, K):
+        strain_nodes(tw.A2[k - 1], strain, model.basis.cosq, tw.eps)
+        v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1])
+        samples[k, 0] = v
+        samples[k, 1] = sign * mode_sum(strain, tw.AD2[k - 1], model.basis.lam1, x)
+        samples[k, 2] = x
+    return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
+
+
+@njit(cache=True, nogil=True)
+def observe_tension(model, tw, s, t0, h, s0, s1, dz, rec, n):
+    """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
+    [t0, t0 + h], between the states s0 and s1.
+
+    tw.peaks[s] holds (value, rate, x, node) of the global peak at t0 and receives it at t1. The
+    peak is followed from the step's start to its end through TENSION_SAMPLES - 1 samples of the
+    dense output inside the step (see _tension_piece); where the global peak passes from one
+    local peak to another within the step, the global peak itself is sampled (_global_piece). A
+    step is stored when it rises above tw.run_max[s], the running maximum so far (updated, and
+    tw.joinable[s]). Returns (rec, n); tw.best receives the (max, time, x) of the step.
+    """
+    sign = 1.0 - 2.0 * s
+    J = s1.eps.shape[0]
+    p0, p1, best, piece = tw.p0, tw.p1, tw.best, tw.piece
+    p0[:] = tw.peaks[s, :4]
+    j0 = int(p0[3])
+    global_state(model, s1.eps, sign, s1.a, s1.adot, p1)
+    jb0 = climb(s0.eps, sign, int(p1[3]), J)
+    best[0] = -np.inf
+    # one track through the step, unless the peak at t1 climbs back to another local peak at t0
+    # or jumped too far for one track (a peak that emerged inside the step)
+    if jb0 == j0 and abs(p1[2] - p0[2]) <= SWITCH_DISTANCE * model.basis.dx:
+        rec, n, stored = _tension_piece(model, tw, s, t0, h, dz, rec, n)
+    else:                                           # the global peak moved to another local peak
+        rec, n, stored = _global_piece(model, tw, s, t0, h, dz, rec, n)
+    tw.joinable[s] = stored
+    if piece[0] > best[0]:
+        best[:3] = piece[:3]
+    if best[0] > tw.run_max[s]:
+        tw.run_max[s] = best[0]
+    tw.peaks[s, :4] = p1[:4]
+    return rec, n
+
+
+@njit(cache=True, nogil=True)
+def observe_tensions(model, tw, t, h, s0, s1, dz, records, diag):
+    """The tension records of both surfaces over the accepted step (observe_tension), records =
+    (upper, n_upper, lower, n_lower); the largest tensions into diag. Returns the records."""
+    rec_up, n_up, rec_lo, n_lo = records
+    for s in range(2):                  # (a loop: numba compiles a copy per literal surface index)
+        if s == 0:
+            rec_up, n_up = observe_tension(model, tw, s, t, h, s0, s1, dz, rec_up, n_up)
+        else:
+            rec_lo, n_lo = observe_tension(model, tw, s, t, h, s0, s1, dz, rec_lo, n_lo)
+        _largest(tw.best, s, diag)
+    return rec_up, n_up, rec_lo, n_lo
+
+
+@njit(cache=True, nogil=True)
+def _largest(best, s, diag):
+    """The step's (max, time, x) of surface s into diag where it is the largest so far."""
+    if best[0] > diag[D_MAX_UPPER + 3 * s]:
+        diag[D_MAX_UPPER + 3 * s] = best[0]
+        diag[D_MAX_UPPER_T + 3 * s] = best[1]
+        diag[D_MAX_UPPER_X + 3 * s] = best[2]

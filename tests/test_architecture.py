@@ -1,0 +1,119 @@
+"""The structure docs/architecture.md describes, held: no import circles in solver/ and pipeline/,
+the solver's files and kernels small, the solver free of files, xarray, dask and plots, and the
+command line a parser that calls one function per command."""
+import ast
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+#: the loop is the one kernel allowed to be about a page
+LOOP = ("loop.py", "integrate")
+
+
+def _modules(package: str) -> dict:
+    """module name -> (path, parsed source) of every module of a package."""
+    out = {}
+    for path in sorted((ROOT / package).rglob("*.py")):
+        parts = path.relative_to(ROOT).with_suffix("").parts
+        name = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        out[name] = (path, ast.parse(path.read_text()))
+    return out
+
+
+def _imports(name: str, path: Path, tree, known) -> set:
+    """The modules of known that a module imports, at its top or inside a function."""
+    package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    deps = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                prefix = package[:len(package) - (node.level - 1)]
+                base = ".".join(prefix + ([node.module] if node.module else []))
+            # "from . import layout" imports the module layout, not its package
+            targets = [f"{base}.{a.name}" for a in node.names] + ([base] if node.module else [])
+        elif isinstance(node, ast.Import):
+            targets = [a.name for a in node.names]
+        else:
+            continue
+        deps.update(t for t in targets if t in known and t != name)
+    return deps
+
+
+def _cycles(graph: dict) -> list:
+    """The strongly connected components of more than one module (Tarjan)."""
+    index, low, stack, on, found, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph[v]:
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in graph:
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_module_imports_another_in_a_circle():
+    modules = {**_modules("solver"), **_modules("pipeline")}
+    graph = {name: _imports(name, path, tree, modules) for name, (path, tree) in modules.items()}
+    assert _cycles(graph) == []
+    # the check finds a circle where there is one
+    assert _cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+
+
+def test_the_solvers_files_and_kernels_are_small():
+    """No solver file above 600 lines; no numba kernel above 80 lines or 10 parameters, the loop
+    excepted (about a page)."""
+    big = []
+    for name, (path, tree) in _modules("solver").items():
+        lines = path.read_text().count("\n")
+        if lines > 600:
+            big.append(f"{path.name}: {lines} lines")
+        for node in ast.walk(tree):
+            if not isinstance(node, ast.FunctionDef) or not any("njit" in ast.unparse(d) for d in node.decorator_list):
+                continue
+            length, params = node.end_lineno - node.lineno + 1, len(node.args.args)
+            limit = 130 if (path.name, node.name) == LOOP else 80
+            if length > limit or params > 10:
+                big.append(f"{path.name}:{node.name}: {length} lines, {params} parameters")
+    assert big == []
+
+
+@pytest.mark.parametrize("forbidden", ["xarray", "dask", "matplotlib", "netCDF4", "pipeline"])
+def test_the_solver_is_pure_numerics(forbidden):
+    for name, (path, tree) in _modules("solver").items():
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            assert not any(n.split(".")[0] == forbidden for n in names), f"{path.name} imports {forbidden}"
+
+
+def test_the_command_line_parses_and_calls_one_function_per_command():
+    """cli.py holds the parser, one function per command, the results-directory lookup they share,
+    and main (exit statuses); the run itself is pipeline.run.run_study."""
+    _, tree = _modules("pipeline")["pipeline.cli"]
+    functions = [n.name for n in tree.body if isinstance(n, ast.FunctionDef)]
+    assert set(functions) == {"_parser", "command_run", "command_status", "command_show", "study_and_results",
+                              "main"}
+    run = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "command_run")
+    assert "run_study" in ast.unparse(run) and run.end_lineno - run.lineno < 25
