@@ -62,7 +62,7 @@ def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, ma
                    float(h_max), float(max_steps), float(bottom_gap), bool(until_separation))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def error_ratio(model, control, start, new, gap, scratch):
     """Local error (new.err, new.errb) over tolerance in the energy norm: the plate's error and a
     free body's velocity error M err_U^2, against the plate's energy at the step's start or end

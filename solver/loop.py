@@ -35,13 +35,14 @@ from .observe.contacts import contact_work, observe_contacts
 from .observe.events import locate_event
 from .observe.record import append_row
 from .observe.tension import Dense, global_state, observe_tensions, tension_work
-from .step import Carried, Coefficients, State, StepWork, Stepper, etd_coefficients, take_step
+from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
 
-#: the loop's work space besides its two states: the sub-steps' state, the stepper of sub-steps
-#: (its own coefficients, the step's scratch), the observers' work, the gap (largest delta, its
-#: rate and place) at the step's two ends, an event's value (3,), the tension peaks at the
-#: step's start (2, 4), and the fixed step's [target, step]
-Workspace = namedtuple("Workspace", "sub stepper tension contact gap0 gap1 value peaks0 fixed")
+#: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
+#: their stepper (its own coefficients and scratch: a search inside a step leaves the step's
+#: buffers as they were), the observers' work, the gap (largest delta, its rate and place) at the
+#: step's two ends, an event's value (3,), the tension peaks at the step's start (2, 4), and the
+#: fixed step's [target, step]
+Workspace = namedtuple("Workspace", "work sub stepper tension contact gap0 gap1 value peaks0 fixed")
 
 #: a trial step's verdict
 ACCEPT, RETRY, STOP = 0, 1, 2
@@ -55,12 +56,16 @@ def new_state(N, J):
 
 
 @njit(cache=True, nogil=True)
+def _step_work(N, J):
+    return StepWork(np.empty((2, N), np.complex128), np.empty((5, N)), np.empty(J), np.zeros((6, 6)))
+
+
+@njit(cache=True, nogil=True)
 def _workspace(method, model, N, J):
-    work = StepWork(np.empty((2, N), np.complex128), np.empty((5, N)), np.empty(J), np.zeros(6), np.zeros(6),
-                    np.zeros(6), np.zeros(6), np.zeros(6), np.zeros(6))
-    stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))), work)
-    return Workspace(new_state(N, J), stepper, tension_work(N, J), contact_work(J), np.empty(3), np.empty(3),
-                     np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
+    stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
+                      _step_work(N, J))
+    return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J), np.empty(3),
+                     np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
 
 
 @njit(cache=True, nogil=True)
@@ -73,7 +78,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
         cur.a[n] = a0[n]
         cur.adot[n] = adot0[n]
     s, U = body_position(model.body, t, cur.yb), body_speed(model.body, cur.yb)
-    st, force, jmax, lp = layer_forcing_at(model, s, U, cur.a, cur.adot, cur.delta, ws.stepper.work.fvals,
+    st, force, jmax, lp = layer_forcing_at(model, s, U, cur.a, cur.adot, cur.delta, ws.work.fvals,
                                            cur.forcing)
     if st != 0:
         return st, force, jmax, lp, 0, records
@@ -96,6 +101,20 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
 
 
 @njit(cache=True, nogil=True)
+def _copy_state(source, target):
+    """target's arrays = source's (all but eps, which the caller recomputes)."""
+    target.z[:] = source.z
+    target.forcing[:] = source.forcing
+    target.a[:] = source.a
+    target.adot[:] = source.adot
+    target.delta[:] = source.delta
+    target.yb[:] = source.yb
+    target.err[:] = source.err
+    target.errb[:] = source.errb
+    target.acc[:] = source.acc
+
+
+@njit(cache=True, nogil=True, inline="always")
 def _finite_state(st, w_new, new):
     if not (st == 0 and math.isfinite(w_new)):
         return False
@@ -105,14 +124,14 @@ def _finite_state(st, w_new, new):
     return math.isfinite(new.yb[B_D]) and math.isfinite(new.yb[B_U])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _residual(model, state, jm, w_new, e0):
     """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state."""
     e_new = _plus_plate_energy(layer_energy(model, state.delta, jm), model.plate, state.z)
     return e_new, e_new + state.acc[0] - w_new - e0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
     """The verdict on a trial step, trial = (status, W(t_new), jmax, h, error exponent), energies =
     (E(t_start), the residual at t, W(t)): (verdict, h to retry with, error ratio, residual at
@@ -132,7 +151,7 @@ def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
         return RETRY, h, 0.0, 0.0, OK, 1
     ratio = 0.0
     if adaptive:
-        ratio = error_ratio(model, control, cur, new, ws.gap0, ws.stepper.work.rows[0])
+        ratio = error_ratio(model, control, cur, new, ws.gap0, ws.work.rows[0])
         if ratio > 1.0:
             h = h_step * max(0.2, 0.9 * ratio ** -expo)
             if h < control.h_min:
@@ -153,7 +172,7 @@ def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
     return ACCEPT, h_step, ratio, resid_new, OK, 0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _gap_at(model, t, state, jm, gap):
     """a, a' of a state from its z, and its gap (gap_peak) into gap."""
     plate = model.plate
@@ -164,7 +183,7 @@ def _gap_at(model, t, state, jm, gap):
              state.a, state.adot, gap)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _may_bottom(model, control, gap0, gap1, h):
     """The gap may close to bottom_gap inside the step: at its end, or by the cubic Hermite of the
     largest delta and its rate between the ends."""
@@ -173,7 +192,7 @@ def _may_bottom(model, control, gap0, gap1, h):
     return model.layer.K > 0.0 and (gap1[0] >= level or cubic_max(c0, c1, c2, c3)[0] >= level)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _strain_error(model, err):
     """The local error of a step in strain amplitude (the error of a and of a' / omega)."""
     plate = model.plate
@@ -189,31 +208,31 @@ def _strain_error(model, err):
     return math.sqrt(e_step)
 
 
-@njit(cache=True, nogil=True)
-def _locate_levels(ws, levels, out, cur, carried, t, h):
+@njit(cache=True, nogil=True, inline="always")
+def _locate_levels(ws, levels, out, start, carried, t, h):
     """Tension levels first reached in the accepted step, located on true sub-steps (for
     verification): their time and place into out.level_t, out.level_x."""
     for s in range(2):
         rm = ws.tension.run_max[s]
         for i in range(levels.shape[0]):
             if math.isnan(out.level_t[s, i]) and levels[i] <= rm:
-                lo, hi, _, _, _, found = locate_event(ws.stepper, 1.0 - 2.0 * s, levels[i], cur, carried, t, h,
+                lo, hi, _, _, _, found = locate_event(ws.stepper, 1.0 - 2.0 * s, levels[i], start, carried, t, h,
                                                       ws.peaks0[s], ws.sub, ws.value)
                 if found:
                     out.level_t[s, i] = t + 0.5 * (lo + hi)
                     out.level_x[s, i] = ws.value[2]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe(model, ws, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point: ends =
-    (jmax at t, jmax and F at t + h). Returns (contacts at t + h, records, a free body left the
-    ice)."""
-    jmax, jm5, F5 = ends
+    (jmax at t, jmax and F at t + h, the scratch of the step that reached new). Returns (contacts
+    at t + h, records, a free body left the ice)."""
+    jmax, jm5, F5, work = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
     ws.peaks0[:, :] = ws.tension.peaks
     ws.tension.dense[0] = not h > 0.0             # computed on demand by the tension observer
-    dz = Dense(cur.z, cur.forcing, ws.stepper.work.rows[2], new.forcing)
+    dz = Dense(cur.z, cur.forcing, work.rows[2], new.forcing)
     rec_up, n_up, rec_lo, n_lo = observe_tensions(model, ws.tension, t, h, cur, new, dz,
                                                   (rec_up, n_up, rec_lo, n_lo), diag)
     contacts, (rec_c, n_c), largest = observe_contacts(model, ws.contact, t, h, cur, jmax, new, jm5,
@@ -257,6 +276,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     adaptive = method == ETD34 and control.fixed_step <= 0.0
     while True:
         carried = Carried(force, work, diss, lp, contacts)
+        start = Start(cur.z, cur.forcing, cur.yb)      # (three arrays cross into a step, not ten)
         while k < T and t_out[k] <= t:                       # outputs due at the current time
             record_output(model, out, k, t, cur, jmax, carried, err_sum)
             k += 1
@@ -271,8 +291,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             etd_coefficients(model.plate, h_step, coeffs.C)
             body_coefficients(h_step, coeffs.Cb)
             h_coeffs = h_step
-        st, F5, jm5, w_new, event = take_step(method, model, coeffs, ws.stepper.work, cur, carried, t, t_new,
-                                              h_step, new)
+        st, F5, jm5, w_new, event = take_step(method, model, coeffs, ws.work, start, carried, t, t_new, h_step,
+                                              new)
         rhs_count += 4
         expo = 1.0 / 3.0 if event else 0.25
         verdict, h_try, ratio, resid_new, status, counted = _judge(adaptive, model, control, ws, cur, new, t,
@@ -286,19 +306,18 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             continue
         # ----- bottoming: the gap closes to bottom_gap inside the step
         _gap_at(model, t_new, new, jm5, ws.gap1)
-        h_eff = h_step
+        h_eff, reached = h_step, ws.work
         if _may_bottom(model, control, ws.gap0, ws.gap1, h_step):
-            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, cur, carried,
-                                                             t, h_step, ws.gap0, new, ws.gap1)
+            # on sub-steps into the stepper's own buffers: where the interpolant's crossing was
+            # not real, the accepted step is left as it was
+            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, start,
+                                                             carried, t, h_step, ws.gap0, ws.sub, ws.value)
             if found:                        # the state is the search's last sub-step
                 bottomed, h_eff, t_new, F5, jm5, w_new = True, s_lo, t + s_lo, F_b, jm_b, w_b
+                _copy_state(ws.sub, new)
+                ws.gap1[:] = ws.value
+                reached = ws.stepper.work
                 resid_new = _residual(model, new, jm5, w_new, e0)[1]
-            else:
-                # the interpolant's crossing was not real: the search overwrote the step's
-                # buffers, so take the accepted step again (same size and coefficients, same result)
-                st, F5, jm5, w_new, event = take_step(method, model, coeffs, ws.stepper.work, cur, carried, t,
-                                                      t_new, h_step, new)
-                _gap_at(model, t_new, new, jm5, ws.gap1)
         # ----- accepted: observers on [t, t + h_eff], then the states swap
         steps += 1
         if not bottomed:
@@ -307,10 +326,11 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
         else:
             strain_nodes(new.a, model.plate.strain, model.basis.cosq, new.eps)
-        contacts, records, left = _observe(model, ws, cur, new, carried, t, h_eff, (jmax, jm5, F5), records, diag)
+        contacts, records, left = _observe(model, ws, cur, new, carried, t, h_eff, (jmax, jm5, F5, reached), records,
+                                           diag)
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)
-        _locate_levels(ws, levels, out, cur, carried, t, h_eff)
+        _locate_levels(ws, levels, out, start, carried, t, h_eff)
         separated = left and control.until_separation
         cur, new = new, cur
         ws.gap0[:] = ws.gap1

@@ -55,9 +55,15 @@ Carried = namedtuple("Carried", "force work dissipated power contacts")
 #: the scheme's weights for one step length: C (9, N) complex (etd_coefficients), Cb (9, 2)
 Coefficients = namedtuple("Coefficients", "C Cb")
 #: scratch of a step: cz (2, N) complex (the stage state; RK4's increment), rows (5, N) (a at a
-#: stage, the stage forcings N2, N3, N4, a' at a stage), fvals (J,), and the stage table (6,)
-#: each, indexed by stage 1..5: F, G, d, u, D (the plate's dissipation rate), Lp (the layer's)
-StepWork = namedtuple("StepWork", "cz rows fvals F G d u D Lp")
+#: stage, the stage forcings N2, N3, N4, a' at a stage), fvals (J,), and the stage table (6, 6):
+#: rows *_ROW, columns the stages 1..5 (one array, not six: numba counts the references of
+#: every array a tuple argument holds at each call)
+StepWork = namedtuple("StepWork", "cz rows fvals table")
+#: rows of StepWork.table: the force F, the body's deceleration G, its deficits d and u, the
+#: plate's dissipation rate D and the layer's power Lp at each stage
+F_ROW, G_ROW, D_ROW, U_ROW, DISS_ROW, LP_ROW = range(6)
+#: what a step reads of the state at its start: z, the forcing P and the body's deficits yb
+Start = namedtuple("Start", "z forcing yb")
 #: all a sub-step needs besides its start: the method, the model, its own coefficients, scratch
 Stepper = namedtuple("Stepper", "method model coeffs work")
 
@@ -89,7 +95,7 @@ def etd_coefficients(plate, h, C):
         C[8, n] = h * (4.0 * p3 - p2)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _stage(model, w, zs, s, U, delta, P):
     """A stage at the state zs, the body at penetration s moving down at U: layer_forcing_at into
     P. Returns (status, force, jmax, the layer's power). a' is needed only by a viscoelastic
@@ -105,7 +111,7 @@ def _stage(model, w, zs, s, U, delta, P):
     return layer_forcing_at(model, s, U, a_work, adot_work, delta, w.fvals, P)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _last_stage(model, w, out, t_new):
     """The forcing at the step's end (stage 5, the next step's first), with the strain at every
     node into out.eps. Returns (status, jmax)."""
@@ -121,18 +127,18 @@ def _last_stage(model, w, out, t_new):
     V = model.body.V
     st, F, jm, Lp = layer_forcing_strain(model, V * t_new - out.yb[B_D], V - out.yb[B_U], a_work, adot_work,
                                          out.delta, w.fvals, out.forcing, out.eps)
-    w.F[5] = F
-    w.Lp[5] = Lp
+    w.table[F_ROW, 5] = F
+    w.table[LP_ROW, 5] = Lp
     return st, jm
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _contacts_changed(model, st, delta, jm, contacts):
     """A stage that succeeded has another number of contact intervals than the step's start."""
     return st == 0 and count_contacts(delta, jm, model.basis.mirror) != contacts
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     """ETD34's stages 2, 3 and 4 (the module docstring), the body's alongside: (status, jmax,
     event), event if the number of contact intervals changed among them."""
@@ -143,40 +149,40 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     z, N1 = start.z, start.forcing
     zs = w.cz[0]
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
-    d, u, G1 = start.yb[B_D], start.yb[B_U], w.G[1]
+    d, u, G1 = start.yb[B_D], start.yb[B_U], w.table[G_ROW, 1]
     V = model.body.V
     th = t + 0.5 * h
     for n in range(z.shape[0]):
         zs[n] = emul(C[1, n], z[n], kind[n]) + C[2, n] * N1[n]
     if ice_damped:
-        w.D[2] = dissipation_rate(zs, plate)
-    st, F, jm, Lp = _stage(model, w, zs, V * th - w.d[2], V - w.u[2], delta, N2)
-    w.F[2], w.G[2], w.Lp[2] = F, body_accel(model.body, F), Lp
+        w.table[DISS_ROW, 2] = dissipation_rate(zs, plate)
+    st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
+    w.table[F_ROW, 2], w.table[G_ROW, 2], w.table[LP_ROW, 2] = F, body_accel(model.body, F), Lp
     event = _contacts_changed(model, st, delta, jm, contacts)
     if st == 0:
         for n in range(z.shape[0]):
             zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
-        w.d[3] = w.d[2] + Cb[3, 1] * (w.G[2] - G1)
-        w.u[3] = w.u[2] + Cb[3, 0] * (w.G[2] - G1)
+        w.table[D_ROW, 3] = w.table[D_ROW, 2] + Cb[3, 1] * (w.table[G_ROW, 2] - G1)
+        w.table[U_ROW, 3] = w.table[U_ROW, 2] + Cb[3, 0] * (w.table[G_ROW, 2] - G1)
         if ice_damped:
-            w.D[3] = dissipation_rate(zs, plate)
-        st, F, jm, Lp = _stage(model, w, zs, V * th - w.d[3], V - w.u[3], delta, N3)
-        w.F[3], w.G[3], w.Lp[3] = F, body_accel(model.body, F), Lp
+            w.table[DISS_ROW, 3] = dissipation_rate(zs, plate)
+        st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
+        w.table[F_ROW, 3], w.table[G_ROW, 3], w.table[LP_ROW, 3] = F, body_accel(model.body, F), Lp
         event = event or _contacts_changed(model, st, delta, jm, contacts)
     if st == 0:
         for n in range(z.shape[0]):
             zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
         if ice_damped:
-            w.D[4] = dissipation_rate(zs, plate)
-        w.d[4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.G[3] - G1)
-        w.u[4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.G[3] - G1)
-        st, F, jm, Lp = _stage(model, w, zs, V * t_new - w.d[4], V - w.u[4], delta, N4)
-        w.F[4], w.G[4], w.Lp[4] = F, body_accel(model.body, F), Lp
+            w.table[DISS_ROW, 4] = dissipation_rate(zs, plate)
+        w.table[D_ROW, 4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.table[G_ROW, 3] - G1)
+        w.table[U_ROW, 4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.table[G_ROW, 3] - G1)
+        st, F, jm, Lp = _stage(model, w, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4], delta, N4)
+        w.table[F_ROW, 4], w.table[G_ROW, 4], w.table[LP_ROW, 4] = F, body_accel(model.body, F), Lp
         event = event or _contacts_changed(model, st, delta, jm, contacts)
     return st, jm, event
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     """Classical RK4's stages 2, 3 and 4 on z' = i omega z + P (w.cz[1] accumulates k1 + 2 k2 +
     2 k3), the body's as ETD34 has them: (status, jmax)."""
@@ -185,37 +191,37 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     z, N1 = start.z, start.forcing
     zs, incr = w.cz[0], w.cz[1]
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
-    d, u, G1 = start.yb[B_D], start.yb[B_U], w.G[1]
+    d, u, G1 = start.yb[B_D], start.yb[B_U], w.table[G_ROW, 1]
     V = model.body.V
     th = t + 0.5 * h
     for n in range(z.shape[0]):
         k1 = 1j * omega[n] * z[n] + N1[n]
         incr[n] = k1
         zs[n] = z[n] + 0.5 * h * k1
-    st, F, jm, Lp = _stage(model, w, zs, V * th - w.d[2], V - w.u[2], delta, N2)
-    w.F[2], w.G[2], w.Lp[2] = F, body_accel(model.body, F), Lp
+    st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
+    w.table[F_ROW, 2], w.table[G_ROW, 2], w.table[LP_ROW, 2] = F, body_accel(model.body, F), Lp
     if st == 0:
         for n in range(z.shape[0]):
             k2 = 1j * omega[n] * zs[n] + N2[n]
             incr[n] += 2.0 * k2
             zs[n] = z[n] + 0.5 * h * k2
-        w.d[3] = w.d[2] + Cb[3, 1] * (w.G[2] - G1)
-        w.u[3] = w.u[2] + Cb[3, 0] * (w.G[2] - G1)
-        st, F, jm, Lp = _stage(model, w, zs, V * th - w.d[3], V - w.u[3], delta, N3)
-        w.F[3], w.G[3], w.Lp[3] = F, body_accel(model.body, F), Lp
+        w.table[D_ROW, 3] = w.table[D_ROW, 2] + Cb[3, 1] * (w.table[G_ROW, 2] - G1)
+        w.table[U_ROW, 3] = w.table[U_ROW, 2] + Cb[3, 0] * (w.table[G_ROW, 2] - G1)
+        st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
+        w.table[F_ROW, 3], w.table[G_ROW, 3], w.table[LP_ROW, 3] = F, body_accel(model.body, F), Lp
     if st == 0:
         for n in range(z.shape[0]):
             k3 = 1j * omega[n] * zs[n] + N3[n]
             incr[n] += 2.0 * k3
             zs[n] = z[n] + h * k3
-        w.d[4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.G[3] - G1)
-        w.u[4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.G[3] - G1)
-        st, F, jm, Lp = _stage(model, w, zs, V * t_new - w.d[4], V - w.u[4], delta, N4)
-        w.F[4], w.G[4], w.Lp[4] = F, body_accel(model.body, F), Lp
+        w.table[D_ROW, 4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.table[G_ROW, 3] - G1)
+        w.table[U_ROW, 4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.table[G_ROW, 3] - G1)
+        st, F, jm, Lp = _stage(model, w, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4], delta, N4)
+        w.table[F_ROW, 4], w.table[G_ROW, 4], w.table[LP_ROW, 4] = F, body_accel(model.body, F), Lp
     return st, jm
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _update(method, model, coeffs, w, start, h, out):
     """The step's solution into out.z and out.yb from the stage table."""
     C, Cb = coeffs.C, coeffs.Cb
@@ -223,7 +229,7 @@ def _update(method, model, coeffs, w, start, h, out):
     z, N1 = start.z, start.forcing
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
     d, u = start.yb[B_D], start.yb[B_U]
-    G = w.G
+    G = w.table[G_ROW]
     out.yb[B_D] = d + Cb[0, 1] * u + Cb[6, 1] * G[1] + Cb[7, 1] * (G[2] + G[3]) + Cb[8, 1] * G[4]
     out.yb[B_U] = u + Cb[6, 0] * G[1] + Cb[7, 0] * (G[2] + G[3]) + Cb[8, 0] * G[4]
     if method == ETD34:
@@ -238,7 +244,7 @@ def _update(method, model, coeffs, w, start, h, out):
             out.z[n] = z[n] + h / 6.0 * (incr[n] + k4)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _local_error(method, model, coeffs, w, start, h, event, out):
     """The step's local error estimate into out.err and out.errb: ETD34's embedded estimate, or,
     across a change of contact (event), its difference from the exponential trapezoid, whose
@@ -250,7 +256,7 @@ def _local_error(method, model, coeffs, w, start, h, event, out):
     z, N1, N5 = start.z, start.forcing, out.forcing
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
     d, u = start.yb[B_D], start.yb[B_U]
-    G = w.G
+    G = w.table[G_ROW]
     err, errb = out.err, out.errb
     if method != ETD34:
         for n in range(z.shape[0]):
@@ -288,13 +294,13 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     damped = ice_damped or model.layer.tau > 0.0
     d, u = start.yb[B_D], start.yb[B_U]
     for k in range(1, 5):
-        w.D[k] = 0.0
-    w.F[1] = carried.force
-    w.G[1] = body_accel(body, carried.force)
-    w.d[2] = d + Cb[1, 1] * u + Cb[2, 1] * w.G[1]
-    w.u[2] = u + Cb[2, 0] * w.G[1]
+        w.table[DISS_ROW, k] = 0.0
+    w.table[F_ROW, 1] = carried.force
+    w.table[G_ROW, 1] = body_accel(body, carried.force)
+    w.table[D_ROW, 2] = d + Cb[1, 1] * u + Cb[2, 1] * w.table[G_ROW, 1]
+    w.table[U_ROW, 2] = u + Cb[2, 0] * w.table[G_ROW, 1]
     if ice_damped:
-        w.D[1] = dissipation_rate(start.z, plate)
+        w.table[DISS_ROW, 1] = dissipation_rate(start.z, plate)
     event = False
     if method == ETD34:
         st, jm, event = _etd_stages(model, coeffs, w, start, carried.contacts, t, t_new, h, out.delta)
@@ -305,20 +311,20 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
         st, jm = _last_stage(model, w, out, t_new)
     if st != 0:
         return 1, 0.0, jm, carried.work, event
-    w.G[5] = body_accel(body, w.F[5])
+    w.table[G_ROW, 5] = body_accel(body, w.table[F_ROW, 5])
     if method == ETD34:
         event = event or count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
     else:
         event = count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
     _local_error(method, model, coeffs, w, start, h, event, out)
     V = body.V
-    w_new = _step_work(body, h, carried.work, (w.F[1], w.F[2], w.F[3], w.F[4]),
-                       (V - u, V - w.u[2], V - w.u[3], V - w.u[4]))
-    D, Lp = w.D, w.Lp
+    w_new = _step_work(body, h, carried.work, (w.table[F_ROW, 1], w.table[F_ROW, 2], w.table[F_ROW, 3], w.table[F_ROW, 4]),
+                       (V - u, V - w.table[U_ROW, 2], V - w.table[U_ROW, 3], V - w.table[U_ROW, 4]))
+    D, Lp = w.table[DISS_ROW], w.table[LP_ROW]
     out.acc[0] = (carried.dissipated + h * ((D[1] + carried.power) / 6.0 + (D[2] + Lp[2] + D[3] + Lp[3]) / 3.0
                                             + (D[4] + Lp[4]) / 6.0) if damped else carried.dissipated)
     out.acc[1] = Lp[5]
-    return 0, w.F[5], jm, w_new, event
+    return 0, w.table[F_ROW, 5], jm, w_new, event
 
 
 @njit(cache=True, nogil=True)

@@ -110,7 +110,7 @@ def test_no_node_beyond_the_contact_bound_touches(shape):
     for _ in range(20):
         a = rng.normal(scale=0.01, size=12)
         s = rng.uniform(0.0, 0.3)
-        jmax = contact_bound(tab.model, s, a, np.empty(tab.xq.size))
+        jmax = contact_bound(tab.model.body, tab.model.basis, s, a, np.empty(tab.xq.size))
         delta = (a @ tab.cosq + s - p.body_profile(tab.xq)) / p.he
         assert np.all(delta[jmax:] < 0)
 

@@ -162,7 +162,7 @@ def test_contact_bound_is_close_to_the_contact_edge():
     work, delta, fvals, P = np.empty(J), np.empty(J), np.empty(J), np.empty(p.Nmod)
     slack, coarse_slack = [], []
     for a, s in zip(r.amplitudes, r.body_position):
-        jmax = contact_bound(tab.model, s, a, work)
+        jmax = contact_bound(tab.model.body, tab.model.basis, s, a, work)
         exact = (a @ tab.cosq + s - tab.model.body.profile) / p.he
         compressed = np.nonzero(exact > 0)[0]
         edge = compressed[-1] + 1 if compressed.size else 0
@@ -191,11 +191,11 @@ def test_reach_in_step_bounds_every_node_beyond_it():
     for i in range(len(r.times) - 1):
         a0, a1 = r.amplitudes[i], r.amplitudes[i + 1]
         s0, s1 = r.body_position[i], r.body_position[i + 1]
-        jm = max(contact_bound(tab.model, s0, a0, work), contact_bound(tab.model, s1, a1, work))
+        jm = max(contact_bound(tab.model.body, tab.model.basis, s0, a0, work), contact_bound(tab.model.body, tab.model.basis, s1, a1, work))
         d0 = (a0 @ tab.cosq + s0 - b) / p.he
         d1 = (a1 @ tab.cosq + s1 - b) / p.he
         for drift in (0.0, *(10.0 ** rng.uniform(-6, -2, size=3))):
-            jx = reach_in_step(tab.model, jm, a0, a1, s0, s1, drift, work)
+            jx = reach_in_step(tab.model.body, tab.model.basis, jm, a0, a1, s0, s1, drift, work)
             assert jx >= jm
             assert not np.any(0.5 * (d0[jx:] + d1[jx:]) + drift / p.he > 0), (i, drift)
 
@@ -220,8 +220,8 @@ def test_contact_observer_on_the_bounded_nodes_equals_the_observer_on_every_node
             body0, body1 = -yb0[0], p.V * h - yb1[0]                  # s as the observer computes it
             full0 = (a0 @ tab.cosq + body0 - b) / p.he
             full1 = (a1 @ tab.cosq + body1 - b) / p.he
-            jm0 = contact_bound(tab.model, body0, a0, work)
-            jm1 = contact_bound(tab.model, body1, a1, work)
+            jm0 = contact_bound(tab.model.body, tab.model.basis, body0, a0, work)
+            jm1 = contact_bound(tab.model.body, tab.model.basis, body1, a1, work)
             part0, part1 = np.full(J, np.nan), np.full(J, np.nan)
             part0[:jm0], part1[:jm1] = full0[:jm0], full1[:jm1]
             contacts = count_contacts(full0, J, 2.0)

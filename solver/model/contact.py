@@ -9,6 +9,9 @@ observers' bound over a whole step is ``reach_in_step``. The gap between body an
 he (1 - delta), smallest where delta is largest over the continuous plate (``gap_peak``: a
 parabola through the nodes refined by Newton on the modes and the body's profile).
 
+Hot kernels take the narrow tuples they read (Body, Basis), not the Model: numba counts the
+references of every array a tuple argument holds at each call (docs/architecture.md).
+
 Benchmarks (tests/test_kernel_pieces.py): contact_bound is within a few nodes of the true
 contact edge and never inside it; reach_in_step bounds every node that changes sign within a
 step; the contact observer on the bounded nodes equals the observer on every node.
@@ -25,7 +28,7 @@ BOUND_MODES = 4
 
 
 @njit(cache=True, nogil=True)
-def contact_bound(model, s, a, work):
+def contact_bound(body, basis, s, a, work):
     """jmax such that no node j >= jmax - 1 touches: delta_j < 0 there.
 
     Two bounds on the deflection w = sum_n a_n cos(lambda_n x). The coarse one, w <= sum |a_n|,
@@ -52,17 +55,15 @@ def contact_bound(model, s, a, work):
     reach = s + head + tail
     if reach <= 0.0:
         return 1
-    jc = min(J, int(body_extent(reach, model.body) / model.basis.dx) + 2)
-    j = last_reachable(model, a, m, s + tail + 1e-9 * (head + tail), work, 0, jc)
+    jc = min(J, int(body_extent(reach, body) / basis.dx) + 2)
+    j = last_reachable(body.profile, basis.cosq, a, m, s + tail + 1e-9 * (head + tail), work, 0, jc)
     return min(J, j + 2)
 
 
 @njit(cache=True, nogil=True)
-def last_reachable(model, c, m, lift, work, j0, j1):
+def last_reachable(profile, cosq, c, m, lift, work, j0, j1):
     """The last node j0 <= j < j1 with b(x_j) <= lift + sum_{n < m} c_n cos(lambda_n x_j), or
     j0 - 1 if there is none: m + 1 vectorised passes over work (scratch), then a scan down."""
-    profile = model.body.profile
-    cosq = model.basis.cosq
     for j in range(j0, j1):
         work[j] = profile[j] - lift
     for n in range(m):
@@ -94,7 +95,7 @@ def count_contacts(delta, jmax, mirror):
 
 
 @njit(cache=True, nogil=True)
-def reach_in_step(model, jm, a0, a1, s0, s1, drift, work):
+def reach_in_step(body, basis, jm, a0, a1, s0, s1, drift, work):
     """jm' >= jm such that no node j >= jm' can be in contact at any time of a step.
 
     Given: at both ends delta < 0 at the nodes j >= jm (contact_bound), and delta moves at most
@@ -118,24 +119,24 @@ def reach_in_step(model, jm, a0, a1, s0, s1, drift, work):
     reach = max(s0, s1) + max(A0, A1) + drift
     if reach <= 0.0:
         return jm
-    jc = min(J, int(body_extent(reach, model.body) / model.basis.dx) + 2)
+    jc = min(J, int(body_extent(reach, body) / basis.dx) + 2)
     if jc <= jm:
         return jm
     mean = np.empty(m)
     for n in range(m):
         mean[n] = 0.5 * (a0[n] + a1[n])
     lift = 0.5 * (s0 + s1 + T) + drift + 1e-9 * (A0 + A1)
-    return max(jm, last_reachable(model, mean, m, lift, work, jm, jc) + 1)
+    return max(jm, last_reachable(body.profile, basis.cosq, mean, m, lift, work, jm, jc) + 1)
 
 
 @njit(cache=True, nogil=True)
-def node_deltas(model, a, s, delta, j0, j1):
+def node_deltas(he, body, basis, a, s, delta, j0, j1):
     """delta = (w + s - b(x_j)) / he at the nodes j0 <= j < j1 (as node_reaction has it)."""
     if j1 <= j0:
         return
-    modal_sum_range(a, model.basis.cosq, delta, j0, j1)
+    modal_sum_range(a, basis.cosq, delta, j0, j1)
     for j in range(j0, j1):
-        delta[j] = (delta[j] + s - model.body.profile[j]) / model.layer.he
+        delta[j] = (delta[j] + s - body.profile[j]) / he
 
 
 @njit(cache=True, nogil=True)

@@ -67,7 +67,7 @@ def layer_forcing(model, t, a, delta, fvals, P):
     return st, force, jmax
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
     """Modal forcing P_n(s, a) and body force F from the layer reaction, the body's lowest point
     at y = he - s (penetration s: V t for the paper's body).
@@ -90,12 +90,13 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
         for n in range(P.shape[0]):
             P[n] = 0.0
         return 0, 0.0, 0, 0.0
-    jmax = contact_bound(model, s, a, delta)
+    jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum(a, model.basis.cosq, delta, jmax)
-    return layer_reaction(model, s, U, adot, jmax, delta, fvals, P)
+    return _scaled(model.layer.K, model.basis.mirror, model.plate.coef,
+                   layer_reaction(model.layer, model.body, model.basis, s, U, adot, jmax, delta, fvals, P), P)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     """layer_forcing_at, and the strain at every node into eps (strain_nodes), from one pass over
     the table where both are needed."""
@@ -105,22 +106,37 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
         for n in range(P.shape[0]):
             P[n] = 0.0
         return 0, 0.0, 0, 0.0
-    jmax = contact_bound(model, s, a, delta)
+    jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum_strain(a, model.plate.strain, cosq, delta, eps, jmax)
-    return layer_reaction(model, s, U, adot, jmax, delta, fvals, P)
+    return _scaled(model.layer.K, model.basis.mirror, model.plate.coef,
+                   layer_reaction(model.layer, model.body, model.basis, s, U, adot, jmax, delta, fvals, P), P)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _scaled(K, mirror, coef, reaction, P):
+    """layer_reaction's result with P scaled by K coef_n (the modes' -2 K / (L M_n)), where it
+    succeeded; the force times mirror K. (Scalars and the one array it reads: binding a Model to
+    a name counts a reference to each of its arrays.)"""
+    st, force, jmax, power = reaction
+    if st != 0:
+        return reaction
+    for n in range(P.shape[0]):
+        P[n] *= K * coef[n]
+    return 0, mirror * K * force, jmax, power
 
 
 @njit(cache=True, nogil=True)
-def node_reaction(model, s, U, adot, jmax, delta, fvals):
+def node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals):
     """delta and f at the nodes j < jmax, given the deflection sum_n a_n cos(lambda_n x_j) in
     delta (with the viscoelastic layer's part, layer_damping): (status, sum of f, jc, power), jc
     the first node beyond which none is compressed; status 1 if a node has delta >= 1."""
-    he = model.layer.he
-    law = model.layer.law
+    he = layer.he
+    law = layer.law
+    profile = body.profile
     total = 0.0
     jc = 0                           # nodes j >= jc are not compressed
     for j in range(jmax):
-        d = (delta[j] + s - model.body.profile[j]) / he
+        d = (delta[j] + s - profile[j]) / he
         delta[j] = d
         f = 0.0
         if d > 0.0:
@@ -131,14 +147,14 @@ def node_reaction(model, s, U, adot, jmax, delta, fvals):
         fvals[j] = f
         total += f
     power = 0.0
-    if model.layer.tau > 0.0 and jc > 0:
-        total, power = layer_damping(model, U, adot, jmax, jc, delta, fvals)
+    if layer.tau > 0.0 and jc > 0:
+        total, power = layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals)
     return 0, total, jc, power
 
 
 @njit(cache=True, nogil=True)
-def layer_damping(model, U, adot, jmax, jc, delta, fvals):
-    """The viscoelastic layer (tau_l = model.layer.tau > 0): at each compressed node f becomes
+def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
+    """The viscoelastic layer (tau_l = layer.tau > 0): at each compressed node f becomes
     f max(1 + tau_l delta', 0), delta' = (w' + U) / he, w' = sum_n adot_n cos(lambda_n x_j) (one
     more pass over the table, on the compressed nodes only). The damping is proportional to the
     elastic reaction (Hunt-Crossley), so the pressure stays continuous as a node enters contact,
@@ -149,10 +165,10 @@ def layer_damping(model, U, adot, jmax, jc, delta, fvals):
     part of a split subinterval towards an uncompressed one, nothing beyond x = 0 and x = L), so
     that a contact patch narrower than dx is not over-counted."""
     J = delta.shape[0]
-    tau_l = model.layer.tau
-    he = model.layer.he
+    tau_l = layer.tau
+    he = layer.he
     wdot = np.empty(jc)
-    modal_sum(adot, model.basis.cosq, wdot, jc)
+    modal_sum(adot, basis.cosq, wdot, jc)
     power = 0.0
     for j in range(jc):
         if delta[j] > 0.0:
@@ -171,19 +187,20 @@ def layer_damping(model, U, adot, jmax, jc, delta, fvals):
     force = 0.0
     for j in range(jmax):
         force += fvals[j]
-    return force, model.basis.mirror * model.layer.K * model.basis.dx * power
+    return force, basis.mirror * layer.K * basis.dx * power
 
 
 @njit(cache=True, nogil=True)
-def layer_reaction(model, s, U, adot, jmax, delta, fvals, P):
+def layer_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals, P):
     """The rest of layer_forcing_at, given the deflection sum_n a_n cos(lambda_n x_j) in delta
-    (j < jmax): the nodes' f (node_reaction), then P and F: the hat weights on the nodes (the
-    trapezoid's half weights at x = 0 and at the far end), and the split subintervals."""
+    (j < jmax): the nodes' f (node_reaction), then P / (K coef_n) and int f dx: the hat weights on
+    the nodes (the trapezoid's half weights at x = 0 and at the far end), and the split
+    subintervals. (The Body, Basis and Layer it reads, not the Model: see contact.py.)"""
     N = P.shape[0]
     J = delta.shape[0]
-    cosq = model.basis.cosq
-    wq = model.basis.wq
-    st, force, jc, power = node_reaction(model, s, U, adot, jmax, delta, fvals)
+    cosq = basis.cosq
+    wq = basis.wq
+    st, force, jc, power = node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals)
     if st != 0:
         return 1, 0.0, jmax, 0.0
     if jc > 0:
@@ -202,12 +219,7 @@ def layer_reaction(model, s, U, adot, jmax, delta, fvals, P):
     else:
         for n in range(N):
             P[n] = 0.0
-    force = split_segments(model.basis, jmax, delta, fvals, P, force * model.basis.dx)
-    K = model.layer.K
-    coef = model.plate.coef
-    for n in range(N):
-        P[n] *= K * coef[n]
-    return 0, model.basis.mirror * K * force, jmax, power
+    return 0, split_segments(basis, jmax, delta, fvals, P, force * basis.dx), jmax, power
 
 
 @njit(cache=True, nogil=True)

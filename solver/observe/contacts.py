@@ -33,7 +33,7 @@ def contact_work(J):
     return ContactWork(np.empty(J), np.empty(4 * J + 16), np.empty(4 * J + 16))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _candidates(model, t0, h, s0, jm0, s1, jm1, speed, sgn):
     """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
     <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; s0.delta,
@@ -41,9 +41,9 @@ def _candidates(model, t0, h, s0, jm0, s1, jm1, speed, sgn):
     body = model.body
     he = model.layer.he
     S0, S1 = body_position(body, t0, s0.yb), body_position(body, t0 + h, s1.yb)
-    jm = reach_in_step(model, max(jm0, jm1), s0.a, s1.a, S0, S1, 0.5 * speed * h * he, sgn)
-    node_deltas(model, s0.a, S0, s0.delta, jm0, jm)     # nodes outside an end's computed range
-    node_deltas(model, s1.a, S1, s1.delta, jm1, jm)
+    jm = reach_in_step(body, model.basis, max(jm0, jm1), s0.a, s1.a, S0, S1, 0.5 * speed * h * he, sgn)
+    node_deltas(he, body, model.basis, s0.a, S0, s0.delta, jm0, jm)     # nodes outside an end's computed range
+    node_deltas(he, body, model.basis, s1.a, S1, s1.delta, jm1, jm)
     cand = np.empty(jm, dtype=np.int64)
     nc = 0
     for j in range(jm):
@@ -61,7 +61,7 @@ def _candidates(model, t0, h, s0, jm0, s1, jm1, speed, sgn):
     return cand, nc, jm
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _sign_changes(model, cw, h, s0, s1, cand, nc, jm):
     """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
     step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
@@ -105,7 +105,7 @@ def _sign_changes(model, cw, h, s0, s1, cand, nc, jm):
     return n_ev
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def observe_contacts(model, cw, t0, h, s0, jm0, s1, jm1, contacts, record):
     """Changes of the number of contact intervals inside the step [t0, t0 + h], between the states
     s0 and s1 (their nodes computed up to jm0, jm1). record = (rows (t, count after the change),

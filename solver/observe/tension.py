@@ -75,7 +75,7 @@ def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
     track[2] = x
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def global_state(model, eps, sign, a, adot, track):
     """The global peak of sign * eps over continuous x (global_peak) and its time derivative
     d/dt = sign * eps_t at the peak (envelope theorem): track[:] = (value, rate, x, node)."""
@@ -110,7 +110,7 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     return rec, n, True
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     """The peak of surface s over the step: from tw.p0 (t0) to tw.p1 (t0 + h), each (value,
     rate, x), through the dense-output states inside the step (computed from dz when tw.dense[0]
@@ -188,7 +188,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def observe_tension(model, tw, s, t0, h, s0, s1, dz, rec, n):
     """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
     [t0, t0 + h], between the states s0 and s1.
@@ -237,7 +237,7 @@ def observe_tensions(model, tw, t, h, s0, s1, dz, records, diag):
     return rec_up, n_up, rec_lo, n_lo
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _largest(best, s, diag):
     """The step's (max, time, x) of surface s into diag where it is the largest so far."""
     if best[0] > diag[D_MAX_UPPER + 3 * s]:
