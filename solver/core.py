@@ -270,6 +270,136 @@ def _energy_bound_message(p: Parameters, diagnostics: dict) -> str:
             f"(bound {ENERGY_BOUND:g}; more subintervals or a tighter tolerance may mend it)")
 
 
+def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, until_separation, full_plate):
+    """solve's inputs validated (ParameterError, one line, on the first that is wrong) and with
+    their defaults: (parameters, settings, times, x, t_end, a0, v0)."""
+    p = parameters if parameters is not None else Parameters()
+    s = settings if settings is not None else Settings()
+    if not isinstance(p, Parameters):
+        raise ParameterError("parameters must be a solver.Parameters")
+    if not isinstance(s, Settings):
+        raise ParameterError("settings must be a solver.Settings")
+    unknown = [f for f in fields if f not in FIELD_INFO]
+    if unknown:
+        raise ParameterError(f"unknown field {unknown[0]!r}; known: {', '.join(FIELDS)}")
+    if t_end is None:
+        t_end = p.stage_duration
+    if not (math.isfinite(t_start) and t_start >= 0):
+        raise ParameterError(f"t_start must be finite and >= 0, got {t_start!r}")
+    if not (math.isfinite(t_end) and t_end > t_start):
+        raise ParameterError(f"t_end must be finite and > t_start, got {t_end!r}")
+    times = (np.linspace(t_start, t_end, 25) if times is None
+             else _check_times(times, t_start, t_end))
+    x = np.linspace(-p.L, p.L, 241) if x is None else np.atleast_1d(np.asarray(x, dtype=float))
+    if x.ndim != 1 or not np.all(np.isfinite(x)) or np.any(np.abs(x) > p.L * (1 + 1e-12)):
+        raise ParameterError(f"x must be a 1-D sequence of positions in [-L, L] = [{-p.L}, {p.L}] m")
+    N = p.Nmod
+    initial_amplitudes, initial_velocities = initial
+    a0 = np.zeros(N) if initial_amplitudes is None else np.asarray(initial_amplitudes, float)
+    v0 = np.zeros(N) if initial_velocities is None else np.asarray(initial_velocities, float)
+    if a0.shape != (N,) or v0.shape != (N,):
+        raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
+    if not isinstance(until_separation, bool):
+        raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
+    check_combination(p, s)
+    if p.free_body and t_start > 0:
+        raise ParameterError("a free body's run starts at first touch (t_start = 0): its state at a later "
+                             "start is not an input")
+    if until_separation and not p.free_body:
+        raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
+                             "moves down at V for ever")
+
+    if full_plate is not None and not isinstance(full_plate, bool):
+        raise ParameterError(f"full_plate must be true, false or None, got {full_plate!r}")
+    if full_plate is False and p.off_centre:
+        raise ParameterError(f"an off-centre body (x0 = {p.x0!r} m) needs the full plate's antisymmetric modes")
+    return p, s, times, x, t_end, a0, v0
+
+
+def _field_values(p, tab, fields, x, out_a, out_adot, series, valid) -> dict:
+    """The requested fields at the output times and positions x [m] from the modal amplitudes: the
+    deflection and strain by the modal sums, the compression and the layer's pressure by the
+    model's own law (solver.model.layer.pressure_at)."""
+    field_values = {}
+    if not fields:
+        return field_values
+    T = out_a.shape[0]
+    body_s = series[:, kn.S_BODY_POSITION]
+    cosx = np.cos(np.outer(tab.kernel_x(x), tab.lam))                     # (X, N)
+    w = out_a @ cosx.T
+    for name in fields:
+        if name == "deflection":
+            field_values[name] = w
+        elif name == "strain":
+            field_values[name] = (out_a * tab.strain_coef) @ cosx.T
+        elif name == "compression":
+            field_values[name] = (w + body_s[:, None] - p.body_profile(x)) / p.he
+        elif name == "layer_pressure":
+            pres = np.full((T, x.size), np.nan)
+            for k in np.flatnonzero(valid):
+                pres[k] = _layer_pressure(p, tab, out_a[k], body_s[k], x, out_adot[k],
+                                          series[k, kn.S_BODY_SPEED])
+            field_values[name] = pres
+    return field_values
+
+
+def _message(p, s, status, diagnostics, diag, t_end, fixed, fail, full_plate) -> str:
+    """One line saying how a run that did not end ok ended (docs/model.md, "Statuses"), from its
+    status, diagnostics and the kernels' failure record (diag's D_FAIL_*); "" for ok."""
+    max_delta = diagnostics["max_compression"]
+    t_sc = p.time_scale
+    t_reached = float(diag[kn.D_T_REACHED])
+    if status == "ok":
+        return ""
+    if status == "separated":
+        message = (f"the body left the ice at t = {diagnostics['separation_time']:.6g} s moving up at "
+                   f"{diagnostics['separation_speed']:.4g} m/s (it had stopped at "
+                   f"{diagnostics['stop_time']:.6g} s, {diagnostics['max_penetration']:.4g} m deep)")
+    elif status == "stopped":
+        message = (f"the body stopped at t = {diagnostics['stop_time']:.6g} s, "
+                   f"{diagnostics['max_penetration']:.4g} m deep, and had not left the ice by "
+                   f"t = {t_reached:.6g} s")
+    else:
+        t_fail = float(diag[kn.D_FAIL_T])
+        where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
+        kind = int(diag[kn.D_FAIL_KIND])
+        floor = f"{1e-13 * t_end:.1e} s"
+        if kind == kn.FAIL_LOCATED:
+            message = (f"layer bottomed out {where}: its gap closed to {s.bottoming_gap:g} of its thickness "
+                       f"at x = {'' if full_plate else '+-'}{diagnostics['bottoming_x']:.4g} m, closing at "
+                       f"{diagnostics['bottoming_closing_speed']:.3g} m/s; the force there is unbounded")
+        elif kind == kn.FAIL_BOTTOMED:
+            message = (f"layer bottomed out {where} (not located to the threshold): the compression "
+                       f"reached delta = 1 - {max(1.0 - max_delta, 0.0):.1e} and no step down to {floor} "
+                       f"kept it below 1")
+        elif kind == kn.FAIL_FIXED_STEP and s.integrator == "dop853":
+            message = f"dop853 {fail} {where}"
+        elif kind == kn.FAIL_FIXED_STEP:
+            message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
+                       f"non-finite value {where}; a fixed step cannot be retried "
+                       f"(largest delta before: {max_delta:.6g})")
+        elif kind == kn.FAIL_NONFINITE and s.integrator == "dop853":
+            message = f"dop853 failed {where}: {fail}"
+        elif kind == kn.FAIL_NONFINITE:
+            message = f"non-finite state {where} with the step at its smallest ({floor})"
+        elif kind == kn.FAIL_STEP_UNDERFLOW:
+            message = (f"error control drove the step below {floor} {where}; "
+                       f"largest delta reached {max_delta:.6g}")
+        elif kind == kn.FAIL_ENERGY_JUMP:
+            message = (f"energy identity broken {where}: a step changed E_plate + E_layer + D - W by more "
+                       f"than {ENERGY_JUMP:g} of the energy in play, and " +
+                       ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
+        elif kind == kn.FAIL_ENERGY_BOUND:
+            message = _energy_bound_message(p, diagnostics) + (f"; the run reached t = {t_reached:.6g} s "
+                                                               f"({t_reached / t_sc:.4g} t_sc)")
+            if math.isfinite(diagnostics["bottoming_time"]):
+                message += ", where the layer bottomed out"
+        else:
+            message = (f"stopped {where} after {int(diag[kn.D_STEPS] + diag[kn.D_REJECTED])} attempted "
+                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
+    return message
+
+
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
@@ -301,45 +431,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     -------
     Result
     """
-    p = parameters if parameters is not None else Parameters()
-    s = settings if settings is not None else Settings()
-    if not isinstance(p, Parameters):
-        raise ParameterError("parameters must be a solver.Parameters")
-    if not isinstance(s, Settings):
-        raise ParameterError("settings must be a solver.Settings")
-    unknown = [f for f in fields if f not in FIELD_INFO]
-    if unknown:
-        raise ParameterError(f"unknown field {unknown[0]!r}; known: {', '.join(FIELDS)}")
-    if t_end is None:
-        t_end = p.stage_duration
-    if not (math.isfinite(t_start) and t_start >= 0):
-        raise ParameterError(f"t_start must be finite and >= 0, got {t_start!r}")
-    if not (math.isfinite(t_end) and t_end > t_start):
-        raise ParameterError(f"t_end must be finite and > t_start, got {t_end!r}")
-    times = (np.linspace(t_start, t_end, 25) if times is None
-             else _check_times(times, t_start, t_end))
-    x = np.linspace(-p.L, p.L, 241) if x is None else np.atleast_1d(np.asarray(x, dtype=float))
-    if x.ndim != 1 or not np.all(np.isfinite(x)) or np.any(np.abs(x) > p.L * (1 + 1e-12)):
-        raise ParameterError(f"x must be a 1-D sequence of positions in [-L, L] = [{-p.L}, {p.L}] m")
-    N = p.Nmod
-    a0 = np.zeros(N) if initial_amplitudes is None else np.asarray(initial_amplitudes, float)
-    v0 = np.zeros(N) if initial_velocities is None else np.asarray(initial_velocities, float)
-    if a0.shape != (N,) or v0.shape != (N,):
-        raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
-    if not isinstance(until_separation, bool):
-        raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
-    check_combination(p, s)
-    if p.free_body and t_start > 0:
-        raise ParameterError("a free body's run starts at first touch (t_start = 0): its state at a later "
-                             "start is not an input")
-    if until_separation and not p.free_body:
-        raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
-                             "moves down at V for ever")
-
-    if full_plate is not None and not isinstance(full_plate, bool):
-        raise ParameterError(f"full_plate must be true, false or None, got {full_plate!r}")
-    if full_plate is False and p.off_centre:
-        raise ParameterError(f"an off-centre body (x0 = {p.x0!r} m) needs the full plate's antisymmetric modes")
+    p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
+                                             (initial_amplitudes, initial_velocities), until_separation, full_plate)
     tab = _Tables(p, s.subintervals, full_plate)
     a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
     a0 = tab.to_kernel(a0)
@@ -387,26 +480,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     out_err = series[:, kn.S_ERR]
     body_s = series[:, kn.S_BODY_POSITION]
     valid = np.arange(T) < n_out
-    field_values = {}
     for i in (kn.D_MAX_UPPER_X, kn.D_MAX_LOWER_X, kn.D_MAX_ABS_X, kn.D_BOTTOM_X):
         diag[i] += tab.origin
     level_x += tab.origin
-    if fields:
-        cosx = np.cos(np.outer(tab.kernel_x(x), tab.lam))                     # (X, N)
-        w = out_a @ cosx.T
-        for name in fields:
-            if name == "deflection":
-                field_values[name] = w
-            elif name == "strain":
-                field_values[name] = (out_a * tab.strain_coef) @ cosx.T
-            elif name == "compression":
-                field_values[name] = (w + body_s[:, None] - p.body_profile(x)) / p.he
-            elif name == "layer_pressure":
-                pres = np.full((T, x.size), np.nan)
-                for k in np.flatnonzero(valid):
-                    pres[k] = _layer_pressure(p, tab, out_a[k], body_s[k], x, out_adot[k],
-                                              series[k, kn.S_BODY_SPEED])
-                field_values[name] = pres
+    field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     companion = None
     extra = {}
@@ -424,56 +501,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     else:
         diagnostics.update({name: np.nan for name in ("error_estimate", "error_estimate_time",
                                                        "error_estimate_modes", "error_estimate_quadrature")})
-    max_delta = diagnostics["max_compression"]
-    t_sc = p.time_scale
-    if status == "ok":
-        message = ""
-    elif status == "separated":
-        message = (f"the body left the ice at t = {diagnostics['separation_time']:.6g} s moving up at "
-                   f"{diagnostics['separation_speed']:.4g} m/s (it had stopped at "
-                   f"{diagnostics['stop_time']:.6g} s, {diagnostics['max_penetration']:.4g} m deep)")
-    elif status == "stopped":
-        message = (f"the body stopped at t = {diagnostics['stop_time']:.6g} s, "
-                   f"{diagnostics['max_penetration']:.4g} m deep, and had not left the ice by "
-                   f"t = {t_reached:.6g} s")
-    else:
-        t_fail = float(diag[kn.D_FAIL_T])
-        where = f"at t = {t_fail:.6g} s ({t_fail / t_sc:.4g} t_sc; stage {p.stage_duration / t_sc:.4g} t_sc)"
-        kind = int(diag[kn.D_FAIL_KIND])
-        floor = f"{1e-13 * t_end:.1e} s"
-        if kind == kn.FAIL_LOCATED:
-            message = (f"layer bottomed out {where}: its gap closed to {s.bottoming_gap:g} of its thickness "
-                       f"at x = {'' if tab.full_plate else '+-'}{diagnostics['bottoming_x']:.4g} m, closing at "
-                       f"{diagnostics['bottoming_closing_speed']:.3g} m/s; the force there is unbounded")
-        elif kind == kn.FAIL_BOTTOMED:
-            message = (f"layer bottomed out {where} (not located to the threshold): the compression "
-                       f"reached delta = 1 - {max(1.0 - max_delta, 0.0):.1e} and no step down to {floor} "
-                       f"kept it below 1")
-        elif kind == kn.FAIL_FIXED_STEP and s.integrator == "dop853":
-            message = f"dop853 {fail} {where}"
-        elif kind == kn.FAIL_FIXED_STEP:
-            message = (f"{s.integrator} with a fixed step {fixed:.3g} s reached delta >= 1 or a "
-                       f"non-finite value {where}; a fixed step cannot be retried "
-                       f"(largest delta before: {max_delta:.6g})")
-        elif kind == kn.FAIL_NONFINITE and s.integrator == "dop853":
-            message = f"dop853 failed {where}: {fail}"
-        elif kind == kn.FAIL_NONFINITE:
-            message = f"non-finite state {where} with the step at its smallest ({floor})"
-        elif kind == kn.FAIL_STEP_UNDERFLOW:
-            message = (f"error control drove the step below {floor} {where}; "
-                       f"largest delta reached {max_delta:.6g}")
-        elif kind == kn.FAIL_ENERGY_JUMP:
-            message = (f"energy identity broken {where}: a step changed E_plate + E_layer + D - W by more "
-                       f"than {ENERGY_JUMP:g} of the energy in play, and " +
-                       ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
-        elif kind == kn.FAIL_ENERGY_BOUND:
-            message = _energy_bound_message(p, diagnostics) + (f"; the run reached t = {t_reached:.6g} s "
-                                                               f"({t_reached / t_sc:.4g} t_sc)")
-            if math.isfinite(diagnostics["bottoming_time"]):
-                message += ", where the layer bottomed out"
-        else:
-            message = (f"stopped {where} after {int(diag[kn.D_STEPS] + diag[kn.D_REJECTED])} attempted "
-                       f"steps (max_steps = {s.max_steps}); largest delta reached {max_delta:.6g}")
+    message = _message(p, s, status, diagnostics, diag, t_end, fixed, fail, tab.full_plate)
     if levels.size:
         extra["located_crack_onset"] = {"upper": (level_t[0], level_x[0]), "lower": (level_t[1], level_x[1])}
     sym_a, anti_a = tab.from_kernel(out_a)
