@@ -190,9 +190,9 @@ def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     return items, signature
 
 
-def _run_locked(args, study, out_dir: Path) -> int:
+def _run_locked(options, study, out_dir: Path) -> int:
     """Plan, compute and stream, combine (again, where a batch file turned out damaged), figures,
-    report; args: the RunOptions."""
+    report."""
     from .tables import NUMERICAL_FAILURES
     from .interrupts import check
     from .ledger import reconcile
@@ -204,7 +204,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
     for note in notes:
         print(f"note: {note}", file=sys.stderr)
     states = ledger_states(study, out_dir, ledger)
-    items, signature = _todo(study, states, args.rerun_failed)
+    items, signature = _todo(study, states, options.rerun_failed)
     from .study import cases_past_their_stage
     past = cases_past_their_stage(study)
     if past:
@@ -221,7 +221,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
     from .combine import open_writer, stream_spec
     items_run = list(items)
     identity = _identity(out_dir)
-    with Session(args.workers, args.scheduler) as session:
+    with Session(options.workers, options.scheduler) as session:
         for attempt in range(3):
             writer = None
             try:
@@ -245,7 +245,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
                             writer.write([position for _, position in batch], reduced)
                     try:
                         lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids),
-                                           skipped, args.batch_seconds, spec)
+                                           skipped, options.batch_seconds, spec)
                     except OSError:
                         _still_ours(out_dir, identity)   # a batch write failing because the directory went
                         raise
@@ -253,7 +253,7 @@ def _run_locked(args, study, out_dir: Path) -> int:
                         print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
                               file=sys.stderr)
                 check()
-                fresh = _combine(args, study, out_dir, ledger, states, session, bool(items), writer)
+                fresh = _combine(options, study, out_dir, ledger, states, session, bool(items), writer)
             except BaseException:
                 if writer is not None:
                     writer.abandon()
@@ -266,14 +266,14 @@ def _run_locked(args, study, out_dir: Path) -> int:
             skipped = len(study.run_ids) - len(items)
         else:
             raise ResultsIOError("batch files keep failing their checksums; is the disk healthy?")
-    _plots(args, study, out_dir, fresh)
+    _plots(options, study, out_dir, fresh)
     _summary(study, ledger, states, computed={cid for cid, _ in items_run})
     if any(states[cid] in NUMERICAL_FAILURES or states[cid] == "pending" for cid in study.run_ids):
         return EXIT_FAILED
     return EXIT_OK
 
 
-def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
+def _combine(options, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
     """Write study.nc if its inputs changed; True if written, False if up to date, None if a
     damaged batch file was found (set aside and dropped from the ledger)."""
     from .ledger import inputs_fingerprint, is_up_to_date, set_aside
@@ -310,10 +310,10 @@ def _combine(args, study, out_dir: Path, ledger, states: dict, session, computed
     return True
 
 
-def _plots(args, study, out_dir: Path, fresh: bool) -> None:
+def _plots(options, study, out_dir: Path, fresh: bool) -> None:
     from .study import PLOT_FILES
     figures = [out_dir / f for kind in study.plots for f in PLOT_FILES[kind]]
-    if args.no_plots or not (fresh or not all(f.exists() for f in figures)):
+    if options.no_plots or not (fresh or not all(f.exists() for f in figures)):
         return
     import xarray as xr
 

@@ -3,8 +3,8 @@ first crossings of a level and sign changes, to round-off (docs/model.md, "Event
 
 An event is located inside a step from the cubic Hermite of a quantity whose value and time
 derivative are both known exactly at the step's two ends (the tension peak, delta at a node,
-the gap, a free body's speed). Benchmark (tests/test_kernel_pieces.py, test_cubic_pieces): a cubic with known roots and
-extrema is reproduced to round-off.
+the gap, a free body's speed). Benchmark (tests/test_kernel_pieces.py, test_cubic_pieces): a
+cubic with known roots and extrema is reproduced to round-off.
 """
 import math
 

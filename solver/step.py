@@ -318,7 +318,8 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
         event = count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
     _local_error(method, model, coeffs, w, start, h, event, out)
     V = body.V
-    w_new = _step_work(body, h, carried.work, (w.table[F_ROW, 1], w.table[F_ROW, 2], w.table[F_ROW, 3], w.table[F_ROW, 4]),
+    F = w.table[F_ROW]
+    w_new = _step_work(body, h, carried.work, (F[1], F[2], F[3], F[4]),
                        (V - u, V - w.table[U_ROW, 2], V - w.table[U_ROW, 3], V - w.table[U_ROW, 4]))
     D, Lp = w.table[DISS_ROW], w.table[LP_ROW]
     out.acc[0] = (carried.dissipated + h * ((D[1] + carried.power) / 6.0 + (D[2] + Lp[2] + D[3] + Lp[3]) / 3.0

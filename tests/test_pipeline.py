@@ -53,6 +53,20 @@ def regression_run(tmp_path_factory):
     return out
 
 
+def test_run_study_from_python_is_the_command_line_run(regression_run, tmp_path):
+    """pipeline.run.run_study, as a notebook calls it, gives the study.nc the command line gives
+    (every variable but the wall times bit for bit), and returns the exit status."""
+    out = tmp_path / "from_python"
+    code = ("from pipeline.run import RunOptions, run_study\n"
+            "from pipeline.study import find_study, load_study\n"
+            "import sys\n"
+            f"sys.exit(run_study(load_study(find_study('regression_small')), {str(out)!r}, "
+            "RunOptions(workers=2, no_plots=True)))")
+    proc = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    assert_same_study(out, regression_run)
+
+
 def test_regression_against_stored_reference(regression_run):
     """Within the reference's own spread over tolerances, on any CPU (tests/reference.py).
     Regenerate the reference with: make regenerate-reference (tests/regenerate_reference.py)."""
