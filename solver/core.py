@@ -173,9 +173,6 @@ class Result:
         return crack_onset(self.tension_record[surface], eps_Y)
 
 
-_Tables = Tables     # the name the tests have used
-
-
 #: largest etd34 step as a fraction of the contact period 2 pi / Parameters.contact_frequency
 HMAX_FRACTION = 0.1
 
@@ -433,7 +430,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
-    tab = _Tables(p, s.subintervals, full_plate)
+    tab = Tables(p, s.subintervals, full_plate)
     a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
     a0 = tab.to_kernel(a0)
     v0 = tab.to_kernel(v0)
