@@ -18,7 +18,7 @@ from numba import njit
 
 from .layout import B_D, B_U
 from .model.basis import mode_sum
-from .model.plate import mode_a
+from .model.plate import MASS, ONES, mode_a
 
 #: default bottoming threshold (Settings.bottoming_gap): the layer has bottomed out when its
 #: gap he (1 - delta) closes to bottom_gap he anywhere on the plate; the pressure there is
@@ -63,13 +63,12 @@ def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, ma
 
 
 @njit(cache=True, nogil=True, inline="always")
-def error_ratio(model, control, start, new, gap, scratch):
-    """Local error (new.err, new.errb) over tolerance in the energy norm: the plate's error and a
-    free body's velocity error M err_U^2, against the plate's energy at the step's start or end
-    (docs/model.md, "A body of finite mass"); near bottoming (gap: the largest delta, its rate and
-    place at the start) also the error of delta at the gap against the gap itself."""
-    err, errb, z, znew = new.err, new.errb, start.z, new.z
-    LM = model.plate.LM
+def error_ratio(model, control, z, znew, err, errb, gap, scratch):
+    """Local error (err, errb) over tolerance in the energy norm: the plate's error and a free
+    body's velocity error M err_U^2, against the plate's energy at the step's start (z) or end
+    (znew) (docs/model.md, "A body of finite mass"); near bottoming (gap: the largest delta, its
+    rate and place at the start) also the error of delta at the gap against the gap itself."""
+    LM = model.plate.modes[MASS]
     num = 0.0
     den_old = 0.0
     den_new = 0.0
@@ -92,7 +91,7 @@ def error_ratio(model, control, start, new, gap, scratch):
         # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
         for n in range(z.shape[0]):
             scratch[n] = mode_a(err[n], n, model.plate)
-        e_delta = abs(mode_sum(model.plate.ones, scratch, model.basis.lam1, gap[2]) - errb[B_D]) / he
+        e_delta = abs(mode_sum(model.plate.modes[ONES], scratch, model.basis.lam1, gap[2]) - errb[B_D]) / he
         ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap[0])))
     if not math.isfinite(ratio):
         ratio = 1e10

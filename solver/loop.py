@@ -29,12 +29,12 @@ from .model.basis import strain_nodes
 from .model.body import body_coefficients, body_position, body_residual, body_speed
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
-from .model.plate import _plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
+from .model.plate import OMEGA, STRAIN, _plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
 from .observe.events import locate_event
 from .observe.record import append_row
-from .observe.tension import Dense, global_state, observe_tensions, tension_work
+from .observe.tension import DENSE, PEAKS, RUN_MAX, Dense, global_state, observe_tensions, tension_work
 from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
 
 #: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
@@ -86,13 +86,14 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
     rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
-    strain_nodes(cur.a, plate.strain, model.basis.cosq, cur.eps)
+    strain_nodes(cur.a, plate.modes[STRAIN], model.basis.cosq, cur.eps)
     tw = ws.tension
     for s_ in range(2):
-        global_state(model, cur.eps, 1.0 - 2.0 * s_, cur.a, cur.adot, tw.peaks[s_])
-        tw.run_max[s_] = tw.peaks[s_, 0]
-        diag[D_MAX_UPPER + 3 * s_] = tw.peaks[s_, 0]
-        diag[D_MAX_UPPER_X + 3 * s_] = tw.peaks[s_, 2]
+        peak = tw.track[PEAKS + s_]
+        global_state(model, cur.eps, 1.0 - 2.0 * s_, cur.a, cur.adot, peak)
+        tw.marks[RUN_MAX + s_] = peak[0]
+        diag[D_MAX_UPPER + 3 * s_] = peak[0]
+        diag[D_MAX_UPPER_X + 3 * s_] = peak[2]
         diag[D_MAX_UPPER_T + 3 * s_] = t
     gap_peak(model, s, U, cur.delta, jmax, cur.a, cur.adot, ws.gap0)
     diag[D_MAX_DELTA] = ws.gap0[0]
@@ -115,32 +116,36 @@ def _copy_state(source, target):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _finite_state(st, w_new, new):
+def _finite_state(st, w_new, z, yb):
     if not (st == 0 and math.isfinite(w_new)):
         return False
-    for n in range(new.z.shape[0]):
-        if not (math.isfinite(new.z[n].real) and math.isfinite(new.z[n].imag)):
+    for n in range(z.shape[0]):
+        if not (math.isfinite(z[n].real) and math.isfinite(z[n].imag)):
             return False
-    return math.isfinite(new.yb[B_D]) and math.isfinite(new.yb[B_U])
+    return math.isfinite(yb[B_D]) and math.isfinite(yb[B_U])
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _residual(model, state, jm, w_new, e0):
-    """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state."""
-    e_new = _plus_plate_energy(layer_energy(model, state.delta, jm), model.plate, state.z)
-    return e_new, e_new + state.acc[0] - w_new - e0
+    """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state
+    (its z, delta and acc: the arrays it reads, not the State, whose every array numba would count
+    a reference to)."""
+    z, delta, acc = state
+    e_new = _plus_plate_energy(layer_energy(model, delta, jm), model.plate, z)
+    return e_new, e_new + acc[0] - w_new - e0
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
-    """The verdict on a trial step, trial = (status, W(t_new), jmax, h, error exponent), energies =
-    (E(t_start), the residual at t, W(t)): (verdict, h to retry with, error ratio, residual at
-    t_new, run status, rejections counted). A non-finite state or a stage at delta >= 1 retries
-    at h/4, an error above the tolerance at the controller's h, a jump of the energy identity at
-    h/4; below h_min, or for a fixed step, the run stops with its reason."""
-    st, w_new, jm5, h_step, expo = trial
+def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
+    """The verdict on a trial step from t (z0 at t) to new, trial = (status, W(t_new), jmax, t, h,
+    error exponent), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
+    scratch (N,): (verdict, h to retry with, error ratio, residual at t_new, run status,
+    rejections counted). A non-finite state or a stage at delta >= 1 retries at h/4, an error
+    above the tolerance at the controller's h, a jump of the energy identity at h/4; below h_min,
+    or for a fixed step, the run stops with its reason."""
+    st, w_new, jm5, t, h_step, expo = trial
     e0, resid, work = energies
-    if not _finite_state(st, w_new, new):
+    if not _finite_state(st, w_new, new.z, new.yb):
         if not adaptive:
             failed_at(diag, t, float(FAIL_FIXED_STEP))
             return STOP, h_step, 0.0, 0.0, NONFINITE, 0
@@ -151,17 +156,17 @@ def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
         return RETRY, h, 0.0, 0.0, OK, 1
     ratio = 0.0
     if adaptive:
-        ratio = error_ratio(model, control, cur, new, ws.gap0, ws.work.rows[0])
+        ratio = error_ratio(model, control, z0, new.z, new.err, new.errb, gap0, scratch)
         if ratio > 1.0:
             h = h_step * max(0.2, 0.9 * ratio ** -expo)
             if h < control.h_min:
-                if ws.gap0[0] > 1.0 - 10.0 * control.bottom_gap:
+                if gap0[0] > 1.0 - 10.0 * control.bottom_gap:
                     failed_at(diag, t, float(FAIL_BOTTOMED))
                     return STOP, h, ratio, 0.0, LAYER_BOTTOMED_OUT, 1
                 failed_at(diag, t, float(FAIL_STEP_UNDERFLOW))
                 return STOP, h, ratio, 0.0, STEP_LIMIT, 1
             return RETRY, h, ratio, 0.0, OK, 1
-    e_new, resid_new = _residual(model, new, jm5, w_new, e0)
+    e_new, resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)
     if not abs(resid_new - resid) <= energy_allowance(new.delta, jm5, e_new, w_new, e0, work, model.basis.mirror):
         diag[D_ENERGY_JUMPS] += 1.0
         h = 0.25 * h_step
@@ -174,13 +179,13 @@ def _judge(adaptive, model, control, ws, cur, new, t, trial, energies, diag):
 
 @njit(cache=True, nogil=True, inline="always")
 def _gap_at(model, t, state, jm, gap):
-    """a, a' of a state from its z, and its gap (gap_peak) into gap."""
+    """a, a' of a state = (z, a, adot, yb, delta) from its z, and its gap (gap_peak) into gap."""
+    z, a, adot, yb, delta = state
     plate = model.plate
-    for n in range(state.z.shape[0]):
-        state.a[n] = mode_a(state.z[n], n, plate)
-        state.adot[n] = mode_adot(state.z[n], state.a[n], n, plate)
-    gap_peak(model, body_position(model.body, t, state.yb), body_speed(model.body, state.yb), state.delta, jm,
-             state.a, state.adot, gap)
+    for n in range(z.shape[0]):
+        a[n] = mode_a(z[n], n, plate)
+        adot[n] = mode_adot(z[n], a[n], n, plate)
+    gap_peak(model, body_position(model.body, t, yb), body_speed(model.body, yb), delta, jm, a, adot, gap)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -200,20 +205,21 @@ def _strain_error(model, err):
     if plate_damped(plate):
         for n in range(err.shape[0]):
             ea = mode_a(err[n], n, plate)
-            ev = mode_adot(err[n], ea, n, plate) / plate.omega[n]
-            e_step += plate.strain[n] ** 2 * (ea * ea + ev * ev)
+            ev = mode_adot(err[n], ea, n, plate) / plate.modes[OMEGA, n]
+            e_step += plate.modes[STRAIN, n] ** 2 * (ea * ea + ev * ev)
     else:
         for n in range(err.shape[0]):
-            e_step += (plate.strain[n] / plate.omega[n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
+            e_step += (plate.modes[STRAIN, n] / plate.modes[OMEGA, n]) ** 2 * (err[n].real ** 2 + err[n].imag ** 2)
     return math.sqrt(e_step)
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _locate_levels(ws, levels, out, start, carried, t, h):
     """Tension levels first reached in the accepted step, located on true sub-steps (for
-    verification): their time and place into out.level_t, out.level_x."""
+    verification): their time and place into out.level_t, out.level_x. (Runs only where levels
+    are asked for: the loop binds the Workspace here and nowhere else in a step.)"""
     for s in range(2):
-        rm = ws.tension.run_max[s]
+        rm = ws.tension.marks[RUN_MAX + s]
         for i in range(levels.shape[0]):
             if math.isnan(out.level_t[s, i]) and levels[i] <= rm:
                 lo, hi, _, _, _, found = locate_event(ws.stepper, 1.0 - 2.0 * s, levels[i], start, carried, t, h,
@@ -224,19 +230,22 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _observe(model, ws, cur, new, carried, t, h, ends, records, diag):
-    """The observers on the accepted step [t, t + h] from cur to new, at one fixed point: ends =
-    (jmax at t, jmax and F at t + h, the scratch of the step that reached new). Returns (contacts
-    at t + h, records, a free body left the ice)."""
-    jmax, jm5, F5, work = ends
+def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
+    """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
+    observers = (TensionWork, ContactWork, the tension peaks at t), ends = (jmax at t, jmax and F
+    at t + h, the stage rows of the step that reached new). Returns (contacts at t + h, records, a
+    free body left the ice)."""
+    tw, cw, peaks0 = observers
+    jmax, jm5, F5, rows = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
-    ws.peaks0[:, :] = ws.tension.peaks
-    ws.tension.dense[0] = not h > 0.0             # computed on demand by the tension observer
-    dz = Dense(cur.z, cur.forcing, work.rows[2], new.forcing)
-    rec_up, n_up, rec_lo, n_lo = observe_tensions(model, ws.tension, t, h, cur, new, dz,
+    peaks0[:, :] = tw.track[PEAKS:PEAKS + 2]
+    tw.marks[DENSE] = 0.0 if h > 0.0 else 1.0     # computed on demand by the tension observer
+    dz = Dense(cur.z, cur.forcing, rows[2], new.forcing)
+    rec_up, n_up, rec_lo, n_lo = observe_tensions(model, tw, t, h, (cur.eps, new.eps, new.a, new.adot), dz,
                                                   (rec_up, n_up, rec_lo, n_lo), diag)
-    contacts, (rec_c, n_c), largest = observe_contacts(model, ws.contact, t, h, cur, jmax, new, jm5,
-                                                       carried.contacts, (rec_c, n_c))
+    contacts, (rec_c, n_c), largest = observe_contacts(model, cw, t, h, (cur.a, cur.adot, cur.delta, cur.yb), jmax,
+                                                       (new.a, new.adot, new.delta, new.yb), jm5, carried.contacts,
+                                                       (rec_c, n_c))
     if largest > diag[D_MAX_CONTACTS]:
         diag[D_MAX_CONTACTS] = largest
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
@@ -254,6 +263,11 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
     start_diagnostics(diag, control.t_start)
     ws = _workspace(method, model, N, J)
+    # what a step reads of the work space, bound once (numba counts a reference to every array
+    # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
+    step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
+    observers, fixed = (ws.tension, ws.contact, ws.peaks0), ws.fixed
+    asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
     t = control.t_start
@@ -264,7 +278,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         diag[D_T_REACHED] = t
         failed_at(diag, t, float(FAIL_BOTTOMED))
         return LAYER_BOTTOMED_OUT, 0, records
-    e0 = _residual(model, cur, jmax, 0.0, 0.0)[0]
+    e0 = _residual(model, (cur.z, cur.delta, cur.acc), jmax, 0.0, 0.0)[0]
     work = diss = err_sum = resid = max_residual = max_body_residual = peak_work = 0.0
     free_body = model.body.inv_mass > 0.0
     body_resid0 = body_residual(model.body, t, cur.yb, work)
@@ -286,17 +300,18 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             status = STEP_LIMIT
             failed_at(diag, t, float(FAIL_MAX_STEPS))
             break
-        h_step, t_new, landing = next_step(control, t, t_out[k] if k < T else control.t_end, h, ws.fixed)
+        h_step, t_new, landing = next_step(control, t, t_out[k] if k < T else control.t_end, h, fixed)
         if h_step != h_coeffs:
             etd_coefficients(model.plate, h_step, coeffs.C)
             body_coefficients(h_step, coeffs.Cb)
             h_coeffs = h_step
-        st, F5, jm5, w_new, event = take_step(method, model, coeffs, ws.work, start, carried, t, t_new, h_step,
+        st, F5, jm5, w_new, event = take_step(method, model, coeffs, step_work, start, carried, t, t_new, h_step,
                                               new)
         rhs_count += 4
         expo = 1.0 / 3.0 if event else 0.25
-        verdict, h_try, ratio, resid_new, status, counted = _judge(adaptive, model, control, ws, cur, new, t,
-                                                                   (st, w_new, jm5, h_step, expo),
+        verdict, h_try, ratio, resid_new, status, counted = _judge(adaptive, model, control, cur.z, new, gap0,
+                                                                   step_work.rows[0],
+                                                                   (st, w_new, jm5, t, h_step, expo),
                                                                    (e0, resid, work), diag)
         rejected += counted
         if verdict != ACCEPT:
@@ -305,19 +320,19 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                 break
             continue
         # ----- bottoming: the gap closes to bottom_gap inside the step
-        _gap_at(model, t_new, new, jm5, ws.gap1)
-        h_eff, reached = h_step, ws.work
-        if _may_bottom(model, control, ws.gap0, ws.gap1, h_step):
+        _gap_at(model, t_new, (new.z, new.a, new.adot, new.yb, new.delta), jm5, gap1)
+        h_eff, reached = h_step, step_work.rows
+        if _may_bottom(model, control, gap0, gap1, h_step):
             # on sub-steps into the stepper's own buffers: where the interpolant's crossing was
             # not real, the accepted step is left as it was
-            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, start,
-                                                             carried, t, h_step, ws.gap0, ws.sub, ws.value)
+            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(stepper, 0.0, 1.0 - control.bottom_gap, start,
+                                                             carried, t, h_step, gap0, sub, value)
             if found:                        # the state is the search's last sub-step
                 bottomed, h_eff, t_new, F5, jm5, w_new = True, s_lo, t + s_lo, F_b, jm_b, w_b
-                _copy_state(ws.sub, new)
-                ws.gap1[:] = ws.value
-                reached = ws.stepper.work
-                resid_new = _residual(model, new, jm5, w_new, e0)[1]
+                _copy_state(sub, new)
+                gap1[:] = value
+                reached = stepper.work.rows
+                resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)[1]
         # ----- accepted: observers on [t, t + h_eff], then the states swap
         steps += 1
         if not bottomed:
@@ -325,24 +340,25 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
         else:
-            strain_nodes(new.a, model.plate.strain, model.basis.cosq, new.eps)
-        contacts, records, left = _observe(model, ws, cur, new, carried, t, h_eff, (jmax, jm5, F5, reached), records,
-                                           diag)
+            strain_nodes(new.a, model.plate.modes[STRAIN], model.basis.cosq, new.eps)
+        contacts, records, left = _observe(model, observers, cur, new, carried, t, h_eff,
+                                           (jmax, jm5, F5, reached), records, diag)
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)
-        _locate_levels(ws, levels, out, start, carried, t, h_eff)
+        if asks_levels:
+            _locate_levels(ws, levels, out, start, carried, t, h_eff)
         separated = left and control.until_separation
         cur, new = new, cur
-        ws.gap0[:] = ws.gap1
+        gap0[:] = gap1
         t, work, diss, lp, force, jmax, resid = t_new, w_new, cur.acc[0], cur.acc[1], F5, jm5, resid_new
         max_residual = max(max_residual, abs(resid))
         peak_work = max(peak_work, work)
         if free_body:
             max_body_residual = max(max_body_residual, abs(body_residual(model.body, t, cur.yb, work) - body_resid0))
-        running_maxima(diag, t, force, ws.gap0)
+        running_maxima(diag, t, force, gap0)
         if bottomed:
             status = LAYER_BOTTOMED_OUT
-            bottomed_at(diag, t, ws.gap0, model.layer.he)
+            bottomed_at(diag, t, gap0, model.layer.he)
         elif separated:
             status = SEPARATED
         elif adaptive:
@@ -350,6 +366,6 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     if status == OK and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
     out.diag[D_DISSIPATED] = diss
-    status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), ws.gap0,
+    status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), gap0,
                                 model.layer.he, (steps, rejected, rhs_count))
     return status, k, records

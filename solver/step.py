@@ -43,7 +43,8 @@ from .layout import B_D, B_U, ETD34
 from .model.body import _body_error, _step_work, body_accel, body_coefficients
 from .model.contact import count_contacts
 from .model.layer import layer_forcing_at, layer_forcing_strain
-from .model.plate import dissipation_rate, emul, mode_a, mode_adot, mode_phis, phi_from, plate_damped
+from .model.plate import (HALF_C, KIND, OMEGA, dissipation_rate, emul, mode_a, mode_adot, mode_phis, phi_from,
+                          plate_damped)
 
 #: the state at one time, arrays filled in place: z (N,) complex, forcing P (N,), a, adot (N,),
 #: delta and eps at the nodes (J,), the body's deficits yb (2,) (B_D, B_U), the step's local error
@@ -73,9 +74,9 @@ def etd_coefficients(plate, h, C):
     """ETD34 coefficients of a step h for every mode, rows of C (9, N): e^{zeta}, e^{zeta/2},
     then the stage and update weights of the scheme in the module docstring (a damped mode's
     packed as mode_phis packs them)."""
-    omega = plate.omega
+    omega = plate.modes[OMEGA]
     for n in range(omega.shape[0]):
-        if plate.half_c[n] == 0.0:
+        if plate.modes[HALF_C, n] == 0.0:
             y = omega[n] * h
             e2 = complex(math.cos(0.5 * y), math.sin(0.5 * y))
             e = e2 * e2                          # one sin/cos for both
@@ -96,46 +97,46 @@ def etd_coefficients(plate, h, C):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _stage(model, w, zs, s, U, delta, P):
+def _stage(model, rows, fvals, zs, s, U, delta, P):
     """A stage at the state zs, the body at penetration s moving down at U: layer_forcing_at into
     P. Returns (status, force, jmax, the layer's power). a' is needed only by a viscoelastic
     layer. (The stage's number is not an argument: numba would compile a copy for each literal.)"""
     plate = model.plate
-    a_work = w.rows[0]
-    adot_work = w.rows[4]
+    a_work = rows[0]
+    adot_work = rows[4]
     for n in range(zs.shape[0]):
         a_work[n] = mode_a(zs[n], n, plate)
     if model.layer.tau > 0.0:
         for n in range(zs.shape[0]):
             adot_work[n] = mode_adot(zs[n], a_work[n], n, plate)
-    return layer_forcing_at(model, s, U, a_work, adot_work, delta, w.fvals, P)
+    return layer_forcing_at(model, s, U, a_work, adot_work, delta, fvals, P)
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _last_stage(model, w, out, t_new):
     """The forcing at the step's end (stage 5, the next step's first), with the strain at every
-    node into out.eps. Returns (status, jmax)."""
+    node into eps, out = (z, yb, delta, forcing, eps) of the step's end. Returns (status, jmax)."""
     plate = model.plate
     a_work = w.rows[0]
     adot_work = w.rows[4]
-    zs = out.z
+    zs, yb, delta, forcing, eps = out
     for n in range(zs.shape[0]):
         a_work[n] = mode_a(zs[n], n, plate)
     if model.layer.tau > 0.0:
         for n in range(zs.shape[0]):
             adot_work[n] = mode_adot(zs[n], a_work[n], n, plate)
     V = model.body.V
-    st, F, jm, Lp = layer_forcing_strain(model, V * t_new - out.yb[B_D], V - out.yb[B_U], a_work, adot_work,
-                                         out.delta, w.fvals, out.forcing, out.eps)
+    st, F, jm, Lp = layer_forcing_strain(model, V * t_new - yb[B_D], V - yb[B_U], a_work, adot_work, delta, w.fvals,
+                                         forcing, eps)
     w.table[F_ROW, 5] = F
     w.table[LP_ROW, 5] = Lp
     return st, jm
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _contacts_changed(model, st, delta, jm, contacts):
+def _contacts_changed(mirror, st, delta, jm, contacts):
     """A stage that succeeded has another number of contact intervals than the step's start."""
-    return st == 0 and count_contacts(delta, jm, model.basis.mirror) != contacts
+    return st == 0 and count_contacts(delta, jm, mirror) != contacts
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -144,7 +145,7 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     event), event if the number of contact intervals changed among them."""
     C, Cb = coeffs.C, coeffs.Cb
     plate = model.plate
-    kind = plate.kind
+    kind = plate.modes[KIND]
     ice_damped = plate_damped(plate)
     z, N1 = start.z, start.forcing
     zs = w.cz[0]
@@ -156,9 +157,9 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
         zs[n] = emul(C[1, n], z[n], kind[n]) + C[2, n] * N1[n]
     if ice_damped:
         w.table[DISS_ROW, 2] = dissipation_rate(zs, plate)
-    st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
+    st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
     w.table[F_ROW, 2], w.table[G_ROW, 2], w.table[LP_ROW, 2] = F, body_accel(model.body, F), Lp
-    event = _contacts_changed(model, st, delta, jm, contacts)
+    event = _contacts_changed(model.basis.mirror, st, delta, jm, contacts)
     if st == 0:
         for n in range(z.shape[0]):
             zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
@@ -166,9 +167,9 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
         w.table[U_ROW, 3] = w.table[U_ROW, 2] + Cb[3, 0] * (w.table[G_ROW, 2] - G1)
         if ice_damped:
             w.table[DISS_ROW, 3] = dissipation_rate(zs, plate)
-        st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
         w.table[F_ROW, 3], w.table[G_ROW, 3], w.table[LP_ROW, 3] = F, body_accel(model.body, F), Lp
-        event = event or _contacts_changed(model, st, delta, jm, contacts)
+        event = event or _contacts_changed(model.basis.mirror, st, delta, jm, contacts)
     if st == 0:
         for n in range(z.shape[0]):
             zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
@@ -176,9 +177,10 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
             w.table[DISS_ROW, 4] = dissipation_rate(zs, plate)
         w.table[D_ROW, 4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.table[G_ROW, 3] - G1)
         w.table[U_ROW, 4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.table[G_ROW, 3] - G1)
-        st, F, jm, Lp = _stage(model, w, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4], delta, N4)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4],
+                               delta, N4)
         w.table[F_ROW, 4], w.table[G_ROW, 4], w.table[LP_ROW, 4] = F, body_accel(model.body, F), Lp
-        event = event or _contacts_changed(model, st, delta, jm, contacts)
+        event = event or _contacts_changed(model.basis.mirror, st, delta, jm, contacts)
     return st, jm, event
 
 
@@ -187,7 +189,7 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     """Classical RK4's stages 2, 3 and 4 on z' = i omega z + P (w.cz[1] accumulates k1 + 2 k2 +
     2 k3), the body's as ETD34 has them: (status, jmax)."""
     Cb = coeffs.Cb
-    omega = model.plate.omega
+    omega = model.plate.modes[OMEGA]
     z, N1 = start.z, start.forcing
     zs, incr = w.cz[0], w.cz[1]
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
@@ -198,7 +200,7 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
         k1 = 1j * omega[n] * z[n] + N1[n]
         incr[n] = k1
         zs[n] = z[n] + 0.5 * h * k1
-    st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
+    st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
     w.table[F_ROW, 2], w.table[G_ROW, 2], w.table[LP_ROW, 2] = F, body_accel(model.body, F), Lp
     if st == 0:
         for n in range(z.shape[0]):
@@ -207,7 +209,7 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
             zs[n] = z[n] + 0.5 * h * k2
         w.table[D_ROW, 3] = w.table[D_ROW, 2] + Cb[3, 1] * (w.table[G_ROW, 2] - G1)
         w.table[U_ROW, 3] = w.table[U_ROW, 2] + Cb[3, 0] * (w.table[G_ROW, 2] - G1)
-        st, F, jm, Lp = _stage(model, w, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
         w.table[F_ROW, 3], w.table[G_ROW, 3], w.table[LP_ROW, 3] = F, body_accel(model.body, F), Lp
     if st == 0:
         for n in range(z.shape[0]):
@@ -216,59 +218,62 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
             zs[n] = z[n] + h * k3
         w.table[D_ROW, 4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.table[G_ROW, 3] - G1)
         w.table[U_ROW, 4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.table[G_ROW, 3] - G1)
-        st, F, jm, Lp = _stage(model, w, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4], delta, N4)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4],
+                               delta, N4)
         w.table[F_ROW, 4], w.table[G_ROW, 4], w.table[LP_ROW, 4] = F, body_accel(model.body, F), Lp
     return st, jm
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _update(method, model, coeffs, w, start, h, out):
-    """The step's solution into out.z and out.yb from the stage table."""
+    """The step's solution into out = (z, yb) of the step's end from the stage table."""
+    z_out, yb_out = out
     C, Cb = coeffs.C, coeffs.Cb
     plate = model.plate
     z, N1 = start.z, start.forcing
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
     d, u = start.yb[B_D], start.yb[B_U]
     G = w.table[G_ROW]
-    out.yb[B_D] = d + Cb[0, 1] * u + Cb[6, 1] * G[1] + Cb[7, 1] * (G[2] + G[3]) + Cb[8, 1] * G[4]
-    out.yb[B_U] = u + Cb[6, 0] * G[1] + Cb[7, 0] * (G[2] + G[3]) + Cb[8, 0] * G[4]
+    yb_out[B_D] = d + Cb[0, 1] * u + Cb[6, 1] * G[1] + Cb[7, 1] * (G[2] + G[3]) + Cb[8, 1] * G[4]
+    yb_out[B_U] = u + Cb[6, 0] * G[1] + Cb[7, 0] * (G[2] + G[3]) + Cb[8, 0] * G[4]
     if method == ETD34:
         for n in range(z.shape[0]):
-            out.z[n] = (emul(C[0, n], z[n], plate.kind[n]) + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n])
+            z_out[n] = (emul(C[0, n], z[n], plate.modes[KIND, n]) + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n])
                         + C[8, n] * N4[n])
     else:
-        omega = plate.omega
+        omega = plate.modes[OMEGA]
         zs, incr = w.cz[0], w.cz[1]
         for n in range(z.shape[0]):
             k4 = 1j * omega[n] * zs[n] + N4[n]
-            out.z[n] = z[n] + h / 6.0 * (incr[n] + k4)
+            z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _local_error(method, model, coeffs, w, start, h, event, out):
-    """The step's local error estimate into out.err and out.errb: ETD34's embedded estimate, or,
-    across a change of contact (event), its difference from the exponential trapezoid, whose
-    estimate does not read zero where the forcing is only (t - t*)^{3/2} smooth; RK4's against
-    the exponential (Krogstad) update from the same stage values (RK4's Taylor approximation of
-    e^{i w h} dominates its error; the body's update is the same in both)."""
+    """The step's local error estimate into err and errb of out = (z, forcing, yb, err, errb) of
+    the step's end: ETD34's embedded estimate, or, across a change of contact (event), its
+    difference from the exponential trapezoid, whose estimate does not read zero where the
+    forcing is only (t - t*)^{3/2} smooth; RK4's against the exponential (Krogstad) update from
+    the same stage values (RK4's Taylor approximation of e^{i w h} dominates its error; the
+    body's update is the same in both)."""
     C, Cb = coeffs.C, coeffs.Cb
-    kind = model.plate.kind
-    z, N1, N5 = start.z, start.forcing, out.forcing
+    kind = model.plate.modes[KIND]
+    z_out, N5, yb_out, err, errb = out
+    z, N1 = start.z, start.forcing
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
     d, u = start.yb[B_D], start.yb[B_U]
     G = w.table[G_ROW]
-    err, errb = out.err, out.errb
     if method != ETD34:
         for n in range(z.shape[0]):
-            err[n] = out.z[n] - (C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n]) + C[8, n] * N4[n])
+            err[n] = z_out[n] - (C[0, n] * z[n] + C[6, n] * N1[n] + C[7, n] * (N2[n] + N3[n]) + C[8, n] * N4[n])
         errb[B_D] = 0.0
         errb[B_U] = 0.0
     elif event:
         for n in range(z.shape[0]):
-            err[n] = out.z[n] - (emul(C[0, n], z[n], kind[n]) + (C[4, n] - 0.5 * C[5, n]) * N1[n]
+            err[n] = z_out[n] - (emul(C[0, n], z[n], kind[n]) + (C[4, n] - 0.5 * C[5, n]) * N1[n]
                                  + 0.5 * C[5, n] * N5[n])
-        errb[B_D] = out.yb[B_D] - (d + Cb[0, 1] * u + (Cb[4, 1] - 0.5 * Cb[5, 1]) * G[1] + 0.5 * Cb[5, 1] * G[5])
-        errb[B_U] = out.yb[B_U] - (u + (Cb[4, 0] - 0.5 * Cb[5, 0]) * G[1] + 0.5 * Cb[5, 0] * G[5])
+        errb[B_D] = yb_out[B_D] - (d + Cb[0, 1] * u + (Cb[4, 1] - 0.5 * Cb[5, 1]) * G[1] + 0.5 * Cb[5, 1] * G[5])
+        errb[B_U] = yb_out[B_U] - (u + (Cb[4, 0] - 0.5 * Cb[5, 0]) * G[1] + 0.5 * Cb[5, 0] * G[5])
     else:
         for n in range(z.shape[0]):
             err[n] = C[8, n] * (N4[n] - N5[n])
@@ -307,8 +312,8 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     else:
         st, jm = _rk4_stages(model, coeffs, w, start, t, t_new, h, out.delta)
     if st == 0:
-        _update(method, model, coeffs, w, start, h, out)
-        st, jm = _last_stage(model, w, out, t_new)
+        _update(method, model, coeffs, w, start, h, (out.z, out.yb))
+        st, jm = _last_stage(model, w, (out.z, out.yb, out.delta, out.forcing, out.eps), t_new)
     if st != 0:
         return 1, 0.0, jm, carried.work, event
     w.table[G_ROW, 5] = body_accel(body, w.table[F_ROW, 5])
@@ -316,7 +321,7 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
         event = event or count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
     else:
         event = count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
-    _local_error(method, model, coeffs, w, start, h, event, out)
+    _local_error(method, model, coeffs, w, start, h, event, (out.z, out.forcing, out.yb, out.err, out.errb))
     V = body.V
     F = w.table[F_ROW]
     w_new = _step_work(body, h, carried.work, (F[1], F[2], F[3], F[4]),
@@ -356,13 +361,13 @@ def dense_states(z0, N1, Nm, N5, plate, h, A, AD):
     """
     K = A.shape[0] + 1
     d = h / K
-    omega = plate.omega
+    omega = plate.modes[OMEGA]
     for n in range(z0.shape[0]):
         w = omega[n]
         b1 = (4.0 * Nm[n] - 3.0 * N1[n] - N5[n]) / h
         b2 = 2.0 * (N1[n] - 2.0 * Nm[n] + N5[n]) / (h * h)
-        kind = plate.kind[n]
-        if plate.half_c[n] == 0.0:
+        kind = plate.modes[KIND, n]
+        if plate.modes[HALF_C, n] == 0.0:
             y = w * d
             e = complex(math.cos(y), math.sin(y))
             p1, p2, p3 = phi_from(y, e)

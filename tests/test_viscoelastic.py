@@ -15,15 +15,16 @@ from solver.control import BOTTOM_GAP, make_control
 from solver.diagnostics import Outputs
 from solver.loop import integrate
 from solver.model.assemble import Tables
+from solver.model.plate import HALF_C, KIND, OMEGA, OMEGA_D
 from dop853_check import against_dop853
 from test_pipeline import pipeline
 
 
 def test_elastic_ice_is_the_papers_bit_for_bit():
     p = Parameters(Nmod=20)
-    plate = Tables(p, 100).model.plate
-    assert p.tau == 0.0 and np.all(plate.half_c == 0.0)
-    assert np.array_equal(plate.wd, plate.omega) and np.all(plate.kind == 0.0)
+    modes = Tables(p, 100).model.plate.modes
+    assert p.tau == 0.0 and np.all(modes[HALF_C] == 0.0)
+    assert np.array_equal(modes[OMEGA_D], modes[OMEGA]) and np.all(modes[KIND] == 0.0)
     a = solve(p, Settings(error_estimate=False), fields=("strain",))
     b = solve(p.replace(tau=0.0), Settings(error_estimate=False), fields=("strain",))
     assert np.array_equal(a.fields["strain"], b.fields["strain"]) and a.steps == b.steps
@@ -64,7 +65,7 @@ def test_free_damped_plate_decays_as_the_damped_oscillator(n):
     p = Parameters(Nmod=20, tau=2e-4)
     omega, c = p.frequencies[n], p.damping[n]
     tab, times, out_a, out_v, series = _free_plate(p, n, 3.0 * 2 * np.pi / omega)
-    kind = tab.model.plate.kind[n]
+    kind = tab.model.plate.modes[KIND, n]
     assert kind == (1.0 if c / 2 > omega else 0.0)
     a, v = _oscillator(c, omega, times)
     np.testing.assert_allclose(out_a[:, n], a, atol=1e-13)
@@ -77,7 +78,7 @@ def test_free_damped_plate_decays_as_the_damped_oscillator(n):
 
 def test_both_kinds_of_modes_in_one_plate():
     p = Parameters(Nmod=20, tau=2e-4)
-    kinds = Tables(p, 64).model.plate.kind
+    kinds = Tables(p, 64).model.plate.modes[KIND]
     assert 0 < kinds.sum() < 20                       # underdamped low modes, overdamped high ones
 
 
@@ -126,7 +127,7 @@ def test_energy_identity_with_the_dissipated_energy():
 
 def test_damped_impact_agrees_with_dop853():
     p = Parameters(Nmod=20, tau=1e-4)
-    kinds = Tables(p, 64).model.plate.kind
+    kinds = Tables(p, 64).model.plate.modes[KIND]
     assert kinds.any()                                  # overdamped modes among them
     a, b = against_dop853(p, 0.3 * p.stage_duration)
     assert a.dissipated_energy[-1] == pytest.approx(b.dissipated_energy[-1], rel=1e-5)

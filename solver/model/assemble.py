@@ -18,7 +18,7 @@ import numpy as np
 from .basis import Basis
 from .body import Body
 from .layer import LAW_CODES, Layer
-from .plate import Plate
+from .plate import COEF, MASS, STRAIN, Plate, make_plate
 
 #: what the kernels take for one case: Plate, Basis, Body, Layer (each defined by its module)
 Model = namedtuple("Model", "plate basis body layer")
@@ -47,7 +47,7 @@ class Tables:
         self.xq = self.dx * np.arange((2 if full else 1) * subintervals + 1)   # the nodes in kernel coordinates
         self.x_nodes = self.xq + self.origin                                  # and on the plate
         plate = self._plate(p, M, full)
-        self.coef, self.LM, self.strain_coef = plate.coef, plate.LM, plate.strain
+        self.coef, self.LM, self.strain_coef = plate.modes[COEF], plate.modes[MASS], plate.modes[STRAIN]
         self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, self.xq)))       # (N, J)
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                     # np.sinc(u) = sin(pi u)/(pi u)
         self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
@@ -67,10 +67,8 @@ class Tables:
         over = over & ~near
         wd = np.where(half_c == 0.0, self.omega, np.where(near, CRITICAL_GAP * self.omega, wd))
         LM = p.L * M
-        c = np.ascontiguousarray
-        return Plate(c(self.omega, dtype=float), c((-1.0 if full else -2.0) / (p.L * M)),
-                     c(0.5 * p.hi * self.lam**2), c(LM), c(half_c, dtype=float), c(wd, dtype=float),
-                     c(over.astype(float)), np.ones(self.lam.size), float(LM[1] if full else LM[0]))
+        return make_plate(self.omega, (-1.0 if full else -2.0) / (p.L * M), 0.5 * p.hi * self.lam**2, LM, half_c, wd,
+                          over.astype(float), LM[1] if full else LM[0])
 
     def _body(self, p, full):
         """The Body: its motion, its shape, and its profile at the nodes."""

@@ -22,6 +22,7 @@ from numba import njit
 from .basis import (NEWTON_STOP, _newton_move, argmax_node, continuous_peak, modal_sum_range, mode_sum,
                     mode_sums, refine)
 from .body import body_extent, body_profile, body_slope_curvature, is_parabola
+from .plate import ONES
 
 #: modes taken exactly in contact_bound's node-by-node bound on the deflection
 BOUND_MODES = 4
@@ -146,7 +147,7 @@ def shape_peak(model, delta, j, n, a, s):
     dx = model.basis.dx
     lam1 = model.basis.lam1
     he = model.layer.he
-    ones = model.plate.ones
+    ones = model.plate.modes[ONES]
     if j == 0 or j == n - 1:
         return delta[j], j * dx
     v, x = refine(delta, 1.0, j, n, dx)
@@ -173,7 +174,7 @@ def gap_peak(model, s, U, delta, jm, a, adot, out):
     delta holds the nodes j < jm (beyond them delta < 0); the peak is refined on the modes.
     """
     he = model.layer.he
-    ones = model.plate.ones
+    ones = model.plate.modes[ONES]
     n = jm if jm < delta.shape[0] else delta.shape[0]
     j = argmax_node(delta, 1.0, n)
     if j == n - 1 and n < delta.shape[0]:

@@ -33,6 +33,7 @@ from numba import njit
 
 from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, strain_nodes
 from .contact import contact_bound
+from .plate import COEF, STRAIN
 
 #: the layer: he [m], K [Pa], tau = layer_tau [s] (0: elastic), law (LAW_CODES)
 Layer = namedtuple("Layer", "he K tau law")
@@ -92,7 +93,7 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
         return 0, 0.0, 0, 0.0
     jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum(a, model.basis.cosq, delta, jmax)
-    return _scaled(model.layer.K, model.basis.mirror, model.plate.coef,
+    return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, adot, jmax, delta, fvals, P), P)
 
 
@@ -102,13 +103,13 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     the table where both are needed."""
     cosq = model.basis.cosq
     if model.layer.K == 0.0:
-        strain_nodes(a, model.plate.strain, cosq, eps)
+        strain_nodes(a, model.plate.modes[STRAIN], cosq, eps)
         for n in range(P.shape[0]):
             P[n] = 0.0
         return 0, 0.0, 0, 0.0
     jmax = contact_bound(model.body, model.basis, s, a, delta)
-    modal_sum_strain(a, model.plate.strain, cosq, delta, eps, jmax)
-    return _scaled(model.layer.K, model.basis.mirror, model.plate.coef,
+    modal_sum_strain(a, model.plate.modes[STRAIN], cosq, delta, eps, jmax)
+    return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, adot, jmax, delta, fvals, P), P)
 
 

@@ -21,13 +21,25 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-#: the plate's per-mode table (arrays over the kernel's modes n, each (N,)): omega_n [s-1],
-#: coef = -2/(L M_n) (-1/(L M_n) on the full plate), strain = (hi/2) lambda_n^2 [m-1], LM = L M_n
-#: [kg m-1], the Kelvin-Voigt damping half_c = c_n/2 [s-1], wd = omega_d = sqrt(omega^2 - c^2/4)
-#: of an oscillating mode (kind 0; omega itself when c = 0) or kappa = sqrt(c^2/4 - omega^2) of
-#: an overdamped one (kind 1), ones (N,) (unit weights for sums of modes), and lm_floor, L M of
-#: the first symmetric mode (the floor of the error norm) [kg m-1]
-Plate = namedtuple("Plate", "omega coef strain LM half_c wd kind ones lm_floor")
+#: the plate: modes (8, N), its per-mode constants over the kernel's modes n in the rows below,
+#: and lm_floor, L M of the first symmetric mode (the floor of the error norm) [kg m-1]. One
+#: table, not eight arrays: numba counts a reference to every array a tuple holds each time the
+#: tuple is bound to a name, and the Plate is bound in every stage (docs/architecture.md)
+Plate = namedtuple("Plate", "modes lm_floor")
+#: rows of Plate.modes: omega_n [s-1]; coef = -2/(L M_n) (-1/(L M_n) on the full plate); strain =
+#: (hi/2) lambda_n^2 [m-1]; MASS = L M_n [kg m-1]; the Kelvin-Voigt damping HALF_C = c_n/2 [s-1];
+#: OMEGA_D = sqrt(omega^2 - c^2/4) of an oscillating mode (KIND 0; omega itself when c = 0) or
+#: kappa = sqrt(c^2/4 - omega^2) of an overdamped one (KIND 1); ONES (unit weights for sums of modes)
+OMEGA, COEF, STRAIN, MASS, HALF_C, OMEGA_D, KIND, ONES = range(8)
+
+
+def make_plate(omega, coef, strain, mass, half_c, omega_d, kind, lm_floor):
+    """A Plate from its per-mode arrays (each (N,)) and lm_floor (plain Python, once per case)."""
+    modes = np.zeros((8, np.size(omega)))
+    for row, values in ((OMEGA, omega), (COEF, coef), (STRAIN, strain), (MASS, mass), (HALF_C, half_c),
+                        (OMEGA_D, omega_d), (KIND, kind), (ONES, 1.0)):
+        modes[row] = values
+    return Plate(modes, float(lm_floor))
 
 
 #: Taylor coefficients of phi_3(i y) in u = y^2: real part sum_k (-u)^k / (2k + 3)!, imaginary
@@ -107,9 +119,9 @@ def mode_phis(plate, n, d):
     that act on its z as emul does: an oscillating mode's of zeta = mu_+ d, mu_+ = -c/2 + i
     omega_d; an overdamped mode's of its two real rates mu_+- = -c/2 +- kappa, as (value at
     mu_+) + i (value at mu_-)."""
-    hc = plate.half_c[n]
-    wd = plate.wd[n]
-    if plate.kind[n] == 0.0:
+    hc = plate.modes[HALF_C, n]
+    wd = plate.modes[OMEGA_D, n]
+    if plate.modes[KIND, n] == 0.0:
         return phi_complex(complex(-hc * d, wd * d))
     ep, p1p, p2p, p3p = phi_complex(complex((-hc + wd) * d, 0.0))
     em, p1m, p2m, p3m = phi_complex(complex((-hc - wd) * d, 0.0))
@@ -129,7 +141,7 @@ def emul(e, z, kind):
 @njit(cache=True, nogil=True)
 def plate_damped(plate):
     """True for viscoelastic ice (c_n grows with n: the last mode is damped if any is)."""
-    return plate.half_c[plate.half_c.shape[0] - 1] > 0.0
+    return plate.modes[HALF_C, plate.modes.shape[1] - 1] > 0.0
 
 
 @njit(cache=True, nogil=True)
@@ -137,25 +149,25 @@ def mode_a(z, n, plate):
     """a_n from z_n. With mu_+- the roots of mu^2 + c mu + omega^2 = 0, z = a' - mu_- a obeys
     z' = mu_+ z + P: for c = 0, z = a' + i omega a. Oscillating: z = a' + (c/2) a + i omega_d a;
     overdamped: z = y_+ + i y_-, y_+- = a' - mu_-+ a."""
-    if plate.kind[n] == 0.0:
-        return z.imag / plate.wd[n]
-    return (z.real - z.imag) / (2.0 * plate.wd[n])
+    if plate.modes[KIND, n] == 0.0:
+        return z.imag / plate.modes[OMEGA_D, n]
+    return (z.real - z.imag) / (2.0 * plate.modes[OMEGA_D, n])
 
 
 @njit(cache=True, nogil=True)
 def mode_adot(z, a, n, plate):
     """a_n' from z_n and a_n (see mode_a)."""
-    if plate.kind[n] == 0.0:
-        return z.real - plate.half_c[n] * a
-    return z.real - (plate.half_c[n] + plate.wd[n]) * a
+    if plate.modes[KIND, n] == 0.0:
+        return z.real - plate.modes[HALF_C, n] * a
+    return z.real - (plate.modes[HALF_C, n] + plate.modes[OMEGA_D, n]) * a
 
 
 @njit(cache=True, nogil=True)
 def mode_z(a, adot, n, plate):
     """z_n from a_n and a_n' (see mode_a); exactly a' + i omega a for an undamped mode."""
-    hc = plate.half_c[n]
-    wd = plate.wd[n]
-    if plate.kind[n] == 0.0:
+    hc = plate.modes[HALF_C, n]
+    wd = plate.modes[OMEGA_D, n]
+    if plate.modes[KIND, n] == 0.0:
         if hc == 0.0:
             return complex(adot, wd * a)
         return complex(adot + hc * a, wd * a)
@@ -165,7 +177,7 @@ def mode_z(a, adot, n, plate):
 @njit(cache=True, nogil=True)
 def damping_power(plate, n, v):
     """L M_n c_n a_n'^2 [W m-1]: the power the Kelvin-Voigt damping takes from mode n at a_n' = v."""
-    return 2.0 * plate.half_c[n] * plate.LM[n] * v * v
+    return 2.0 * plate.modes[HALF_C, n] * plate.modes[MASS, n] * v * v
 
 
 @njit(cache=True, nogil=True)
@@ -173,7 +185,7 @@ def dissipation_rate(z, plate):
     """sum_n L M_n c_n a_n'^2 [W m-1]: the power the Kelvin-Voigt damping takes from the plate."""
     r = 0.0
     for n in range(z.shape[0]):
-        hc = plate.half_c[n]
+        hc = plate.modes[HALF_C, n]
         if hc > 0.0:
             a = mode_a(z[n], n, plate)
             v = mode_adot(z[n], a, n, plate)
@@ -188,9 +200,9 @@ def mode_acceleration(plate, a, v, P, out):
     takes, sum_n damping_power."""
     power = 0.0
     for n in range(a.shape[0]):
-        out[n] = -plate.omega[n] ** 2 * a[n] + P[n]
-        if plate.half_c[n] > 0.0:
-            out[n] -= 2.0 * plate.half_c[n] * v[n]
+        out[n] = -plate.modes[OMEGA, n] ** 2 * a[n] + P[n]
+        if plate.modes[HALF_C, n] > 0.0:
+            out[n] -= 2.0 * plate.modes[HALF_C, n] * v[n]
             power += damping_power(plate, n, v[n])
     return power
 
@@ -199,12 +211,12 @@ def mode_acceleration(plate, a, v, P, out):
 def _plus_plate_energy(e, plate, z):
     """e + E_plate, E_plate = sum_n L M_n (a_n'^2 + omega_n^2 a_n^2) / 2 [J m-1] (added term by
     term to e): L M_n |z_n|^2 / 2 for the undamped plate."""
-    LM = plate.LM
+    LM = plate.modes[MASS]
     if not plate_damped(plate):
         for n in range(z.shape[0]):
             e += 0.5 * LM[n] * (z[n].real ** 2 + z[n].imag ** 2)
         return e
-    omega = plate.omega
+    omega = plate.modes[OMEGA]
     for n in range(z.shape[0]):
         a = mode_a(z[n], n, plate)
         v = mode_adot(z[n], a, n, plate)

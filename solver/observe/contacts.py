@@ -34,21 +34,23 @@ def contact_work(J):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _candidates(model, t0, h, s0, jm0, s1, jm1, speed, sgn):
+def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
-    <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; s0.delta,
-    s1.delta are filled up to that range): (candidate nodes, their count, the range jm)."""
+    <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; the ends'
+    delta are filled up to that range): (candidate nodes, their count, the range jm)."""
+    a0, _, delta0, yb0 = end0
+    a1, _, delta1, yb1 = end1
     body = model.body
     he = model.layer.he
-    S0, S1 = body_position(body, t0, s0.yb), body_position(body, t0 + h, s1.yb)
-    jm = reach_in_step(body, model.basis, max(jm0, jm1), s0.a, s1.a, S0, S1, 0.5 * speed * h * he, sgn)
-    node_deltas(he, body, model.basis, s0.a, S0, s0.delta, jm0, jm)     # nodes outside an end's computed range
-    node_deltas(he, body, model.basis, s1.a, S1, s1.delta, jm1, jm)
+    S0, S1 = body_position(body, t0, yb0), body_position(body, t0 + h, yb1)
+    jm = reach_in_step(body, model.basis, max(jm0, jm1), a0, a1, S0, S1, 0.5 * speed * h * he, sgn)
+    node_deltas(he, body, model.basis, a0, S0, delta0, jm0, jm)     # nodes outside an end's computed range
+    node_deltas(he, body, model.basis, a1, S1, delta1, jm1, jm)
     cand = np.empty(jm, dtype=np.int64)
     nc = 0
     for j in range(jm):
-        d0 = s0.delta[j]
-        d1 = s1.delta[j]
+        d0 = delta0[j]
+        d1 = delta1[j]
         sgn[j] = 1.0 if d0 > 0.0 else -1.0
         mid = 0.5 * (d0 + d1)
         if (d0 > 0.0) == (d1 > 0.0):
@@ -62,13 +64,15 @@ def _candidates(model, t0, h, s0, jm0, s1, jm1, speed, sgn):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _sign_changes(model, cw, h, s0, s1, cand, nc, jm):
+def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
     step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
     candidate nodes. Returns the number of events."""
+    _, adot0, delta0, yb0 = end0
+    _, adot1, delta1, yb1 = end1
     he = model.layer.he
     cosq = model.basis.cosq
-    U0, U1 = body_speed(model.body, s0.yb), body_speed(model.body, s1.yb)
+    U0, U1 = body_speed(model.body, yb0), body_speed(model.body, yb1)
     ev_th, ev_j = cw.ev_th, cw.ev_j
     rate0 = np.empty(jm)
     rate1 = np.empty(jm)
@@ -78,14 +82,14 @@ def _sign_changes(model, cw, h, s0, s1, cand, nc, jm):
         while i + 1 < nc and cand[i + 1] <= cand[i] + RUN_GAP:
             i += 1
         hi = cand[i] + 1
-        modal_sum_range(s0.adot, cosq, rate0, lo, hi)
-        modal_sum_range(s1.adot, cosq, rate1, lo, hi)
+        modal_sum_range(adot0, cosq, rate0, lo, hi)
+        modal_sum_range(adot1, cosq, rate1, lo, hi)
         i += 1
     n_ev = 0
     roots = np.empty(3)
     for i in range(nc):
         j = cand[i]
-        c0, c1, c2, c3 = hermite(s0.delta[j], s1.delta[j], (rate0[j] + U0) / he, (rate1[j] + U1) / he, h)
+        c0, c1, c2, c3 = hermite(delta0[j], delta1[j], (rate0[j] + U0) / he, (rate1[j] + U1) / he, h)
         k = cubic_sign_changes(c0, c1, c2, c3, roots)
         for r in range(k):
             if n_ev < ev_th.shape[0]:
@@ -106,24 +110,28 @@ def _sign_changes(model, cw, h, s0, s1, cand, nc, jm):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def observe_contacts(model, cw, t0, h, s0, jm0, s1, jm1, contacts, record):
-    """Changes of the number of contact intervals inside the step [t0, t0 + h], between the states
-    s0 and s1 (their nodes computed up to jm0, jm1). record = (rows (t, count after the change),
-    count of rows). Returns (contacts at t1, record, largest count in the step)."""
+def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
+    """Changes of the number of contact intervals inside the step [t0, t0 + h], between its two
+    states, each given as end = (a, adot, delta, yb) (the arrays read of a State, not the State:
+    numba counts a reference to every array of a tuple at each binding), their nodes computed up
+    to jm0, jm1. record = (rows (t, count after the change), count of rows). Returns (contacts at
+    t1, record, largest count in the step)."""
     rec, n = record
+    _, adot0, _, yb0 = end0
+    _, adot1, delta1, yb1 = end1
     he = model.layer.he
-    U0, U1 = body_speed(model.body, s0.yb), body_speed(model.body, s1.yb)
+    U0, U1 = body_speed(model.body, yb0), body_speed(model.body, yb1)
     Ub = max(abs(U0), abs(U1))
     if model.body.inv_mass > 0.0:
         Ub *= 2.0                       # a free body's speed may swing between the step's ends
     r0 = 0.0
     r1 = 0.0
-    for k in range(s0.adot.shape[0]):
-        r0 += abs(s0.adot[k])
-        r1 += abs(s1.adot[k])
+    for k in range(adot0.shape[0]):
+        r0 += abs(adot0[k])
+        r1 += abs(adot1[k])
     speed = (2.0 * max(r0, r1) + Ub) / he   # a bound on |d delta / dt| within the step
-    cand, nc, jm = _candidates(model, t0, h, s0, jm0, s1, jm1, speed, cw.sgn)
-    n_ev = _sign_changes(model, cw, h, s0, s1, cand, nc, jm)
+    cand, nc, jm = _candidates(model, t0, h, end0, jm0, end1, jm1, speed, cw.sgn)
+    n_ev = _sign_changes(model, cw, h, end0, end1, cand, nc, jm)
     largest = contacts
     if n_ev == 0:
         return contacts, (rec, n), largest
@@ -137,7 +145,7 @@ def observe_contacts(model, cw, t0, h, s0, jm0, s1, jm1, contacts, record):
             contacts = c
             if c > largest:
                 largest = c
-    final = count_contacts(s1.delta, jm, mirror)
+    final = count_contacts(delta1, jm, mirror)
     if final != contacts:               # the end pattern is exact: it wins
         rec, n = append_row(rec, n, t0 + h, final, 0.0, 0.0, 0.0)
         contacts = final

@@ -14,6 +14,7 @@ from numba import njit
 from ..model.basis import global_peak, strain_nodes
 from ..model.body import body_position, body_speed
 from ..model.contact import gap_peak
+from ..model.plate import STRAIN
 from ..step import substep
 
 #: an event is bracketed by scanning its step at SCAN sub-steps, so the first crossing is found
@@ -30,8 +31,8 @@ def event_value(model, kind, t, jm, state, out):
                  jm, state.a, state.adot, out)
         return out[0]
     sign = float(kind)
-    strain_nodes(state.a, model.plate.strain, model.basis.cosq, state.eps)
-    v, x, j = global_peak(state.eps, sign, model.basis, model.plate.strain, state.a)
+    strain_nodes(state.a, model.plate.modes[STRAIN], model.basis.cosq, state.eps)
+    v, x, j = global_peak(state.eps, sign, model.basis, model.plate.modes[STRAIN], state.a)
     out[0] = v
     out[2] = x
     return v

@@ -23,6 +23,7 @@ from numba import njit
 from ..cubic import cubic_max, hermite
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
 from ..model.basis import NEWTON_STOP, _newton_move, climb, global_peak, mode_sum, mode_sums, strain_nodes
+from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
 from .record import append_row
 
@@ -39,13 +40,18 @@ SWITCH_SAMPLES = 32
 #: a peak that moves more than SWITCH_DISTANCE nodes within one step is taken for a switch
 SWITCH_DISTANCE = 10
 
-#: the tension observer's state and scratch: peaks (2, 4) each surface's (value, rate, x, node)
-#: at the current time; p0, p1, piece (4,) a step's start, end and one piece's (max, time, x);
-#: best (3,) the step's; samples (TENSION_SAMPLES + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense
-#: states, dense (1,) bool (computed this step), back (3,); A2, AD2, eps, samples2 the same for a
-#: switch of peaks (SWITCH_SAMPLES); joinable (2,) bool and run_max (2,) per surface
-TensionWork = namedtuple("TensionWork", "peaks p0 p1 piece best samples A AD dense back A2 AD2 eps samples2 "
-                                        "joinable run_max")
+#: the tension observer's state and scratch: track (7, 4), rows PEAKS + s each surface's (value,
+#: rate, x, node) at the current time, P0, P1 a step's start and end, PIECE one piece's and BEST
+#: the step's (max, time, x), BACK a backward track's (value, rate, x); samples (TENSION_SAMPLES
+#: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
+#: switch of peaks (SWITCH_SAMPLES); marks (5,): RUN_MAX + s the running maximum of surface s,
+#: JOINABLE + s 1 when its last step was stored, DENSE 1 when the step's dense states are
+#: computed. (Few arrays: numba counts a reference to each array of a tuple at every binding.)
+TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 marks")
+#: rows of TensionWork.track
+PEAKS, P0, P1, PIECE, BEST, BACK = 0, 2, 3, 4, 5, 6
+#: entries of TensionWork.marks
+RUN_MAX, JOINABLE, DENSE = 0, 2, 4
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
 
@@ -53,11 +59,10 @@ Dense = namedtuple("Dense", "z0 N1 Nm N5")
 @njit(cache=True, nogil=True)
 def tension_work(N, J):
     """A TensionWork for N modes and J nodes (allocated once per run)."""
-    return TensionWork(np.empty((2, 4)), np.empty(4), np.empty(4), np.empty(4), np.empty(3),
-                       np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
-                       np.empty((TENSION_SAMPLES - 1, N)), np.zeros(1, np.bool_), np.empty(3),
-                       np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
-                       np.empty((SWITCH_SAMPLES + 1, 3)), np.zeros(2, np.bool_), np.empty(2))
+    return TensionWork(np.empty((7, 4)), np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
+                       np.empty((TENSION_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)),
+                       np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J), np.empty((SWITCH_SAMPLES + 1, 3)),
+                       np.zeros(5))
 
 
 @njit(cache=True, nogil=True)
@@ -79,7 +84,7 @@ def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
 def global_state(model, eps, sign, a, adot, track):
     """The global peak of sign * eps over continuous x (global_peak) and its time derivative
     d/dt = sign * eps_t at the peak (envelope theorem): track[:] = (value, rate, x, node)."""
-    strain = model.plate.strain
+    strain = model.plate.modes[STRAIN]
     v, x, j = global_peak(eps, sign, model.basis, strain, a)
     track[0] = v
     track[1] = sign * mode_sum(strain, adot, model.basis.lam1, x)
@@ -112,13 +117,13 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
 
 @njit(cache=True, nogil=True, inline="always")
 def _tension_piece(model, tw, s, t0, h, dz, rec, n):
-    """The peak of surface s over the step: from tw.p0 (t0) to tw.p1 (t0 + h), each (value,
-    rate, x), through the dense-output states inside the step (computed from dz when tw.dense[0]
-    is False; samples[k] receives the larger of the peaks followed forward from x0 and backward
-    from x1). Stored as consecutive record rows when it rises above the running maximum; tw.piece
-    receives (max, time, x) of the piece. Returns (rec, n, stored)."""
-    p0, p1, best, samples = tw.p0, tw.p1, tw.piece, tw.samples
-    joinable, run_max = tw.joinable[s], tw.run_max[s]
+    """The peak of surface s over the step: from track P0 (t0) to P1 (t0 + h), each (value, rate,
+    x), through the dense-output states inside the step (computed from dz unless marks DENSE says
+    they are; samples[k] receives the larger of the peaks followed forward from x0 and backward
+    from x1). Stored as consecutive record rows when it rises above the running maximum; track
+    PIECE receives (max, time, x) of the piece. Returns (rec, n, stored)."""
+    p0, p1, best, samples = tw.track[P0], tw.track[P1], tw.track[PIECE], tw.samples
+    joinable, run_max = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s]
     sign = 1.0 - 2.0 * s
     K = tw.A.shape[0] + 1
     c0, c1, c2, c3 = hermite(p0[0], p1[0], p0[1], p1[1], h)
@@ -128,7 +133,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     best[2] = p0[2] + th * (p1[2] - p0[2])
     if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
         return rec, n, False
-    omega = model.plate.omega
+    omega = model.plate.modes[OMEGA]
     if omega[omega.shape[0] - 1] * h <= 0.4:     # every mode resolved by the step: its ends suffice
         if not vmax > run_max:
             return rec, n, False
@@ -136,25 +141,25 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
             rec, n = append_row(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
         rec, n = append_row(rec, n, t0 + h, p1[0], p1[1], p1[2], 1.0)
         return rec, n, True
-    if not tw.dense[0]:                          # the step's dense states, once per step
+    if tw.marks[DENSE] == 0.0:                   # the step's dense states, once per step
         dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A, tw.AD)
-        tw.dense[0] = True
+        tw.marks[DENSE] = 1.0
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
-    strain, lam1, dx, L = model.plate.strain, model.basis.lam1, model.basis.dx, model.basis.length
+    strain, lam1, dx, L = model.plate.modes[STRAIN], model.basis.lam1, model.basis.dx, model.basis.length
     xf = p0[2]
     for k in range(1, K):
         peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, strain, tw.A[k - 1], tw.AD[k - 1],
                   lam1, samples[k])
         xf = samples[k, 2]
     xb = p1[2]
-    back = tw.back
+    back = tw.track[BACK]
     for k in range(K - 1, 0, -1):
         peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, strain, tw.A[k - 1], tw.AD[k - 1],
                   lam1, back)
         xb = back[2]
         if back[0] > samples[k, 0]:
-            samples[k, :3] = back
+            samples[k, :3] = back[:3]
     samples[0, :3] = p0[:3]
     samples[K, :3] = p1[:3]
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
@@ -166,8 +171,8 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     peak may emerge inside the step, where no track can follow it): at SWITCH_SAMPLES - 1
     points of the dense output the strain is evaluated at every node and the global peak
     searched among all local peaks (global_peak). Stored like _tension_piece."""
-    p0, p1, best, samples = tw.p0, tw.p1, tw.piece, tw.samples2
-    joinable, run_max = tw.joinable[s], tw.run_max[s]
+    p0, p1, best, samples = tw.track[P0], tw.track[P1], tw.track[PIECE], tw.samples2
+    joinable, run_max = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s]
     sign = 1.0 - 2.0 * s
     K = SWITCH_SAMPLES
     if max(p0[0], p1[0]) < run_max - RIPPLE * abs(run_max):   # far below the record: not needed
@@ -178,7 +183,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
     samples[0, :3] = p0[:3]
     samples[K, :3] = p1[:3]
-    strain = model.plate.strain
+    strain = model.plate.modes[STRAIN]
     for k in range(1, K):
         strain_nodes(tw.A2[k - 1], strain, model.basis.cosq, tw.eps)
         v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1])
@@ -189,24 +194,25 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def observe_tension(model, tw, s, t0, h, s0, s1, dz, rec, n):
+def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
-    [t0, t0 + h], between the states s0 and s1.
+    [t0, t0 + h], between its two states: ends = (eps at t0, eps, a and a' at t0 + h).
 
-    tw.peaks[s] holds (value, rate, x, node) of the global peak at t0 and receives it at t1. The
+    tw.track[PEAKS + s] holds (value, rate, x, node) of the global peak at t0 and receives it at t1. The
     peak is followed from the step's start to its end through TENSION_SAMPLES - 1 samples of the
     dense output inside the step (see _tension_piece); where the global peak passes from one
     local peak to another within the step, the global peak itself is sampled (_global_piece). A
-    step is stored when it rises above tw.run_max[s], the running maximum so far (updated, and
-    tw.joinable[s]). Returns (rec, n); tw.best receives the (max, time, x) of the step.
+    step is stored when it rises above tw.marks[RUN_MAX + s], the running maximum so far (updated,
+    and JOINABLE + s). Returns (rec, n); track BEST receives the (max, time, x) of the step.
     """
     sign = 1.0 - 2.0 * s
-    J = s1.eps.shape[0]
-    p0, p1, best, piece = tw.p0, tw.p1, tw.best, tw.piece
-    p0[:] = tw.peaks[s, :4]
+    eps0, eps1, a1, adot1 = ends
+    J = eps1.shape[0]
+    p0, p1, best, piece = tw.track[P0], tw.track[P1], tw.track[BEST], tw.track[PIECE]
+    p0[:] = tw.track[PEAKS + s]
     j0 = int(p0[3])
-    global_state(model, s1.eps, sign, s1.a, s1.adot, p1)
-    jb0 = climb(s0.eps, sign, int(p1[3]), J)
+    global_state(model, eps1, sign, a1, adot1, p1)
+    jb0 = climb(eps0, sign, int(p1[3]), J)
     best[0] = -np.inf
     # one track through the step, unless the peak at t1 climbs back to another local peak at t0
     # or jumped too far for one track (a peak that emerged inside the step)
@@ -214,26 +220,28 @@ def observe_tension(model, tw, s, t0, h, s0, s1, dz, rec, n):
         rec, n, stored = _tension_piece(model, tw, s, t0, h, dz, rec, n)
     else:                                           # the global peak moved to another local peak
         rec, n, stored = _global_piece(model, tw, s, t0, h, dz, rec, n)
-    tw.joinable[s] = stored
+    tw.marks[JOINABLE + s] = 1.0 if stored else 0.0
     if piece[0] > best[0]:
         best[:3] = piece[:3]
-    if best[0] > tw.run_max[s]:
-        tw.run_max[s] = best[0]
-    tw.peaks[s, :4] = p1[:4]
+    if best[0] > tw.marks[RUN_MAX + s]:
+        tw.marks[RUN_MAX + s] = best[0]
+    tw.track[PEAKS + s] = p1
     return rec, n
 
 
 @njit(cache=True, nogil=True)
-def observe_tensions(model, tw, t, h, s0, s1, dz, records, diag):
-    """The tension records of both surfaces over the accepted step (observe_tension), records =
-    (upper, n_upper, lower, n_lower); the largest tensions into diag. Returns the records."""
+def observe_tensions(model, tw, t, h, ends, dz, records, diag):
+    """The tension records of both surfaces over the accepted step (observe_tension; ends = (eps
+    at t, eps, a and a' at t + h): the arrays it reads of the two states, not the States, whose
+    every array numba would count a reference to), records = (upper, n_upper, lower, n_lower);
+    the largest tensions into diag. Returns the records."""
     rec_up, n_up, rec_lo, n_lo = records
     for s in range(2):                  # (a loop: numba compiles a copy per literal surface index)
         if s == 0:
-            rec_up, n_up = observe_tension(model, tw, s, t, h, s0, s1, dz, rec_up, n_up)
+            rec_up, n_up = observe_tension(model, tw, s, t, h, ends, dz, rec_up, n_up)
         else:
-            rec_lo, n_lo = observe_tension(model, tw, s, t, h, s0, s1, dz, rec_lo, n_lo)
-        _largest(tw.best, s, diag)
+            rec_lo, n_lo = observe_tension(model, tw, s, t, h, ends, dz, rec_lo, n_lo)
+        _largest(tw.track[BEST], s, diag)
     return rec_up, n_up, rec_lo, n_lo
 
 
