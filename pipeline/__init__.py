@@ -1,7 +1,22 @@
-"""floe-impact study runner."""
+"""floe-impact study runner: a study file -> cases -> dask workers -> batch files -> study.nc -> figures.
+
+From Python::
+
+    import pipeline
+    ds = pipeline.run_study("speed_sweep", workers=2)        # the combined study.nc, an xarray.Dataset
+    ds = pipeline.open_study("results/speed_sweep")           # a finished study, checksum verified
+
+From the shell: ``floe-impact run|status|show`` (= ``python -m pipeline``).
+"""
 from importlib.metadata import PackageNotFoundError, version as _version
+
+from .api import open_study, run_study, study_text
+from .errors import ResultsIOError, StudyError
+from .lock import StudyLocked
 
 try:
     __version__ = _version("floe-impact")
 except PackageNotFoundError:                    # a source tree that was not installed
     __version__ = "unknown"
+
+__all__ = ["ResultsIOError", "StudyError", "StudyLocked", "open_study", "run_study", "study_text"]

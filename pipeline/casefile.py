@@ -160,7 +160,7 @@ def batch_dataset(cases: list, arrays: list) -> dict:
                     _attrs("position along the plate as a fraction of the case's half-length L", "1"))}
     attrs = {"title": BATCH_TITLE, "schema_version": SCHEMA_VERSION,
              "output_times": json.dumps(first.times_spec), "fields": json.dumps(list(first.fields)),
-             "end": first.end, **provenance.attributes()}
+             "end": first.end, **provenance.attributes(f"ran {n} case(s) as one batch")}
     return {"data": data, "coords": coords, "attrs": attrs}
 
 
@@ -169,6 +169,7 @@ def write_netcdf(spec: dict, path: Path) -> None:
     floats with a NaN fill value, strings as variable-length strings."""
     import netCDF4
     variables = {**spec["coords"], **spec["data"]}
+    coordinates = set(spec["coords"])                # CF 2.5.1: a coordinate variable has no _FillValue
     with netCDF4.Dataset(path, "w", format="NETCDF4") as nc:
         sizes = {}
         for dims, arr, _ in variables.values():
@@ -181,7 +182,7 @@ def write_netcdf(spec: dict, path: Path) -> None:
                 var = nc.createVariable(name, str, dims)
                 arr = arr.astype(object)
             elif arr.dtype.kind == "f":
-                var = nc.createVariable(name, "f8", dims, fill_value=np.nan)
+                var = nc.createVariable(name, "f8", dims, fill_value=False if name in coordinates else np.nan)
             else:
                 var = nc.createVariable(name, arr.dtype, dims)
             var.setncatts(attrs)

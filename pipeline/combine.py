@@ -483,7 +483,7 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
                  "base_parameters": json.dumps(study.base), "cases": study.n_cases,
                  "cases_ok": complete, "cases_missing": statuses.count("missing"),
                  "cases_failed": len(statuses) - complete - statuses.count("missing"),
-                 **provenance.attributes()}
+                 **provenance.attributes(f"combined study {study.name} from its batch files")}
         if study.references:
             attrs["reference"] = json.dumps(study.reference)
         path = writer.finish(attrs)

@@ -114,11 +114,12 @@ def cluster_client(workers: int, scheduler: str | None):
 class Progress:
     """One status line: done / failed / skipped counts and an ETA (off a tty, a line every 2 s)."""
 
-    def __init__(self, total: int, skipped: int, stream=sys.stderr):
-        self.total, self.skipped, self.stream = total, skipped, stream
+    def __init__(self, total: int, skipped: int, stream=None):
+        # sys.stderr as it is now, not at import: a notebook or a test may have replaced it since
+        self.total, self.skipped, self.stream = total, skipped, stream or sys.stderr
         self.done = self.failed = self.early = 0
         self.start = time.monotonic()
-        self.tty = stream.isatty()
+        self.tty = self.stream.isatty()
         self.last = 0.0
 
     def update(self, record: dict) -> None:

@@ -33,16 +33,26 @@ def git_state() -> tuple:
         return "unknown", False
 
 
-def attributes() -> dict:
-    """netCDF global attributes describing the software and the machine."""
+#: the CF conventions every result file declares (CF-1.9 and later allow its int64 counts)
+CONVENTIONS = "CF-1.11"
+
+
+def attributes(action: str = "written") -> dict:
+    """netCDF global attributes describing the software and the machine, with CF's
+    ``Conventions`` and a ``history`` line saying when and by what the file was written
+    (``action``: what was done, e.g. "ran study speed_sweep")."""
     commit, dirty = git_state()
+    created = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
     attrs = {
+        "Conventions": CONVENTIONS,
+        "history": f"{created}: {action} by floe-impact {package_version()} (git {commit[:12]}"
+                   f"{', with uncommitted changes' if dirty else ''})",
         "floe_impact_version": package_version(),
         "git_commit": commit,
         "git_dirty": int(dirty),
         "python_version": platform.python_version(),
         "host": socket.gethostname(),
-        "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "created": created,
     }
     attrs.update(cpu_attributes())
     for lib in LIBRARIES:

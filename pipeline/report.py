@@ -28,10 +28,11 @@ def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
     return [_fmt(case.value(k)) for k in keys]
 
 
-def print_table(study, states: dict, stream=sys.stdout, all_rows: bool = False, only=None,
+def print_table(study, states: dict, stream=None, all_rows: bool = False, only=None,
                 summary: bool = True) -> None:
     """The case table (case_id, the keys that vary, state, and a role column when the study
     has reference runs) and a one-line summary. only: the run ids to list (default all)."""
+    stream = stream or sys.stdout                       # as it is now (a notebook may replace it)
     keys = study.varying_keys
     first = study.first_position
     with_role = len(study.run_ids) > len(study.case_id_set)

@@ -172,6 +172,14 @@ class Result:
             raise ParameterError(f"surface must be 'upper' or 'lower', got {surface!r}")
         return crack_onset(self.tension_record[surface], eps_Y)
 
+    def to_dataset(self, eps_Y=None):
+        """This case as a labelled ``xarray.Dataset``: the same names, units and long names as a
+        study's ``study.nc`` (fields over t [s] and x [m], series, diagnostics, crack onset along
+        ``eps_Y``, parameters, status, records). Needs the runner's packages (xarray): the
+        conversion is :func:`pipeline.dataset.case_dataset`; the solver itself stays free of them."""
+        from pipeline.dataset import case_dataset   # deferred: the one hand-off from solver to pipeline
+        return case_dataset(self, eps_Y)
+
 
 #: largest etd34 step as a fraction of the contact period 2 pi / Parameters.contact_frequency
 HMAX_FRACTION = 0.1

@@ -1,0 +1,185 @@
+"""The runner from Python: run a study and get its data back, open a finished one.
+
+``python -m pipeline run`` (or ``floe-impact run``) and :func:`run_study` do the same run: the
+same checks before anything is written, the same lock, ledger and resume, the same files. Where
+the command line prints one line and exits with a status, these functions raise:
+
+- :class:`~pipeline.errors.StudyError` (a ``ValueError``): bad input, nothing written (exit 2);
+- :class:`~pipeline.errors.ResultsIOError`: the results cannot be read or written; finished
+  cases are kept (exit 74);
+- :class:`~pipeline.lock.StudyLocked`: another runner holds the study (exit 75);
+- ``KeyboardInterrupt``: finished cases are kept; the same call resumes (exit 130).
+
+Cases that fail numerically (exit 1 on the command line) are not an exception: they are in the
+returned dataset with their ``status`` and ``message``, and a warning counts them.
+"""
+from __future__ import annotations
+
+import math
+import warnings
+from pathlib import Path
+
+from .errors import EXIT_OK, ResultsIOError, StudyError
+from .lock import refuse_if_locked
+
+__all__ = ["run_study", "open_study", "study_text", "load"]
+
+
+def _toml_value(value, where: str) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v, f'{where}.{k}')}" for k, v in value.items()) + " }"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v, where) for v in value) + "]"
+    if hasattr(value, "item") and getattr(value, "ndim", None) == 0:      # a numpy scalar
+        return _toml_value(value.item(), where)
+    if hasattr(value, "tolist"):                                          # a numpy array
+        return _toml_value(value.tolist(), where)
+    raise StudyError(f"{where}: cannot write a {type(value).__name__} into a study file")
+
+
+def study_text(study: dict) -> str:
+    """The TOML text of a study given as a dict with the study file's sections, e.g.
+    ``{"base": {"Nmod": 20}, "grid": {"V": [2.0, 5.0]}, "output": {"fields": []}}``
+    ([[cases]] is a list of dicts under ``"cases"``)."""
+    if not isinstance(study, dict):
+        raise StudyError(f"a study is a dict of its sections, got {type(study).__name__}")
+    lines = []
+    for key, value in study.items():                         # top-level keys before any table
+        if not isinstance(value, dict) and not (key == "cases" and isinstance(value, list)):
+            lines.append(f"{key} = {_toml_value(value, key)}")
+    for key, value in study.items():
+        if isinstance(value, dict):
+            lines += ["", f"[{key}]"] + [f"{k} = {_toml_value(v, f'[{key}] {k}')}" for k, v in value.items()]
+        elif key == "cases" and isinstance(value, list):
+            for i, case in enumerate(value):
+                if not isinstance(case, dict):
+                    raise StudyError(f"[[cases]] #{i + 1} must be a dict of parameters")
+                lines += ["", "[[cases]]"] + [f"{k} = {_toml_value(v, f'[[cases]] #{i + 1} {k}')}"
+                                               for k, v in case.items()]
+    return "\n".join(lines) + "\n"
+
+
+def load(study, name: str | None = None):
+    """A validated :class:`~pipeline.study.Study` from a study name (``"speed_sweep"``: the file
+    ``studies/speed_sweep.toml``), a path to a study file, a dict of sections (see
+    :func:`study_text`; ``name`` names it, default ``"study"``) or a Study (returned as it is)."""
+    from .study import Study, find_study, load_study, load_study_text
+    if isinstance(study, Study):
+        return study
+    if isinstance(study, dict):
+        return load_study_text(study_text(study), name or "study")
+    if isinstance(study, (str, Path)):
+        return load_study(find_study(str(study)))
+    raise StudyError(f"a study is a name, a path, a dict or a Study, got {type(study).__name__}")
+
+
+def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *, name: str | None = None,
+              batch_seconds: float = 1.0, rerun_failed: bool = False, plots: bool = True,
+              force: bool = False, quiet: bool = False):
+    """Run a study and return its combined results as an ``xarray.Dataset`` (``study.nc``).
+
+    Parameters
+    ----------
+    study : str, pathlib.Path, dict or Study
+        A study name (``studies/<name>.toml``), a study file, or a dict of the study file's
+        sections (see :func:`study_text`).
+    out : str or pathlib.Path, optional
+        The results directory; default ``results/<name>``. Finished cases found there are kept
+        and not computed again (resume).
+    workers : int
+        Local dask worker processes (ignored with ``scheduler``).
+    scheduler : str, optional
+        Address of a running ``dask.distributed`` scheduler to run the cases on.
+    name : str, optional
+        The name of a study given as a dict (default ``"study"``).
+    batch_seconds : float
+        Solver time per batch file.
+    rerun_failed : bool
+        Compute again the cases that failed before.
+    plots : bool
+        Draw the study's figures into ``out``.
+    force : bool
+        Use ``out`` even if it is a non-empty directory holding no floe-impact results.
+    quiet : bool
+        Silence the runner's progress lines (they go to stderr).
+
+    Returns
+    -------
+    xarray.Dataset
+        ``study.nc``, opened lazily; one dimension per grid key (``case`` for ``[[cases]]``).
+
+    Raises
+    ------
+    StudyError
+        Bad input; nothing was written.
+    ResultsIOError
+        The results directory cannot be used or written; finished cases are kept.
+    StudyLocked
+        Another runner holds the study.
+    """
+    import contextlib
+    import io
+
+    from .run import RunOptions, run_study as _run
+    study = load(study, name)
+    out_dir = Path(out) if out is not None else Path("results") / study.name
+    refuse_if_locked(out_dir)
+    options = RunOptions(workers=workers, scheduler=scheduler, batch_seconds=batch_seconds,
+                         rerun_failed=rerun_failed, no_plots=not plots, force=force)
+    sink = io.StringIO()
+    with contextlib.redirect_stderr(sink) if quiet else contextlib.nullcontext():
+        code = _run(study, out_dir, options)
+    ds = open_study(out_dir)
+    if code != EXIT_OK:
+        failed = int(ds.attrs.get("cases_failed", 0)) + int(ds.attrs.get("cases_missing", 0))
+        warnings.warn(f"{failed} of {study.n_cases} cases did not end ok or have no result; their "
+                      f"status and message say why (python -m pipeline status {out_dir})", RuntimeWarning,
+                      stacklevel=2)
+    return ds
+
+
+def open_study(results, verify: bool = True):
+    """Open a finished study's ``study.nc`` as an ``xarray.Dataset`` (lazily).
+
+    Parameters
+    ----------
+    results : str or pathlib.Path
+        A results directory, its ``study.nc``, or a study name (then ``results/<name>``).
+    verify : bool
+        Check the file against the checksum the runner recorded with it, and refuse it
+        (:class:`ResultsIOError`) if they differ: a damaged or edited file is not read as results.
+    """
+    import xarray as xr
+
+    from .casefile import file_sha256
+    from .ledger import sidecar
+    path = Path(results)
+    if path.suffix == ".nc":
+        out_dir = path.parent
+    elif path.is_dir():
+        out_dir = path
+    elif "/" not in str(results) and (Path("results") / str(results)).is_dir():
+        out_dir = Path("results") / str(results)
+    else:
+        raise ResultsIOError(f"no results directory {results}")
+    path = out_dir / "study.nc"
+    if not path.is_file():
+        raise ResultsIOError(f"{out_dir} holds no study.nc (has the study been run to its end?)")
+    if verify:
+        record = sidecar(out_dir)
+        if not record or record.get("sha256") != file_sha256(path):
+            raise ResultsIOError(f"{path} does not match the checksum recorded when it was written; run the "
+                                 f"study again to rebuild it from its batch files")
+    return xr.open_dataset(path)

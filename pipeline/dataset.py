@@ -1,0 +1,89 @@
+"""One solved case as a labelled ``xarray.Dataset``, with the names, units and long names a
+``study.nc`` gives the same quantities (:meth:`solver.Result.to_dataset` hands off to here:
+the solver itself imports no xarray)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import xarray as xr
+
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, default_eps_Y
+from solver.parameters import CHOICES
+
+from . import provenance
+from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
+from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
+                     TEXT_INFO)
+
+#: the energy series a Result carries beside the study's series: name -> (Result attribute,
+#: long_name, units); work and dissipated_energy are the run's totals, as in study.nc
+ENERGY_INFO = {
+    "plate_energy": ("plate_energy", "kinetic + elastic energy of the plate per unit width", "J m-1"),
+    "layer_energy": ("layer_energy", "energy stored in the layer per unit width", "J m-1"),
+    "work_over_time": ("work", "work done by the body on the ice up to each time, int F U dt", "J m-1"),
+    "dissipated_energy_over_time": ("dissipated_energy", "energy dissipated in viscoelastic ice and layer up "
+                                    "to each time (0: elastic)", "J m-1"),
+}
+
+
+def _attrs(long_name: str, units: str | None = None) -> dict:
+    return {"long_name": long_name, **({"units": units} if units is not None else {})}
+
+
+def case_dataset(result, eps_Y=None) -> xr.Dataset:
+    """The case's fields over (t, x), series over t, diagnostics, crack onset along eps_Y,
+    parameters, run records, status and event records, labelled as in study.nc (t and x here in
+    seconds and metres). ``eps_Y``: yield strains of the crack-onset variables (default: 10 a
+    decade from 1e-5 to 1e-1 and the paper's 8e-5, as a study's)."""
+    T = result.times.size
+    data = {}
+    for name, values in result.fields.items():
+        data[name] = (("t", "x"), np.asarray(values), _attrs(*FIELD_INFO[name]))
+    series = {name: (name, *SERIES_INFO[name]) for name in ("contact_intervals", "force")}
+    series.update(ENERGY_INFO)
+    if result.body_position is not None and np.isfinite(result.parameters.body_mass):
+        series.update({name: (name, *info) for name, info in BODY_SERIES_INFO.items()})
+    for name, (attribute, long_name, units) in series.items():
+        values = np.asarray(getattr(result, attribute), dtype=float).reshape(T)
+        data[name] = (("t",), values, _attrs(long_name, units))
+    data["valid"] = (("t",), np.asarray(result.valid, dtype=np.int8),
+                     {**_attrs("1: the run reached this time", "1"), "flag_values": np.array([0, 1], np.int8),
+                      "flag_meanings": "not_reached reached"})
+    for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
+        value = float(result.diagnostics[name])
+        data[name] = ((), np.nan if value == -np.inf else value, _attrs(long_name, units))
+    p = result.parameters
+    records = {"t_sc": p.time_scale, "stage_duration": p.stage_duration, "time_reached": result.time_reached,
+               "run_time": result.wall_time,
+               "error_estimate_run_time": result.extra.get("error_estimate_wall_time", 0.0),
+               "steps": result.steps, "rejected_steps": result.rejected_steps,
+               "smallest_step": result.smallest_step}
+    for name, (long_name, units) in RECORD_INFO.items():
+        data[name] = ((), float(records[name]), _attrs(long_name, units))
+    data["status"] = ((), result.status, _attrs(TEXT_INFO["status"]))
+    data["message"] = ((), result.message, _attrs(TEXT_INFO["message"]))
+    for key, value in p.as_dict().items():
+        long_name, units = PARAMETER_INFO[key]
+        data[key] = ((), value, _attrs(long_name, None if key in CHOICES else units))
+    eps = np.asarray(default_eps_Y() if eps_Y is None else eps_Y, dtype=float).reshape(-1)
+    for name, values in onset_from_records(result.tension_record, eps).items():
+        data[name] = (("eps_Y",), values, _attrs(*CRACK_INFO[name]))
+    for surface in SURFACES:                             # the event records, one table per surface
+        rows = np.asarray(result.tension_record[surface], dtype=float).reshape(-1, 5)
+        dim = f"tension_node_{surface}"
+        for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
+            data[f"{name}_{surface}"] = ((dim,), rows[:, col], _attrs(f"{long_name} ({surface} surface)", units))
+    contacts = np.asarray(result.contact_record if result.contact_record is not None else np.empty((0, 2)),
+                          dtype=float).reshape(-1, 2)
+    for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):
+        data[name] = (("contact_change",), contacts[:, col], _attrs(long_name, units))
+    coords = {"t": ("t", np.asarray(result.times, dtype=float), _attrs("time since first touch", "s")),
+              "x": ("x", np.asarray(result.x, dtype=float), _attrs("position along the plate", "m")),
+              "eps_Y": eps_Y_coord(eps)}
+    attrs = {"title": "floe-impact case", "solver_settings": json.dumps(result.settings.as_dict()),
+             "parameters": json.dumps(p.as_dict()), **provenance.attributes("solved one case")}
+    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    for name in ds.coords:                       # CF 2.5.1: no _FillValue on a coordinate variable
+        ds[name].encoding["_FillValue"] = None
+    return ds
