@@ -1,4 +1,4 @@
-"""Command line: ``python -m pipeline run|status|show STUDY``. It parses, calls one function per
+"""Command line: ``floe-impact run|status|show STUDY`` (= ``python -m pipeline``). It parses, calls one function per
 command (the run is pipeline.run.run_study, the table pipeline.report, a case's figure
 pipeline.show), and maps what they return or raise to an exit status:
   0   every case ok or ended by the model itself (``layer_bottomed_out``: the layer was
@@ -32,7 +32,8 @@ class _Parser(argparse.ArgumentParser):
 
 
 def _parser():
-    ap = _Parser(prog="python -m pipeline", description="Run floe-impact parameter studies.")
+    prog = "floe-impact" if Path(sys.argv[0]).name == "floe-impact" else "python -m pipeline"
+    ap = _Parser(prog=prog, description="Run floe-impact parameter studies.")
     from . import __version__
     ap.add_argument("--version", action="version", version=f"floe-impact {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
@@ -86,6 +87,7 @@ def command_run(args) -> int:
 
 def command_status(args) -> int:
     study, out_dir = study_and_results(args.study, args.out)
+    print(f"{study.name}: results in {out_dir}" + ("" if out_dir.is_dir() else " (none yet)"), file=sys.stderr)
     print_table(study, ledger_states(study, out_dir), all_rows=args.all)
     return EXIT_OK
 

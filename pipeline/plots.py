@@ -45,10 +45,10 @@ def _line_styles(n: int) -> list:
 
 
 def _log_spaced(values) -> bool:
-    """True for keys swept over more than a decade in positive values (K, tolerance...): they
-    belong on a log axis."""
+    """True for keys swept over more than a decade in positive values (K, tolerance, tau...):
+    they belong on a log axis (two values are enough: [0, 1e-4, 1e-2] has 1e-4 and 1e-2)."""
     v = np.asarray(values, dtype=float)
-    return v.size > 2 and bool(np.all(v > 0)) and float(v.max() / v.min()) >= 20.0
+    return v.size >= 2 and bool(np.all(v > 0)) and float(v.max() / v.min()) >= 20.0
 
 
 def _save(fig, path, dpi) -> None:
@@ -89,14 +89,30 @@ def _label(key, value):
     return f"{key} = {value:g}" + ("" if units in ("1", "") else f" {units}")
 
 
+def _case_keys(ds: xr.Dataset) -> list:
+    """The keys that vary along a [[cases]] study's case dimension (its coordinates)."""
+    return [k for k in ds.coords if ds[k].dims == ("case",) and k not in ("case", "group")]
+
+
+def _case_labels(ds: xr.Dataset) -> list:
+    """One label per case of a [[cases]] study: its group, then the values of the keys that vary."""
+    keys = _case_keys(ds)
+    labels = []
+    for i in range(ds.sizes["case"]):
+        parts = [_label(k, ds[k].values[i].item() if hasattr(ds[k].values[i], "item") else ds[k].values[i])
+                 for k in keys]
+        group = str(ds["group"].values[i]) if "group" in ds.coords else ""
+        labels.append(": ".join(p for p in (group, ", ".join(parts)) if p) or f"case {i}")
+    return labels
+
+
 def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     """Crack-onset time [ms] against eps_Y (log axis), upper and lower surface: one line per
     value of the first key, one panel row per combination of the others (at most 6 rows)."""
     eps = ds["eps_Y"].values
     if dims == ["case"]:
         first, others = "case", []
-        labels = [str(ds["group"].values[i]) if "group" in ds.coords else f"case {i}"
-                  for i in range(ds.sizes["case"])]
+        labels = _case_labels(ds)
     else:
         first, others = dims[0], dims[1:]
         labels = [_label(first, v) for v in ds[first].values]
@@ -236,9 +252,10 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
     styles = _line_styles(len(combos))
     all_x = ds[first].values
-    names = all_x.dtype.kind not in "iuf"           # a key that takes names (layer_law, integrator)
+    names = all_x.dtype.kind not in "iuf" or first == "case"   # names (layer_law), or [[cases]]
     if names:
-        labels_x, all_x = [str(v) for v in all_x], np.arange(all_x.size, dtype=float)
+        labels_x = _case_labels(ds) if first == "case" else [str(v) for v in all_x]
+        all_x = np.arange(all_x.size, dtype=float)
     on_axis = np.isfinite(all_x) if all_x.dtype.kind == "f" else np.ones(all_x.size, bool)
     if all_x.dtype.kind == "f" and np.any(all_x == 0) and _log_spaced(all_x[on_axis & (all_x > 0)]):
         on_axis &= all_x > 0             # a sweep over decades and its neutral 0 (tau = 0)
@@ -268,11 +285,13 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
             span = float(np.max(xvals) - np.min(xvals)) or 1.0
             ax.set_xlim(float(np.min(xvals)) - 0.03 * span, float(np.max(xvals)) + 0.03 * span)
             if names:
-                ax.set_xticks(all_x, labels_x)
+                ax.set_xticks(all_x, labels_x, rotation=30 if first == "case" else 0,
+                              ha="right" if first == "case" else "center", fontsize=8)
             else:
                 ax.ticklabel_format(axis="x", useOffset=False)
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
-        ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]")
+        ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
+                      "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")
         if name in ("max_strain", "max_strain_lower", "energy_residual", "run_time", "max_force"):
             _auto_log_y(ax, ds[name].values)
         if name in ("max_strain", "max_strain_lower"):
@@ -457,9 +476,6 @@ def make_plots(ds: xr.Dataset, dims: list, kinds: list, out_dir: Path) -> list:
     written, notes = [], []
     for kind in kinds:
         if kind == "diagnostics":
-            if dims == ["case"]:
-                notes.append("diagnostics figure needs a [grid]: skipped")
-                continue
             written.append(diagnostics_figure(ds, dims, out_dir / "diagnostics.png"))
         elif kind == "drop":
             if "body_mass" not in dims:

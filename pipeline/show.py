@@ -20,6 +20,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .errors import StudyError
+
 
 class ShowError(Exception):
     """A case that cannot be shown (unknown id, ambiguous choice): one line for the user."""
@@ -42,12 +44,15 @@ def choose_case(study, spec: str | None) -> str:
         if not found:
             raise ShowError(f"no case id of the study starts with {spec!r}")
         raise ShowError(f"{len(found)} case ids start with {spec!r}; give more of it")
+    from solver import PARAMETER_INFO, SETTING_INFO
     wanted = {}
     for part in spec.split(","):
         key, _, value = part.partition("=")
         key, value = key.strip(), value.strip()
         if not key or not value:
             raise ShowError(f"--case {spec!r}: expected key=value pairs separated by commas")
+        if key not in PARAMETER_INFO and key not in SETTING_INFO:
+            raise ShowError(f"--case: {key!r} is not a parameter or solver setting")
         wanted[key] = value
     matches = []
     for cid in ids:
@@ -63,9 +68,48 @@ def choose_case(study, spec: str | None) -> str:
     if len(matches) == 1:
         return matches[0]
     if not matches:
-        raise ShowError(f"no case of the study has {spec}")
+        return _off_grid(study, wanted, spec)
     raise ShowError(f"{len(matches)} cases have {spec}; add keys to pick one "
                     f"(varying: {', '.join(study.varying_keys)})")
+
+
+def _off_grid(study, wanted: dict, spec: str) -> str:
+    """A point the study did not compute (body_mass=500 on a grid of 300 and 1000): the one case
+    of the study that matches the keys whose values it has, with the others set as asked. It is
+    added to the study's runs for this call only; show solves it and stores nothing."""
+    from solver import PARAMETER_INFO, SETTING_INFO
+    from .study import _make_case
+    unknown = [k for k in wanted if k not in PARAMETER_INFO and k not in SETTING_INFO]
+    if unknown:
+        raise ShowError(f"--case: {unknown[0]} is not a parameter or solver setting")
+    cases = [study.run(cid) for cid in study.case_ids]
+    on = {k: v for k, v in wanted.items() if any(_same(c.value(k), v) for c in cases)}
+    off = {k: v for k, v in wanted.items() if k not in on}
+    rest = [k for k in study.varying_keys if k not in off]           # what the off keys do not set
+    base = {tuple(c.value(k) for k in rest): c.case_id
+            for c in cases if all(_same(c.value(k), v) for k, v in on.items())}
+    base = list(base.values())
+    if len(base) != 1:
+        others = [k for k in study.varying_keys if k not in wanted]
+        raise ShowError(f"no case of the study has {spec}, and {len(base)} cases match the rest; give a value "
+                        f"for {', '.join(others) or 'every varying key'} too")
+    case = study.run(base[0])
+    values = {**{k: case.value(k) for k in PARAMETER_INFO}, **case.settings.as_dict()}
+    for key, text in off.items():
+        current = values[key]
+        if isinstance(current, str):
+            values[key] = text
+        else:
+            try:
+                values[key] = int(text) if isinstance(current, int) and not isinstance(current, bool) else float(text)
+            except ValueError:
+                raise ShowError(f"--case {key}={text}: not a number") from None
+    try:
+        extra = _make_case((), values, study.output, spec)
+    except StudyError as err:
+        raise ShowError(str(err)) from None
+    study._extra_runs[extra.case_id] = extra
+    return extra.case_id
 
 
 def _same(actual, text: str) -> bool:

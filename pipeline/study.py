@@ -570,10 +570,12 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
                  for i, c in enumerate(case_list)]
     if grid and case_list:
         raise StudyError("a study has either [grid] or [[cases]], not both")
-    if not grid and not case_list:
-        raise StudyError(f"{path}: the study has no cases: give a [grid] or [[cases]]")
     if grid_raw == {} and "grid" in data:
         raise StudyError("[grid] is empty")
+    if "cases" in data and not case_list:
+        raise StudyError("[[cases]] is empty")
+    if not grid and not case_list:                 # [base] alone: one case, the base itself
+        case_list = [{}]
     if case_list:
         seen = set()
         for i, c in enumerate(case_list):

@@ -138,9 +138,9 @@ def test_show_a_case_not_run_yet_solves_it_and_says_so(tmp_path):
     assert (tmp_path / "f.png").exists() and not (tmp_path / "nothing_here").exists()
 
 
-def test_show_is_in_the_readme():
-    readme = (ROOT / "README.md").read_text()
-    assert "python -m pipeline show " in readme
+def test_show_is_in_the_readme_and_the_command_line_reference():
+    assert "floe-impact show " in (ROOT / "README.md").read_text()
+    assert "python -m pipeline show " in (ROOT / "docs" / "cli.md").read_text()
 
 
 def test_result_gives_its_time_scales_as_the_readme_says():
@@ -165,7 +165,8 @@ def test_output_piped_into_head_ends_quietly(tmp_path):
     assert proc.stdout.readline().startswith(b"case_id")
     proc.stdout.close()
     err = proc.stderr.read().decode()
-    assert proc.wait(timeout=120) == 0 and err == "", err
+    # stderr holds the one line naming the results directory status read, and nothing else
+    assert proc.wait(timeout=120) == 0 and err == f"big: results in {tmp_path / 'none'} (none yet)\n", err
 
 
 def test_shows_largest_tension_so_far_never_falls():
