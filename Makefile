@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup study status test test-slow test-portable bench bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
+.PHONY: help setup docs study status test test-slow test-portable bench bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -20,6 +20,13 @@ $(VENV)/.installed: pyproject.toml
 	touch $@
 
 setup: $(VENV)/.installed  ## create .venv and install the package with its test extras
+
+$(VENV)/.docs-installed: $(VENV)/.installed pyproject.toml
+	PYTHONWARNINGS="ignore:Editable installation" $(VENV)/bin/pip install --quiet -e ".[test,docs]"
+	touch $@
+
+docs: $(VENV)/.docs-installed  ## build the docs site (Sphinx, the gallery run at full settings) -> docs/_build/html; warnings are errors
+	cd docs && ../$(PY) -m sphinx -W --keep-going -b html -d _build/doctrees . _build/html
 
 study: setup  ## run a study: make study STUDY=speed_sweep [ARGS="--workers 1"]
 	@$(PY) -m pipeline run studies/$(STUDY).toml $(ARGS); status=$$?; \
@@ -76,5 +83,5 @@ regenerate-reference: setup  ## rebuild tests/data/regression_small.nc and its s
 	$(PY) tests/regenerate_reference.py
 
 clean:  ## remove results/ and caches (keeps .venv)
-	rm -rf results .pytest_cache
+	rm -rf results .pytest_cache docs/_build docs/auto_examples docs/sg_execution_times.rst
 	find . -name __pycache__ -prune -exec rm -rf {} +

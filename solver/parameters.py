@@ -198,37 +198,61 @@ class Parameters:
 
     Parameters
     ----------
-    K : layer rigidity [Pa].          he : layer thickness [m].
-    R : body radius of curvature [m]. V : impact speed [m/s].
-    hi : ice thickness [m].           Nmod : retained modes [1].
-    L : plate half-length [m].        E : Young's modulus [Pa].
-    nu : Poisson's ratio, 0 <= nu < 0.5 [1].
-    rho_i, rho_w : ice and water density [kg/m^3].  g : gravity [m/s^2].
-    H : water depth under the ice [m]; inf (the default) is the paper's deep water
+    K : float
+        Rigidity of the elastic layer [Pa].
+    he : float
+        Thickness of the elastic layer [m].
+    R : float
+        Radius of curvature of the body [m].
+    V : float
+        Impact speed [m/s].
+    hi : float
+        Ice thickness [m].
+    Nmod : int
+        Retained normal modes.
+    L : float
+        Half-length of the plate between the walls [m].
+    E : float
+        Young's modulus of ice [Pa].
+    nu : float
+        Poisson's ratio of ice, 0 <= nu < 0.5.
+    rho_i, rho_w : float
+        Ice and water density [kg/m^3].
+    g : float
+        Gravitational acceleration [m/s^2].
+    H : float
+        Water depth under the ice [m]; inf (the default) is the paper's deep water
         (docs/model.md, "Finite water depth").
-    body_mass : mass M of the body per unit width [kg/m]; inf (the default) drives it at the
-        constant speed V, the paper's model. Finite: it starts at V and obeys M s'' = M body_g - F
+    body_mass : float
+        Mass M of the body per unit width [kg/m]; inf (the default) drives it at the constant
+        speed V, the paper's model. Finite: it starts at V and obeys ``M s'' = M body_g - F``
         (docs/model.md, "A body of finite mass").
-    body_g : downward acceleration of a free body besides the ice's reaction [m/s^2]: gravity
-        (the default 9.81), or 0 for a body whose weight is carried; unused when body_mass = inf.
-    body_p, flat_width, deadrise : the body's shape (docs/model.md, "Body shapes"): with
-        u = max(|x| - flat_width, 0), the profile is u tan(deadrise) for a wedge (deadrise > 0
-        [degree]), else u^body_p / (body_p R^(body_p - 1)); the defaults (2, 0 m, 0) are the
-        paper's parabola x^2 / 2R.
-    tau : retardation time of Kelvin-Voigt viscoelastic ice [s]: D -> D (1 + tau d/dt) damps
-        mode n at c_n = tau D lambda_n^4 / M_n (docs/model.md, "Viscoelastic ice"); 0 (the
+    body_g : float
+        Downward acceleration of a free body besides the ice's reaction [m/s^2]: gravity (the
+        default 9.81), or 0 for a body whose weight is carried; unused when body_mass = inf.
+    body_p, flat_width, deadrise : float
+        The body's shape (docs/model.md, "Body shapes"): with ``u = max(|x| - flat_width, 0)``,
+        the profile is ``u tan(deadrise)`` for a wedge (deadrise > 0 [degree]), else
+        ``u^body_p / (body_p R^(body_p - 1))``; the defaults (2, 0 m, 0) are the paper's
+        parabola ``x^2 / 2R``.
+    tau : float
+        Retardation time of Kelvin-Voigt viscoelastic ice [s]: ``D -> D (1 + tau d/dt)`` damps
+        mode n at ``c_n = tau D lambda_n^4 / M_n`` (docs/model.md, "Viscoelastic ice"); 0 (the
         default) is the paper's elastic ice.
-    layer_tau : retardation time of a viscoelastic layer [s]: its pressure is
-        K f(delta) max(1 + layer_tau d(delta)/dt, 0) where it is compressed (docs/model.md,
+    layer_tau : float
+        Retardation time of a viscoelastic layer [s]: its pressure is
+        ``K f(delta) max(1 + layer_tau d(delta)/dt, 0)`` where it is compressed (docs/model.md,
         "Viscoelastic layer"); 0 (the default) is the paper's elastic layer.
-    x0 : horizontal position of the body's centre [m], -L < x0 < L: the body is
-        y = b(x - x0) + he - s and moves vertically only, without rotating (docs/model.md,
-        "Off-centre impact"). 0 (the default) is the
-        paper's centred impact on the symmetric modes; any other value is solved on the full
-        plate, Nmod symmetric and Nmod antisymmetric modes.
-    layer_law : the law of the layer's pressure K f(delta) (docs/model.md, "Layer law"): "paper"
-        (the default), f = delta / (1 - delta), stiffening without bound as the layer is crushed;
-        "linear", the classical Winkler layer f = delta.
+    x0 : float
+        Horizontal position of the body's centre [m], -L < x0 < L: the body is
+        ``y = b(x - x0) + he - s`` and moves vertically only, without rotating (docs/model.md,
+        "Off-centre impact"). 0 (the default) is the paper's centred impact on the symmetric
+        modes; any other value is solved on the full plate, Nmod symmetric and Nmod
+        antisymmetric modes.
+    layer_law : {"paper", "linear"}
+        The law of the layer's pressure ``K f(delta)`` (docs/model.md, "Layer law"): "paper"
+        (the default), ``f = delta / (1 - delta)``, stiffening without bound as the layer is
+        crushed; "linear", the classical Winkler layer ``f = delta``.
     """
 
     K: float = 8e6
@@ -410,10 +434,10 @@ class Parameters:
         return u**self.body_p / (self.body_p * self.R ** (self.body_p - 1.0))
 
     def profile_mean(self) -> float:
-        """b_mean = (1/2L) int_-L^L b(x - x0) dx [m], the mean height of the body's profile over
-        the plate. The modes keep int w dx = 0 (mass conservation), so the mean compression of
-        the layer is (s - b_mean) / he: it bottoms out before the penetration s reaches
-        b_mean + he. Centred (x0 = 0): (1/L) int_0^L b dx."""
+        """``b_mean = (1/2L) int_-L^L b(x - x0) dx`` [m], the mean height of the body's profile over
+        the plate. The modes keep ``int w dx = 0`` (mass conservation), so the mean compression of
+        the layer is ``(s - b_mean) / he``: it bottoms out before the penetration s reaches
+        ``b_mean + he``. Centred (x0 = 0): ``(1/L) int_0^L b dx``."""
         if self.off_centre:
             # the profile rises away from x0 on both sides: b_mean = (B(L + |x0|) + B(L - |x0|)) / 2L
             return (self._profile_integral(self.L + abs(self.x0))
@@ -439,9 +463,9 @@ class Parameters:
 
     @property
     def stage_duration(self) -> float:
-        """T = L^2 / (6 R V), the impact stage computed [s]; for any body shape and centre
-        T = b_mean / V, b_mean = (1/2L) int_-L^L b(x - x0) dx (docs/model.md, "Body shapes";
-        the parabola off centre: (L^2/3 + x0^2) / (2 R V))."""
+        """``T = L^2 / (6 R V)``, the impact stage computed [s]; for any body shape and centre
+        ``T = b_mean / V``, ``b_mean = (1/2L) int_-L^L b(x - x0) dx`` (docs/model.md, "Body
+        shapes"; the parabola off centre: ``(L^2/3 + x0^2) / (2 R V)``)."""
         if self.parabola and not self.off_centre:
             return self.L**2 / (6.0 * self.R * self.V)
         return self.profile_mean() / self.V

@@ -1,0 +1,102 @@
+"""The gallery's scripts (examples/plot_*.py), run as the docs build runs them but at fast
+settings (FLOE_GALLERY_FAST=1), with what each figure shows asserted: none can rot (scikit-fem
+does the same with its examples)."""
+import runpy
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import pytest
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+SCRIPTS = sorted(p.name for p in EXAMPLES.glob("plot_*.py"))
+
+
+def run(name, tmp_path, monkeypatch) -> dict:
+    """Run a gallery script in a fresh directory; its globals, after checking it drew a figure."""
+    monkeypatch.setenv("FLOE_GALLERY_FAST", "1")
+    monkeypatch.chdir(tmp_path)
+    plt.close("all")
+    # run as __main__, as the docs build runs it (the scripts that run a study guard it so)
+    out = runpy.run_path(str(EXAMPLES / name), run_name="__main__")
+    assert plt.get_fignums(), f"{name} drew no figure"
+    plt.close("all")
+    return out
+
+
+def test_every_script_is_tested():
+    tested = {n[len("test_"):] for n in globals() if n.startswith("test_plot_")}
+    assert {s[:-3] for s in SCRIPTS} == tested
+    assert len(SCRIPTS) >= 9
+
+
+def test_plot_one_case(tmp_path, monkeypatch):
+    g = run("plot_one_case.py", tmp_path, monkeypatch)
+    case = g["case"]
+    assert case["status"].item() == "ok"
+    onset = float(case["crack_onset_time"].sel(eps_Y=8e-5))
+    assert 0 < onset < float(case["t"][-1]) and g["max_strain"] > 8e-5
+
+
+def test_plot_speed_sweep(tmp_path, monkeypatch):
+    ds = run("plot_speed_sweep.py", tmp_path, monkeypatch)["ds"]
+    assert ds["max_strain"].dims == ("V", "hi")
+    # on thin ice, where both runs cover the whole stage, the faster impact bends the ice more
+    thin = ds.sel(hi=0.3)
+    assert list(thin["status"].values) == ["ok", "ok"]
+    assert thin["max_strain"].sel(V=5.0) > thin["max_strain"].sel(V=1.0)
+    # on thick ice the fast impact bottoms out the layer before the stage ends (force unbounded)
+    assert ds["status"].sel(V=5.0, hi=1.0).item() == "layer_bottomed_out"
+
+
+def test_plot_crack_onset(tmp_path, monkeypatch):
+    g = run("plot_crack_onset.py", tmp_path, monkeypatch)
+    onset = g["ds"]["crack_onset_time"]
+    for V in onset["V"].values:                   # a higher yield strain is reached later, or never
+        t = onset.sel(V=V).values
+        finite = t[np.isfinite(t)]
+        assert finite.size > 5 and np.all(np.diff(finite) >= 0)
+        assert np.all(np.isfinite(t[:finite.size]))   # once NaN (never reached), NaN above
+    assert (onset.sel(V=5.0) <= onset.sel(V=1.0)).sel(eps_Y=1e-4).item()   # faster: earlier
+    assert g["more"]["crack_onset_time"].shape == (2, 2)
+
+
+def test_plot_drop(tmp_path, monkeypatch):
+    ds = run("plot_drop.py", tmp_path, monkeypatch)["ds"]
+    assert set(ds["status"].values) == {"separated"}
+    rebound = (ds["separation_speed"] / ds["V"]).values
+    assert np.all((rebound > 0) & (rebound < 1))             # it bounces, and loses energy to the ice
+    assert np.all(np.diff(ds["separation_time"].values) > 0)  # heavier: longer contact
+
+
+def test_plot_body_shapes(tmp_path, monkeypatch):
+    summary = run("plot_body_shapes.py", tmp_path, monkeypatch)["summary"]
+    assert all(status in ("ok", "layer_bottomed_out") for _, _, status in summary.values())
+    assert summary["p = 4"][1] < summary["parabola (p = 2)"][1]        # blunter: a shorter stage
+
+
+def test_plot_off_centre(tmp_path, monkeypatch):
+    g = run("plot_off_centre.py", tmp_path, monkeypatch)
+    r = g["r"]                                                 # the last case, x0 = 2 m
+    strain = r.fields["strain"][0]
+    assert r.parameters.x0 == 2.0 and not np.allclose(strain, strain[::-1], rtol=1e-3)
+
+
+def test_plot_viscoelastic(tmp_path, monkeypatch):
+    g = run("plot_viscoelastic.py", tmp_path, monkeypatch)
+    dissipated = np.asarray(g["dissipated"])
+    assert dissipated[0] == 0.0 and np.all(np.diff(dissipated) > 0) and dissipated[-1] < 1
+
+
+def test_plot_water_depth(tmp_path, monkeypatch):
+    g = run("plot_water_depth.py", tmp_path, monkeypatch)
+    t_sc = np.asarray(g["t_sc"])
+    assert np.all(np.diff(t_sc) < 0)                           # deeper water: faster modes
+
+
+def test_plot_open_study(tmp_path, monkeypatch):
+    ds = run("plot_open_study.py", tmp_path, monkeypatch)["ds"]
+    assert ds.attrs["Conventions"].startswith("CF-") and ds["max_strain"].attrs["units"] == "1"
