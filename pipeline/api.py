@@ -15,71 +15,34 @@ returned dataset with their ``status`` and ``message``, and a warning counts the
 """
 from __future__ import annotations
 
-import math
 import warnings
 from pathlib import Path
 
 from .errors import EXIT_OK, ResultsIOError, StudyError
 from .lock import refuse_if_locked
 
-__all__ = ["run_study", "open_study", "study_text", "load"]
-
-
-def _toml_value(value, where: str) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, int):
-        return str(value)
-    if isinstance(value, float):
-        if math.isnan(value):
-            return "nan"
-        if math.isinf(value):
-            return "inf" if value > 0 else "-inf"
-        return repr(value)
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
-    if isinstance(value, dict):
-        return "{ " + ", ".join(f"{k} = {_toml_value(v, f'{where}.{k}')}" for k, v in value.items()) + " }"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v, where) for v in value) + "]"
-    if hasattr(value, "item") and getattr(value, "ndim", None) == 0:      # a numpy scalar
-        return _toml_value(value.item(), where)
-    if hasattr(value, "tolist"):                                          # a numpy array
-        return _toml_value(value.tolist(), where)
-    raise StudyError(f"{where}: cannot write a {type(value).__name__} into a study file")
+__all__ = ["run_study", "open_study", "open_sensitivity", "study_text", "load"]
 
 
 def study_text(study: dict) -> str:
-    """The TOML text of a study given as a dict with the study file's sections, e.g.
-    ``{"base": {"Nmod": 20}, "grid": {"V": [2.0, 5.0]}, "output": {"fields": []}}``
-    ([[cases]] is a list of dicts under ``"cases"``)."""
-    if not isinstance(study, dict):
-        raise StudyError(f"a study is a dict of its sections, got {type(study).__name__}")
-    lines = []
-    for key, value in study.items():                         # top-level keys before any table
-        if not isinstance(value, dict) and not (key == "cases" and isinstance(value, list)):
-            lines.append(f"{key} = {_toml_value(value, key)}")
-    for key, value in study.items():
-        if isinstance(value, dict):
-            lines += ["", f"[{key}]"] + [f"{k} = {_toml_value(v, f'[{key}] {k}')}" for k, v in value.items()]
-        elif key == "cases" and isinstance(value, list):
-            for i, case in enumerate(value):
-                if not isinstance(case, dict):
-                    raise StudyError(f"[[cases]] #{i + 1} must be a dict of parameters")
-                lines += ["", "[[cases]]"] + [f"{k} = {_toml_value(v, f'[[cases]] #{i + 1} {k}')}"
-                                               for k, v in case.items()]
-    return "\n".join(lines) + "\n"
+    """The TOML text of a study given as a dict of the study file's tables (see
+    :func:`pipeline.study.study_text`)."""
+    from .study import study_text as text   # deferred: import pipeline stays light (the CLI's fast refusals)
+    return text(study)
 
 
 def load(study, name: str | None = None):
     """A validated :class:`~pipeline.study.Study` from a study name (``"speed_sweep"``: the file
-    ``studies/speed_sweep.toml``), a path to a study file, a dict of sections (see
-    :func:`study_text`; ``name`` names it, default ``"study"``) or a Study (returned as it is)."""
+    ``studies/speed_sweep.toml``), a path to a study file, the TOML text of one (a string of
+    several lines), a dict of sections (see :func:`study_text`) or a Study (returned as it is);
+    ``name`` names a study given as text or a dict (default ``"study"``)."""
     from .study import Study, find_study, load_study, load_study_text
     if isinstance(study, Study):
         return study
     if isinstance(study, dict):
         return load_study_text(study_text(study), name or "study")
+    if isinstance(study, str) and "\n" in study:               # the text of a study file
+        return load_study_text(study, name or "study")
     if isinstance(study, (str, Path)):
         return load_study(find_study(str(study)))
     raise StudyError(f"a study is a name, a path, a dict or a Study, got {type(study).__name__}")
@@ -93,8 +56,8 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     Parameters
     ----------
     study : str, pathlib.Path, dict or Study
-        A study name (``studies/<name>.toml``), a study file, or a dict of the study file's
-        sections (see :func:`study_text`).
+        A study name (``studies/<name>.toml``), a study file, the TOML text of a study file, or a
+        dict of the study file's sections (see :func:`study_text`).
     out : str or pathlib.Path, optional
         The results directory; default ``results/<name>``. Finished cases found there are kept
         and not computed again (resume).
@@ -103,7 +66,7 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     scheduler : str, optional
         Address of a running ``dask.distributed`` scheduler to run the cases on.
     name : str, optional
-        The name of a study given as a dict (default ``"study"``).
+        The name of a study given as text or a dict (default ``"study"``).
     batch_seconds : float
         Solver time per batch file.
     rerun_failed : bool
@@ -118,7 +81,9 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     Returns
     -------
     xarray.Dataset
-        ``study.nc``, opened lazily; one dimension per grid key (``case`` for ``[[cases]]``).
+        ``study.nc``, opened lazily; one dimension per grid key (``case`` for ``[[cases]]``,
+        ``sample`` for a ``[design]``). For a ``[search]``, ``search.nc`` (the critical values;
+        the runs are in ``out/evaluations``).
 
     Raises
     ------
@@ -141,6 +106,9 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     sink = io.StringIO()
     with contextlib.redirect_stderr(sink) if quiet else contextlib.nullcontext():
         code = _run(study, out_dir, options)
+    if study.search:                          # a threshold search: its results, not its runs
+        import xarray as xr
+        return xr.open_dataset(out_dir / "search.nc")
     ds = open_study(out_dir)
     if code != EXIT_OK:
         failed = int(ds.attrs.get("cases_failed", 0)) + int(ds.attrs.get("cases_missing", 0))
@@ -182,4 +150,24 @@ def open_study(results, verify: bool = True):
         if not record or record.get("sha256") != file_sha256(path):
             raise ResultsIOError(f"{path} does not match the checksum recorded when it was written; run the "
                                  f"study again to rebuild it from its batch files")
+    return xr.open_dataset(path)
+
+
+def open_sensitivity(results):
+    """Open a study's sensitivity indices (``sensitivity.nc``, written when the study has an
+    ``[analysis]``) as an ``xarray.Dataset`` along (output, key).
+
+    Parameters
+    ----------
+    results : str or pathlib.Path
+        A results directory, or a study name (then ``results/<name>``).
+    """
+    import xarray as xr
+    out_dir = Path(results)
+    if not out_dir.is_dir() and "/" not in str(results) and (Path("results") / str(results)).is_dir():
+        out_dir = Path("results") / str(results)
+    path = out_dir / "sensitivity.nc"
+    if not path.is_file():
+        raise ResultsIOError(f"{out_dir} holds no sensitivity.nc (does the study have an [analysis], and has "
+                             f"it run to its end?)")
     return xr.open_dataset(path)

@@ -88,6 +88,10 @@ def command_run(args) -> int:
 def command_status(args) -> int:
     study, out_dir = study_and_results(args.study, args.out)
     print(f"{study.name}: results in {out_dir}" + ("" if out_dir.is_dir() else " (none yet)"), file=sys.stderr)
+    if study.search:                                  # its runs are in out_dir/evaluations
+        from .search_runner import search_summary
+        print(search_summary(study, out_dir))
+        return EXIT_OK
     print_table(study, ledger_states(study, out_dir), all_rows=args.all)
     return EXIT_OK
 

@@ -293,18 +293,19 @@ class StudyWriter:
                 var.setncatts(attrs)
             constant = [k for k in PARAMETER_INFO if k not in study.grid]
         else:
-            var = nc.createVariable("case", "i8", ("case",))
+            dim = self.dims[0]                     # case ([[cases]]) or sample ([design])
+            var = nc.createVariable(dim, "i4", (dim,))
             var[:] = np.arange(study.n_cases)
-            var.long_name = "case number in [[cases]]"
-            varying = study.varying_keys
+            var.long_name = "sample number of the design" if study.design else "case number in [[cases]]"
+            varying = list(study.design["keys"]) if study.design else study.varying_keys
             for key in varying:
                 data, attrs = _parameter_coord(key, [c.value(key) for c in study._listed])
-                v = nc.createVariable(key, str if data.dtype == object else data.dtype, ("case",))
+                v = nc.createVariable(key, str if data.dtype == object else data.dtype, (dim,))
                 v[:] = data
                 v.setncatts(attrs)
             groups = [c.get("group", "") for c in study.case_list]
             if any(groups):
-                v = nc.createVariable("group", str, ("case",))
+                v = nc.createVariable("group", str, (dim,))
                 v[:] = np.array(groups, dtype=object)
                 v.long_name = "label of the case in the study file"
             constant = [k for k in PARAMETER_INFO if k not in varying]
@@ -486,6 +487,8 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
                  **provenance.attributes(f"combined study {study.name} from its batch files")}
         if study.references:
             attrs["reference"] = json.dumps(study.reference)
+        if study.design:
+            attrs["design"] = json.dumps(study.design)
         path = writer.finish(attrs)
     except BaseException:
         writer.abandon()

@@ -7,6 +7,15 @@ class StudyError(ValueError):
     """A study file or command line that cannot be run; the message is one line."""
 
 
+def check_table(section: str, table, known: set) -> None:
+    """Refuse a study file's table that is not a table or holds a key not in known (one line)."""
+    if not isinstance(table, dict):
+        raise StudyError(f"{section} must be a table")
+    unknown = set(table) - set(known)
+    if unknown:
+        raise StudyError(f"{section}: unknown key {sorted(unknown)[0]!r}; known: {', '.join(sorted(known))}")
+
+
 #: studies with more cases than this need --yes
 LARGE_STUDY = 10_000
 

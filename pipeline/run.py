@@ -32,11 +32,12 @@ class RunOptions:
     all: bool = False                # with dry_run: list every case to run
 
 
-def run_study(study, out_dir: Path, options: RunOptions | None = None) -> int:
+def run_study(study, out_dir: Path, options: RunOptions | None = None, session=None) -> int:
     """Run a loaded study into out_dir: EXIT_OK when every case is ok or ended by the model itself,
     EXIT_FAILED when some failed numerically. Raises StudyError (bad input, before anything is
     written), ResultsIOError (the results cannot be written; finished cases are kept),
-    StudyLocked, KeyboardInterrupt (finished cases are kept; the same call resumes)."""
+    StudyLocked, KeyboardInterrupt (finished cases are kept; the same call resumes). ``session``:
+    an open pipeline.session.Session to run on (a search's rounds share one; default a new one)."""
     options = options or RunOptions()
     if options.workers < 1:
         raise StudyError(f"--workers must be >= 1, got {options.workers}")
@@ -47,6 +48,11 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None) -> int:
         from .engine import probe_scheduler
         probe_scheduler(options.scheduler)
     if options.dry_run:
+        if study.search:
+            from .search_runner import search_summary
+            print(search_summary(study, out_dir))
+            print("nothing was run (--dry-run)")
+            return EXIT_OK
         return _dry_run(study, out_dir, options.all, options.rerun_failed)
     _refuse_foreign_directory(out_dir, options.force)
     _refuse_what_cannot_fit(study, out_dir)
@@ -57,7 +63,12 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None) -> int:
     except OSError as err:
         raise ResultsIOError(f"cannot use the results directory {out_dir}: {err.strerror or err}") from None
     try:
-        return _run_locked(options, study, out_dir)
+        if study.search:                               # rounds of runs in out_dir/evaluations
+            from .search_runner import run_search
+            from .study import keep_study_copy
+            keep_study_copy(study, out_dir)
+            return run_search(study, out_dir, options, run_study)
+        return _run_locked(options, study, out_dir, session)
     finally:
         lock.__exit__()
 
@@ -190,7 +201,7 @@ def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     return items, signature
 
 
-def _run_locked(options, study, out_dir: Path) -> int:
+def _run_locked(options, study, out_dir: Path, session=None) -> int:
     """Plan, compute and stream, combine (again, where a batch file turned out damaged), figures,
     report."""
     from .tables import NUMERICAL_FAILURES
@@ -221,7 +232,9 @@ def _run_locked(options, study, out_dir: Path) -> int:
     from .combine import open_writer, stream_spec
     items_run = list(items)
     identity = _identity(out_dir)
-    with Session(options.workers, options.scheduler) as session:
+    import contextlib
+    with contextlib.nullcontext(session) if session is not None else Session(options.workers, options.scheduler) \
+            as session:
         for attempt in range(3):
             writer = None
             try:
@@ -266,6 +279,7 @@ def _run_locked(options, study, out_dir: Path) -> int:
             skipped = len(study.run_ids) - len(items)
         else:
             raise ResultsIOError("batch files keep failing their checksums; is the disk healthy?")
+    _analysis(study, out_dir, fresh)
     _plots(options, study, out_dir, fresh)
     _summary(study, ledger, states, computed={cid for cid, _ in items_run})
     if any(states[cid] in NUMERICAL_FAILURES or states[cid] == "pending" for cid in study.run_ids):
@@ -308,6 +322,35 @@ def _combine(options, study, out_dir: Path, ledger, states: dict, session, compu
         return None
     print(f"wrote {written} ({time.monotonic() - started:.1f} s)", file=sys.stderr)
     return True
+
+
+def _analysis(study, out_dir: Path, fresh: bool) -> None:
+    """The study's [analysis] (sensitivity indices) from study.nc into sensitivity.nc, when
+    study.nc is new or the indices are missing; a design that cannot be analysed says why."""
+    if not study.analysis:
+        return
+    target = out_dir / "sensitivity.nc"
+    if target.exists() and not fresh:
+        return
+    import xarray as xr
+
+    from .sensitivity import analyze
+    from .casefile import temporary_path
+    try:
+        with xr.open_dataset(out_dir / "study.nc") as ds:
+            indices = analyze(ds, study.design, study.analysis)
+    except StudyError as err:
+        print(f"note: {err}", file=sys.stderr)
+        return
+    tmp = temporary_path(target)
+    try:
+        indices.to_netcdf(tmp)
+        os.replace(tmp, target)
+    except OSError as err:
+        raise write_failed(target, err) from None
+    finally:
+        tmp.unlink(missing_ok=True)
+    print(f"wrote {target}", file=sys.stderr)
 
 
 def _plots(options, study, out_dir: Path, fresh: bool) -> None:

@@ -28,8 +28,10 @@ class ShowError(Exception):
 
 
 def choose_case(study, spec: str | None) -> str:
-    """The run id chosen by spec: a case id (or a unique prefix of one), or key=value pairs
-    separated by commas that pick one point of the grid (values compared as numbers)."""
+    """The run id chosen by spec: a case id (or a unique prefix of one), key=value pairs
+    separated by commas that pick one point of the grid (values compared as numbers; a point off
+    the grid is solved, not stored), or case=N / sample=N, a position along a [[cases]] list or a
+    [design]."""
     ids = study.run_ids
     if not spec:
         if len(ids) == 1:
@@ -51,6 +53,10 @@ def choose_case(study, spec: str | None) -> str:
         key, value = key.strip(), value.strip()
         if not key or not value:
             raise ShowError(f"--case {spec!r}: expected key=value pairs separated by commas")
+        if key in ("case", "sample") and key in study.dims and len(spec.split(",")) == 1:
+            if not value.isdigit() or int(value) >= study.n_cases:    # a position along case/sample
+                raise ShowError(f"--case {key}={value}: give a number from 0 to {study.n_cases - 1}")
+            return study.case_ids[int(value)]
         if key not in PARAMETER_INFO and key not in SETTING_INFO:
             raise ShowError(f"--case: {key!r} is not a parameter or solver setting")
         wanted[key] = value

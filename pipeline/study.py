@@ -44,7 +44,8 @@ from .errors import StudyError
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
 SCHEMA_VERSION = 8
 
-SECTIONS = {"description", "base", "grid", "cases", "output", "solver", "plots", "reference",
+SECTIONS = {"description", "base", "grid", "cases", "design", "analysis", "search", "output", "solver", "plots",
+            "reference",
             "accept_extreme_values"}
 #: keys a [reference] may override: the same physical case, computed more accurately
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
@@ -56,11 +57,13 @@ DIM_NAMES = {"error_estimate": "error_estimate_on"}
 #: "separation" (a free body in every case) runs until the body leaves the ice, at the latest
 #: to the last output time
 ENDS = ("stage", "last_output", "separation")
-PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop")
+PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop", "design",
+              "sensitivity")
 #: the files each plot kind writes
 PLOT_FILES = {"diagnostics": ("diagnostics.png",), "crack_onset": ("crack_onset.png",),
               "paper_fig2": ("paper_fig2.png",), "work_precision": ("work_precision.png", "work_precision.md"),
-              "extremes": ("extremes.md",), "drop": ("drop.png",)}
+              "extremes": ("extremes.md",), "drop": ("drop.png",), "design": ("design.png",),
+              "sensitivity": ("sensitivity.png",)}
 #: the one-line answer to eps_Y given as a parameter (it was one before schema 5)
 EPS_Y_AS_PARAMETER = ("eps_Y is not a solver input: crack onset is computed after the run for any "
                       "yield strain; give the values as [output] eps_Y = [...] or {min, max, count}")
@@ -146,6 +149,9 @@ class Study:
     solver: dict
     plots: list
     reference: dict = field(default_factory=dict)
+    design: dict = field(default_factory=dict)          # a checked [design] (pipeline.design), or {}
+    analysis: dict = field(default_factory=dict)        # a checked [analysis] (pipeline.analysis), or {}
+    search: dict = field(default_factory=dict)          # a checked [search] (pipeline.search), or {}
     references: dict = field(default_factory=dict)     # position in cases -> its reference Case
     _listed: list = field(default_factory=list, repr=False)   # [[cases]] (or referenced) Cases
 
@@ -156,8 +162,10 @@ class Study:
     @property
     def dims(self) -> list:
         """study.nc's case dimensions: the grid keys (error_estimate, also the name of a result,
-        becomes error_estimate_on), or ["case"]."""
-        return [DIM_NAMES.get(k, k) for k in self.grid] if self.grid else ["case"]
+        becomes error_estimate_on), ["sample"] for a [design], or ["case"]."""
+        if self.grid:
+            return [DIM_NAMES.get(k, k) for k in self.grid]
+        return ["sample"] if self.design else ["case"]
 
     @property
     def shape(self) -> tuple:
@@ -442,6 +450,52 @@ def _resolve_sample(values: dict) -> dict:
     return {**values, "error_estimate": _sampled(_parameter_text(params))}
 
 
+def _toml_value(value, where: str) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return "nan"
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return repr(value)
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n") + '"'
+    if isinstance(value, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(v, f'{where}.{k}')}" for k, v in value.items()) + " }"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v, where) for v in value) + "]"
+    if hasattr(value, "item") and getattr(value, "ndim", None) == 0:      # a numpy scalar
+        return _toml_value(value.item(), where)
+    if hasattr(value, "tolist"):                                          # a numpy array
+        return _toml_value(value.tolist(), where)
+    raise StudyError(f"{where}: cannot write a {type(value).__name__} into a study file")
+
+
+def study_text(study: dict) -> str:
+    """The TOML text of a study given as a dict with the study file's sections, e.g.
+    ``{"base": {"Nmod": 20}, "grid": {"V": [2.0, 5.0]}, "output": {"fields": []}}``
+    ([[cases]] is a list of dicts under ``"cases"``)."""
+    if not isinstance(study, dict):
+        raise StudyError(f"a study is a dict of its sections, got {type(study).__name__}")
+    lines = []
+    for key, value in study.items():                         # top-level keys before any table
+        if not isinstance(value, dict) and not (key == "cases" and isinstance(value, list)):
+            lines.append(f"{key} = {_toml_value(value, key)}")
+    for key, value in study.items():
+        if isinstance(value, dict):
+            lines += ["", f"[{key}]"] + [f"{k} = {_toml_value(v, f'[{key}] {k}')}" for k, v in value.items()]
+        elif key == "cases" and isinstance(value, list):
+            for i, case in enumerate(value):
+                if not isinstance(case, dict):
+                    raise StudyError(f"[[cases]] #{i + 1} must be a dict of parameters")
+                lines += ["", "[[cases]]"] + [f"{k} = {_toml_value(v, f'[[cases]] #{i + 1} {k}')}"
+                                               for k, v in case.items()]
+    return "\n".join(lines) + "\n"
+
+
 def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
     """studies/<name>.toml from a name, or the path itself."""
     path = Path(name_or_path)
@@ -570,6 +624,9 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
                  for i, c in enumerate(case_list)]
     if grid and case_list:
         raise StudyError("a study has either [grid] or [[cases]], not both")
+    design, analysis = {}, {}
+    if "design" in data and (grid or case_list):
+        raise StudyError("a study has one of [grid], [[cases]] and [design], not two")
     if grid_raw == {} and "grid" in data:
         raise StudyError("[grid] is empty")
     if "cases" in data and not case_list:
@@ -584,6 +641,19 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
                 raise StudyError(f"[[cases]] #{i + 1} repeats an earlier case")
             seen.add(key)
     output = _check_output(data.get("output", {}))
+    if "design" in data:                           # its samples may repeat a point (Morris's grid)
+        from .design import check_design, design_cases
+        design = check_design(data["design"], base)
+        case_list = design_cases(design)
+    if "analysis" in data:
+        from .analysis import check_analysis
+        analysis = check_analysis(data["analysis"], design, output)
+    search = {}
+    if "search" in data:
+        from .search import check_search
+        if case_list and not design and case_list != [{}]:
+            raise StudyError("[search] runs over a [grid], a [design] or [base] alone, not [[cases]]")
+        search = check_search(data["search"], {*base, *grid, *(design.get("keys", {}))})
     solver = _check_solver(data.get("solver", {}))
     reference = _check_reference("[reference]", data["reference"]) if "reference" in data else {}
     plots_table = data.get("plots", {})
@@ -592,9 +662,13 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
     plots = plots_table.get("kinds", ["diagnostics", "crack_onset"])
     if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
         raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
+    if design and "kinds" not in plots_table:
+        plots = ["design"] + (["sensitivity"] if analysis else [])
+    if search and "kinds" not in plots_table:
+        plots = []                                 # the search draws search.png itself
     study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
-                  reference=reference)
+                  reference=reference, design=design, analysis=analysis, search=search)
     extreme = data.get("accept_extreme_values", False)
     if not isinstance(extreme, bool):
         raise StudyError(f"{path}: accept_extreme_values must be true or false")
@@ -605,6 +679,12 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
                          'finite value in [base], or finite values in [grid] or in every [[cases]] entry')
     if not extreme:
         _check_ranges(study)
+        if search:
+            from solver.parameters import outside_physical_range
+            for end in search["bracket"]:
+                reason = outside_physical_range({search["key"]: end})
+                if reason:
+                    raise StudyError(f"[search] bracket: {reason} (accept_extreme_values = true runs it anyway)")
     expand(study)
     return study
 

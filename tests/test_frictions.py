@@ -17,17 +17,10 @@ import pipeline  # noqa: E402
 from pipeline import plots  # noqa: E402
 from pipeline.show import choose_case, show  # noqa: E402
 from pipeline.study import load_study_text  # noqa: E402
+from test_figures import _figure_axes as _axes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 OUTPUT = {"fields": [], "times": {"unit": "stage", "count": 5}, "eps_Y": [8e-5, 1e-3]}
-
-
-def _axes(monkeypatch, draw):
-    captured = {}
-    monkeypatch.setattr(plots, "_save", lambda fig, path, dpi: captured.setdefault("fig", fig))
-    monkeypatch.setattr(plots.plt, "close", lambda fig: None)
-    draw()
-    return captured["fig"].axes
 
 
 @pytest.fixture(scope="module")

@@ -100,3 +100,17 @@ def test_plot_water_depth(tmp_path, monkeypatch):
 def test_plot_open_study(tmp_path, monkeypatch):
     ds = run("plot_open_study.py", tmp_path, monkeypatch)["ds"]
     assert ds.attrs["Conventions"].startswith("CF-") and ds["max_strain"].attrs["units"] == "1"
+
+
+def test_plot_sensitivity(tmp_path, monkeypatch):
+    pytest.importorskip("SALib")
+    g = run("plot_sensitivity.py", tmp_path, monkeypatch)
+    indices = g["indices"]
+    assert indices["S1"].dims == ("output", "key") and g["ds"].sizes["sample"] == 8 * 7
+    assert np.all(np.isfinite(indices["ST"].values))
+
+
+def test_plot_search(tmp_path, monkeypatch):
+    found = run("plot_search.py", tmp_path, monkeypatch)["found"]
+    assert list(found["search_status"].values) == ["found", "found"]
+    assert float(found["critical_V"].sel(hi=1.0)) < float(found["critical_V"].sel(hi=0.5))
