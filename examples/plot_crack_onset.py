@@ -10,7 +10,6 @@ speed-sweep study's records answer it along 41 yield strains; any other list is
 import os
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 import pipeline
 from pipeline.fracture import crack_onset

@@ -11,7 +11,6 @@ paper's stage end.
 import os
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 import pipeline
 

@@ -9,7 +9,6 @@ shows the upper-surface strain at the end of the impact stage for a few position
 import os
 
 import matplotlib.pyplot as plt
-import numpy as np
 
 from solver import Parameters, solve
 

@@ -38,7 +38,7 @@ def output_values(ds, name: str, eps_Y: float | None = None) -> tuple:
     return values, censored, label
 
 
-def analyze(ds, design: dict, analysis: dict) -> "xr.Dataset":
+def analyze(ds, design: dict, analysis: dict):
     """The indices of each requested output (and yield strain) over the design's keys, as a
     labelled Dataset along (output, key)."""
     import xarray as xr

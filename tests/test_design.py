@@ -102,6 +102,7 @@ def design_undisturbed(design_file, tmp_path_factory):
     return out
 
 
+@pytest.mark.slow       # the machinery of tests/test_faults.py (in make test), on a design
 def test_a_killed_runner_loses_no_sample(design_file, design_undisturbed, tmp_path):
     _kill_runner_then_resume(design_file, design_undisturbed, tmp_path / "killed", delay=3.0)
 

@@ -110,6 +110,7 @@ def test_status_and_a_rerun_say_what_the_search_did(searched):
     assert code == 0 and "(0 to run)" in err                                # every run reused
 
 
+@pytest.mark.slow       # 40 s; test_status_and_a_rerun_say_what_the_search_did replays a search in make test
 def test_a_killed_search_resumes_where_it_stopped(searched, tmp_path):
     ds, base = searched
     out = tmp_path / "killed"
