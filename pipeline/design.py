@@ -124,7 +124,6 @@ def design_points(design: dict) -> dict:
     """key -> the sampled values (lists of floats, one per sample)."""
     keys = design["keys"]
     u = unit_points(design["method"], design["samples"], len(keys), design["seed"])
-    design["cases"] = u.shape[0]
     out = {}
     for j, (key, (lo, hi, log)) in enumerate(keys.items()):
         if log:
@@ -138,4 +137,5 @@ def design_points(design: dict) -> dict:
 def design_cases(design: dict) -> list:
     """The design as a [[cases]] list: one table of overrides a sample."""
     points = design_points(design)
-    return [{key: values[i] for key, values in points.items()} for i in range(design["cases"])]
+    n = len(next(iter(points.values())))         # samples, or samples x (keys + 2) for saltelli
+    return [{key: values[i] for key, values in points.items()} for i in range(n)]
