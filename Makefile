@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs study status test test-slow test-portable bench bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
+.PHONY: help setup docs study status test test-slow test-portable bench bench-quadrature bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -48,7 +48,7 @@ test: setup  ## the default test suite (fast; excludes tests marked slow): 2 pro
 
 #: the tests whose numbers another CPU's round-off could move: the solver's, the regression
 #: against the stored reference, and the axes a study generates
-PORTABLE_TESTS := tests/test_axes.py tests/test_body_mass.py tests/test_body_shapes.py tests/test_energy_and_forcing.py \
+PORTABLE_TESTS := tests/test_axes.py tests/test_body_mass.py tests/test_body_shapes.py tests/test_energy_and_forcing.py tests/test_quadrature.py \
 	tests/test_error_estimate.py tests/test_events.py tests/test_extremes.py tests/test_integrators.py \
 	tests/test_kernel_pieces.py tests/test_layer_law.py tests/test_off_centre.py tests/test_paper_numbers.py \
 	tests/test_pipeline.py \
@@ -75,6 +75,9 @@ bit-for-bit: setup  ## are the solver's results exactly those of BASE (default H
 
 bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa .") -> results/bench/revisions.md
 	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .)
+
+bench-quadrature: setup  ## error against wall time of both forcing quadratures, N = 20, 60, 120, four cases (about 10 min) -> results/bench/quadrature.{md,csv,png}
+	$(PY) benchmarks/quadrature.py
 
 bench-scale: setup  ## 100 000 small cases end to end, a killed runner, status (about 12 min) -> results/bench/scale.md
 	$(PY) benchmarks/bench_scale.py

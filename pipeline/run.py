@@ -267,9 +267,13 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
                               file=sys.stderr)
                 check()
                 fresh = _combine(options, study, out_dir, ledger, states, session, bool(items), writer)
-            except BaseException:
+            except BaseException as err:
                 if writer is not None:
                     writer.abandon()
+                if isinstance(err, OSError):
+                    # study.nc's writer failing because the directory went (make clean mid-run)
+                    # says so, as a batch write does
+                    _still_ours(out_dir, identity)
                 raise
             if fresh is not None:                      # done: no damaged batch file
                 break

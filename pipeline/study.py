@@ -707,7 +707,13 @@ def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
 
 
 def _used_settings(settings: Settings) -> dict:
-    return {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
+    """The settings the run reads. The quadrature enters only when it is not the paper's, so that
+    the ids of the cases run before it was a setting stay what they were."""
+    used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
+    if settings.quadrature != "paper":
+        used["quadrature"] = settings.quadrature
+        used["quadrature_density"] = settings.quadrature_density
+    return used
 
 
 def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:

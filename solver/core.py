@@ -19,7 +19,7 @@ from .diagnostics import Outputs
 from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
-from .model.layer import pressure_at
+from .model.layer import law_pressure, pressure_at
 from .fracture import crack_onset, thin_record
 from .parameters import Parameters, ParameterError, Settings, check_combination
 from .scipy_reference import integrate_dop853
@@ -205,7 +205,16 @@ def _layer_pressure(p, tables, a, s, x, adot=None, U=None):
     kernel, the body at penetration s [m]; a viscoelastic layer scales f by
     max(1 + layer_tau d(delta)/dt, 0) at the compressed nodes (from adot [m/s] and the body's
     speed U). This is exactly the reaction the modes feel (solver.model.layer.pressure_at: the
-    same law the forcing integrates)."""
+    same law the forcing integrates); with the contact-resolving rule, which integrates
+    f(delta(x)) itself, K f(delta(x)) on the modes."""
+    if tables.model.basis.rule == 1:      # the contact-resolving rule integrates f(delta(x)) itself
+        cos = np.cos(np.outer(tables.kernel_x(x), tables.lam))               # (X, N)
+        d = (cos @ a + s - p.body_profile(x)) / p.he
+        on = d > 0
+        f = np.where(on, law_pressure.py_func(tables.model.layer.law, np.where(on & (d < 1), d, 0.5)), 0.0)
+        if p.layer_tau > 0:
+            f = f * np.maximum(1.0 + p.layer_tau * (cos @ adot + U) / p.he, 0.0)
+        return p.K * f
     delta = (a @ tables.cosq + s - p.body_profile(tables.x_nodes)) / p.he  # (J,)
     rate = (adot @ tables.cosq + U) / p.he if p.layer_tau > 0 else None
     ax = tables.kernel_x(x)
@@ -438,7 +447,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
-    tab = Tables(p, s.subintervals, full_plate)
+    tab = Tables(p, s.subintervals, full_plate, s.quadrature, s.quadrature_density)
     a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
     a0 = tab.to_kernel(a0)
     v0 = tab.to_kernel(v0)

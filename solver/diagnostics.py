@@ -56,7 +56,7 @@ def record_output(model, out, k, t, state, jmax, carried, err_sum):
     series[k, S_FORCE] = carried.force
     series[k, S_E_PLATE] = _plus_plate_energy(0.0, model.plate, state.z)
     series[k, S_DISSIPATED] = carried.dissipated
-    series[k, S_E_LAYER] = layer_energy(model, state.delta, jmax)
+    series[k, S_E_LAYER] = layer_energy(model, state.a, body_position(model.body, t, state.yb), state.delta, jmax)
     series[k, S_WORK] = carried.work
     series[k, S_ERR] = err_sum
     series[k, S_BODY_POSITION] = body_position(model.body, t, state.yb)

@@ -101,7 +101,13 @@ SETTING_INFO = {
     "integrator": ("time integrator (etd34: adaptive exponential; rk4: the paper's fixed-step RK4; "
                    "dop853: scipy's DOP853, the outside reference)", ""),
     "tolerance": ("relative error tolerance per step (etd34: energy norm; dop853: rtol)", "1"),
-    "subintervals": ("subintervals of [0, L] in the forcing quadrature", "1"),
+    "subintervals": ("subintervals of [0, L] between the nodes of the basis's table (the paper's "
+                     "quadrature integrates over them; the contact-resolving one finds the contact "
+                     "intervals on them)", "1"),
+    "quadrature": ("the forcing's quadrature (paper: f linear between the nodes; gauss: Gauss-Legendre "
+                   "panels on the located contact intervals)", ""),
+    "quadrature_density": ("Gauss-Legendre nodes per wavelength of the last mode, 2 pi / lambda_N, "
+                           "of the gauss quadrature", "1"),
     "rk4_step_fraction": ("rk4 step as a fraction of the period of the last mode, 2 pi / omega_N", "1"),
     "fixed_step": ("fixed step of etd34 in units of t_sc (0: adaptive)", "1"),
     "max_steps": ("largest number of attempted steps before the run stops with step_limit", "1"),
@@ -112,6 +118,7 @@ SETTING_INFO = {
 }
 
 INTEGRATORS = ("etd34", "rk4", "dop853")
+QUADRATURES = ("paper", "gauss")
 #: largest Nmod and subintervals accepted (memory: the tables are Nmod x subintervals doubles)
 MAX_MODES = 4096
 MAX_SUBINTERVALS = 1_000_000
@@ -505,7 +512,14 @@ class Settings:
         or "rk4" (the paper's classical RK4 with a fixed step), or "dop853" (scipy's DOP853 on
         the same right-hand side, rtol = tolerance; no in-loop diagnostics).
     tolerance : relative error per step of etd34, measured in the energy norm [1].
-    subintervals : subintervals of [0, L] in the forcing quadrature (the paper: 1000) [1].
+    subintervals : subintervals of [0, L] between the nodes of the basis's table (the paper:
+        1000): the paper's quadrature integrates over them, the contact-resolving one finds
+        the contact intervals and the events on them [1].
+    quadrature : the forcing's quadrature: "paper" (f linear between the nodes, the paper's
+        rule) or "gauss" (Gauss-Legendre panels on the contact intervals, located on the
+        modes; docs/model.md, "Numerics").
+    quadrature_density : Gauss-Legendre nodes per wavelength of the last mode, 2 pi /
+        lambda_N, of the "gauss" quadrature [1].
     rk4_step_fraction : rk4 step = fraction * 2 pi / omega_N (the paper: 1/20) [1].
     fixed_step : if > 0, etd34 takes this fixed step, in units of t_sc, with no error
         control (for convergence-order studies) [1].
@@ -519,6 +533,8 @@ class Settings:
     integrator: str = "etd34"
     tolerance: float = 1e-8
     subintervals: int = 1000
+    quadrature: str = "paper"
+    quadrature_density: float = 8.0
     rk4_step_fraction: float = 0.05
     fixed_step: float = 0.0
     max_steps: int = 500_000
@@ -535,6 +551,11 @@ class Settings:
         _check_positive("subintervals", self.subintervals, integer=True)
         if not 8 <= int(self.subintervals) <= MAX_SUBINTERVALS:
             raise ParameterError(f"subintervals must be between 8 and {MAX_SUBINTERVALS}, got {self.subintervals!r}")
+        if self.quadrature not in QUADRATURES:
+            raise ParameterError(f"quadrature must be one of {', '.join(QUADRATURES)}, got {self.quadrature!r}")
+        _check_positive("quadrature_density", self.quadrature_density)
+        if not 1.0 <= float(self.quadrature_density) <= 1000.0:
+            raise ParameterError(f"quadrature_density must be between 1 and 1000, got {self.quadrature_density!r}")
         _check_positive("rk4_step_fraction", self.rk4_step_fraction)
         if isinstance(self.fixed_step, bool) or not isinstance(
                 self.fixed_step, (int, float, np.integer, np.floating)) \
@@ -546,7 +567,7 @@ class Settings:
             raise ParameterError(f"bottoming_gap must be between 1e-12 and 0.5, got {self.bottoming_gap!r}")
         if not isinstance(self.error_estimate, bool):
             raise ParameterError(f"error_estimate must be true or false, got {self.error_estimate!r}")
-        for name in ("tolerance", "rk4_step_fraction", "fixed_step", "bottoming_gap"):
+        for name in ("tolerance", "rk4_step_fraction", "fixed_step", "bottoming_gap", "quadrature_density"):
             object.__setattr__(self, name, float(getattr(self, name)))
         for name in ("subintervals", "max_steps"):
             object.__setattr__(self, name, int(getattr(self, name)))

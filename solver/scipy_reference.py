@@ -222,7 +222,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         series[k, kn.S_CONTACTS] = count_contacts(delta, jmax, model.basis.mirror)
         series[k, kn.S_FORCE] = F
         series[k, kn.S_E_PLATE] = 0.5 * np.sum(tab.LM * (v**2 + om2 * a**2))
-        series[k, kn.S_E_LAYER] = layer_energy(model, delta, jmax)
+        series[k, kn.S_E_LAYER] = layer_energy(model, np.ascontiguousarray(a), position(t, y), delta, jmax)
         series[k, kn.S_WORK] = work
         series[k, kn.S_BODY_POSITION] = position(t, y)
         series[k, kn.S_BODY_SPEED] = speed(y)

@@ -186,8 +186,12 @@ def test_dop853_reports_the_diagnostics(changes):
     assert d.status == e.status
     missing = [k for k, v in e.diagnostics.items() if np.isfinite(v) and not np.isfinite(d.diagnostics[k])]
     assert missing == ["error_estimate", "error_estimate_time"], missing
-    for name in ("max_strain", "max_strain_lower", "max_abs_strain"):
-        assert d.diagnostics[name] == pytest.approx(e.diagnostics[name], rel=5e-6), name
+    # the lower surface's largest tension of the off-centre case is a flat maximum whose place
+    # jumps by 1e-3 m between runs: DOP853 (rtol 1e-9) observed it 2.6e-5 low with numba's
+    # generic target and numpy's SSE baseline on an AMD EPYC, 1.8e-7 with the host's; the upper
+    # surface's agreed within 4.5e-7 on both
+    for name, rel in (("max_strain", 5e-6), ("max_strain_lower", 1e-4), ("max_abs_strain", 5e-6)):
+        assert d.diagnostics[name] == pytest.approx(e.diagnostics[name], rel=rel), name
     # etd34 takes the largest force and compression at its steps' ends (not located inside a
     # step): below the 8 samples a step of DOP853 by up to 7.7e-5 (the free body's force)
     for name in ("max_compression", "max_force"):

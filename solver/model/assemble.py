@@ -15,10 +15,11 @@ from collections import namedtuple
 
 import numpy as np
 
-from .basis import Basis
+from .basis import QUADRATURE_CODES, Basis
 from .body import Body
 from .layer import LAW_CODES, Layer
 from .plate import COEF, MASS, STRAIN, Plate, make_plate
+from .quadrature import PANEL_POINTS, legendre_rule
 
 #: what the kernels take for one case: Plate, Basis, Body, Layer (each defined by its module)
 Model = namedtuple("Model", "plate basis body layer")
@@ -32,7 +33,8 @@ class Tables:
     coordinates xq and on the plate x_nodes, the plate's origin in kernel coordinates, and the
     maps between the kernel's modal order and the symmetric and antisymmetric amplitudes."""
 
-    def __init__(self, p, subintervals: int, full_plate: bool | None = None):
+    def __init__(self, p, subintervals: int, full_plate: bool | None = None, quadrature: str = "paper",
+                 quadrature_density: float = 8.0):
         full = p.off_centre if full_plate is None else bool(full_plate)
         self.full_plate = full
         if full:
@@ -51,8 +53,11 @@ class Tables:
         self.cosq = np.ascontiguousarray(np.cos(np.outer(lam, self.xq)))       # (N, J)
         sinc2 = np.sinc(lam * self.dx / (2 * np.pi)) ** 2                     # np.sinc(u) = sin(pi u)/(pi u)
         self.wq = self.dx * sinc2            # (N,): int hat_j cos(lam_n x) dx = wq_n cos(lam_n x_j) inside
+        gauss_x, gauss_w = legendre_rule(PANEL_POINTS)
+        # panels of PANEL_POINTS Gauss nodes, quadrature_density of them per wavelength of the last mode
+        panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(lam[-1])
         basis = Basis(float(lam[0]), float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
-                      float(self.dx * (self.xq.size - 1)))
+                      float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel)
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]))
 

@@ -28,8 +28,13 @@ from numba import njit
 
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
 #: the hat weights dx sinc^2(lambda_n dx / 2) [m], mirror (2: the symmetric half plate, whose
-#: integrals over 0..L are doubled; 1: the full plate), length = dx (J - 1) [m] (L, or 2L)
-Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length")
+#: integrals over 0..L are doubled; 1: the full plate), length = dx (J - 1) [m] (L, or 2L); the
+#: forcing's rule (QUADRATURE_CODES: 0 the paper's, 1 the contact-resolving one) with, for the
+#: latter, its Gauss-Legendre nodes gauss_x and weights gauss_w on [-1, 1] and the widest panel [m]
+Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel")
+
+#: Settings.quadrature -> Basis.rule
+QUADRATURE_CODES = {"paper": 0, "gauss": 1}
 
 
 #: Newton on a peak's position stops when its step is below this fraction of the bracket: the

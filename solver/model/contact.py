@@ -167,6 +167,20 @@ def shape_peak(model, delta, j, n, a, s):
 
 
 @njit(cache=True, nogil=True)
+def _corner_peak(model, a, s, v, x):
+    """The larger of (v, x) and delta at the body's corners on the plate (a wedge's apex, a flat
+    bottom's edges), where delta has a kink that Newton on delta' cannot settle on: (value, x)."""
+    body = model.body
+    ones = model.plate.modes[ONES]
+    for c in (body.xc - body.flat, body.xc, body.xc + body.flat):
+        if 0.0 <= c <= model.basis.length:
+            d = (mode_sum(ones, a, model.basis.lam1, c) + s - body_profile(c, body)) / model.layer.he
+            if d > v:
+                v, x = d, c
+    return v, x
+
+
+@njit(cache=True, nogil=True)
 def gap_peak(model, s, U, delta, jm, a, adot, out):
     """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x), the
     body at penetration s moving down at U.
@@ -184,6 +198,8 @@ def gap_peak(model, s, U, delta, jm, a, adot, out):
                                -0.5 / (model.body.R * he), s / he)
     else:
         v, x = shape_peak(model, delta, j, n, a, s)
+        if model.basis.rule == 1:        # the contact-resolving rule integrates up to the corners
+            v, x = _corner_peak(model, a, s, v, x)
     out[0] = v
     out[1] = (mode_sum(ones, adot, model.basis.lam1, x) + U) / he
     out[2] = x

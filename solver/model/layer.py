@@ -25,7 +25,6 @@ d = V t over the half-width a = sqrt(2 R d) (tests/test_layer_law.py):
     linear: F = (4/3) (K/he) d a;   paper: F = K [(2/sqrt(A B)) arctan(a sqrt(B/A)) - 2a],
     A = 1 - d/he, B = 1/(2 R he).
 """
-import math
 from collections import namedtuple
 
 import numpy as np
@@ -33,6 +32,8 @@ from numba import njit
 
 from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, strain_nodes
 from .contact import contact_bound
+from .law import law_energy, law_pressure
+from .quadrature import gauss_energy, gauss_reaction
 from .plate import COEF, STRAIN
 
 #: the layer: he [m], K [Pa], tau = layer_tau [s] (0: elastic), law (LAW_CODES)
@@ -40,23 +41,6 @@ Layer = namedtuple("Layer", "he K tau law")
 
 #: layer_law -> the kernels' code
 LAW_CODES = {"paper": 0, "linear": 1}
-
-
-@njit(cache=True, nogil=True)
-def law_pressure(law, d):
-    """f(delta) for 0 < delta < 1 (the paper's delta / (1 - delta), or the linear delta). Plain
-    arithmetic, so that its ``py_func`` also takes numpy arrays (the field reconstruction)."""
-    if law == 1:
-        return d
-    return d / (1.0 - d)
-
-
-@njit(cache=True, nogil=True)
-def law_energy(law, d):
-    """G(delta) for 0 < delta < 1, the energy stored per unit volume over K: G' = f, G(0) = 0."""
-    if law == 1:
-        return 0.5 * d * d
-    return -d - math.log1p(-d)
 
 
 @njit(cache=True, nogil=True)
@@ -94,7 +78,7 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
     jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum(a, model.basis.cosq, delta, jmax)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
-                   layer_reaction(model.layer, model.body, model.basis, s, U, adot, jmax, delta, fvals, P), P)
+                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, fvals, P), P)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -110,7 +94,7 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum_strain(a, model.plate.modes[STRAIN], cosq, delta, eps, jmax)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
-                   layer_reaction(model.layer, model.body, model.basis, s, U, adot, jmax, delta, fvals, P), P)
+                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, fvals, P), P)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -192,11 +176,16 @@ def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
 
 
 @njit(cache=True, nogil=True)
-def layer_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals, P):
+def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, fvals, P):
     """The rest of layer_forcing_at, given the deflection sum_n a_n cos(lambda_n x_j) in delta
-    (j < jmax): the nodes' f (node_reaction), then P / (K coef_n) and int f dx: the hat weights on
-    the nodes (the trapezoid's half weights at x = 0 and at the far end), and the split
-    subintervals. (The Body, Basis and Layer it reads, not the Model: see contact.py.)"""
+    (j < jmax) and modes = (a, adot): P / (K coef_n) and int f dx by the basis's rule. The paper's (rule 0): the nodes'
+    f (node_reaction), the hat weights on the nodes (the trapezoid's half weights at x = 0 and at
+    the far end), and the split subintervals. The contact-resolving rule (1): delta at the nodes,
+    then solver.model.quadrature. (The Body, Basis and Layer it reads, not the Model: see
+    contact.py.)"""
+    a, adot = modes
+    if basis.rule == 1:
+        return _gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P)
     N = P.shape[0]
     J = delta.shape[0]
     cosq = basis.cosq
@@ -221,6 +210,24 @@ def layer_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals, P):
         for n in range(N):
             P[n] = 0.0
     return 0, split_segments(basis, jmax, delta, fvals, P, force * basis.dx), jmax, power
+
+
+@njit(cache=True, nogil=True)
+def _gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P):
+    """layer_reaction by the contact-resolving rule: delta at the nodes j < jmax (status 1 if
+    one has delta >= 1), then gauss_reaction: (status, int f dx, jmax, the power with its factor
+    mirror K), as the paper's rule returns them."""
+    he = layer.he
+    profile = body.profile
+    for j in range(jmax):
+        d = (delta[j] + s - profile[j]) / he
+        delta[j] = d
+        if d > 0.0 and not d < 1.0:
+            return 1, 0.0, jmax, 0.0
+    st, force, power = gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P)
+    if st != 0:
+        return 1, 0.0, jmax, 0.0
+    return 0, force, jmax, basis.mirror * layer.K * power
 
 
 @njit(cache=True, nogil=True)
@@ -253,13 +260,19 @@ def split_segments(basis, jmax, delta, fvals, P, force):
 
 
 @njit(cache=True, nogil=True)
-def layer_energy(model, delta, jmax):
+def layer_energy(model, a, s, delta, jmax):
     """E_layer = 2 K he int_0^L G(delta) dx (delta > 0); on the full plate of an off-centre
-    impact (mirror = 1) K he int_0^2L G dx.
+    impact (mirror = 1) K he int_0^2L G dx; delta at the nodes j < jmax, the modes a and the
+    body's penetration s (read by the contact-resolving rule only).
 
-    Trapezoid on the nodes; on a subinterval where delta changes sign, G is taken linear from
-    0 at the split point of the forcing quadrature to the compressed node.
+    By the forcing's rule. The paper's: trapezoid on the nodes; on a subinterval where delta
+    changes sign, G is taken linear from 0 at the split point of the forcing quadrature to the
+    compressed node. The contact-resolving rule: its Gauss nodes on the contact intervals
+    (solver.model.quadrature.gauss_energy).
     """
+    if model.basis.rule == 1:
+        return model.basis.mirror * model.layer.K * gauss_energy(model.layer, model.body, model.basis, s, a, delta,
+                                                                  jmax)
     J = delta.shape[0]
     dx = model.basis.dx
     law = model.layer.law
