@@ -256,12 +256,8 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
                         if reduced is not None:
                             writer = writer or open_writer(study, out_dir)
                             writer.write([position for _, position in batch], reduced)
-                    try:
-                        lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids),
-                                           skipped, options.batch_seconds, spec)
-                    except OSError:
-                        _still_ours(out_dir, identity)   # a batch write failing because the directory went
-                        raise
+                    lost = session.run(study, items, signature, batches, on_batch, len(study.run_ids),
+                                       skipped, options.batch_seconds, spec)
                     for record in lost:
                         print(f"note: case {record['case_id']}: {record['message']} (it stays pending)",
                               file=sys.stderr)
@@ -271,8 +267,8 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
                 if writer is not None:
                     writer.abandon()
                 if isinstance(err, OSError):
-                    # study.nc's writer failing because the directory went (make clean mid-run)
-                    # says so, as a batch write does
+                    # a batch or study.nc write failing because the directory went (make clean
+                    # mid-run) says so
                     _still_ours(out_dir, identity)
                 raise
             if fresh is not None:                      # done: no damaged batch file

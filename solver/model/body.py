@@ -51,6 +51,13 @@ def body_profile(x, body):
 
 
 @njit(cache=True, nogil=True)
+def body_corners(body):
+    """Where b may not be smooth, in kernel coordinates: x_c - c, x_c, x_c + c (a wedge's apex, a
+    flat bottom's edges; the same point three times for a pointed body)."""
+    return body.xc - body.flat, body.xc, body.xc + body.flat
+
+
+@njit(cache=True, nogil=True)
 def body_slope_curvature(x, body):
     """(b'(x), b''(x)) (at a wedge's or a flat bottom's corner: the values on the side away
     from the centre x_c)."""

@@ -21,7 +21,7 @@ from numba import njit
 
 from .basis import (NEWTON_STOP, _newton_move, argmax_node, continuous_peak, modal_sum_range, mode_sum,
                     mode_sums, refine)
-from .body import body_extent, body_profile, body_slope_curvature, is_parabola
+from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
 from .plate import ONES
 
 #: modes taken exactly in contact_bound's node-by-node bound on the deflection
@@ -172,7 +172,7 @@ def _corner_peak(model, a, s, v, x):
     bottom's edges), where delta has a kink that Newton on delta' cannot settle on: (value, x)."""
     body = model.body
     ones = model.plate.modes[ONES]
-    for c in (body.xc - body.flat, body.xc, body.xc + body.flat):
+    for c in body_corners(body):
         if 0.0 <= c <= model.basis.length:
             d = (mode_sum(ones, a, model.basis.lam1, c) + s - body_profile(c, body)) / model.layer.he
             if d > v:

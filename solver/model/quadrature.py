@@ -39,7 +39,7 @@ import numpy as np
 from numba import njit
 
 from .basis import modal_projection, modal_sum_range
-from .body import body_profile, body_slope_curvature
+from .body import body_corners, body_profile, body_slope_curvature
 from .law import law_energy, law_pressure
 
 #: Gauss-Legendre nodes in a panel of the rule
@@ -144,7 +144,7 @@ def corner_contacts(body, basis, s, a, he, delta, jmax, edges):
     dx = basis.dx
     count = 0
     last = -1.0
-    for c in (body.xc - body.flat, body.xc, body.xc + body.flat):
+    for c in body_corners(body):
         if not (0.0 < c < basis.length) or c == last:
             continue
         last = c
@@ -172,7 +172,7 @@ def _pieces(body, xa, xb, cuts):
     returns m + 1."""
     m = 0
     cuts[0] = xa
-    for c in (body.xc - body.flat, body.xc, body.xc + body.flat):
+    for c in body_corners(body):
         if xa < c < xb and c > cuts[m]:
             m += 1
             cuts[m] = c
