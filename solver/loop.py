@@ -52,7 +52,7 @@ ACCEPT, RETRY, STOP = 0, 1, 2
 def new_state(N, J):
     """A State for N modes and J nodes (the body at d = u = 0)."""
     return State(np.empty(N, np.complex128), np.empty(N), np.empty(N), np.empty(N), np.empty(J), np.empty(J),
-                 np.zeros(2), np.empty(N, np.complex128), np.zeros(2), np.zeros(2))
+                 np.zeros(2), np.empty(N, np.complex128), np.zeros(2), np.zeros(3))
 
 
 @njit(cache=True, nogil=True)
@@ -83,6 +83,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
     if st != 0:
         return st, force, jmax, lp, 0, records
     contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
+    cur.acc[2] = layer_energy(model, cur.a, s, cur.delta, jmax) if model.basis.rule == 1 else math.nan
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
     rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
@@ -129,14 +130,14 @@ def _finite_state(st, w_new, z, yb):
 def _residual(model, state, jm, w_new, e0):
     """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state
     (its z, delta, acc and yb, the time and scratch (N,): the arrays it reads, not the State, whose
-    every array numba would count a reference to)."""
+    every array numba would count a reference to). The contact-resolving rule's E_layer is the
+    one its last stage computed (acc[2]); the paper's, from delta."""
     z, delta, acc, yb, t, a = state
-    s = 0.0
-    if model.basis.rule == 1:            # the contact-resolving rule reads the modes (a: scratch)
-        for n in range(z.shape[0]):
-            a[n] = mode_a(z[n], n, model.plate)
-        s = body_position(model.body, t, yb)
-    e_new = _plus_plate_energy(layer_energy(model, a, s, delta, jm), model.plate, z)
+    if model.basis.rule == 1:
+        e_layer = acc[2]
+    else:
+        e_layer = layer_energy(model, a, 0.0, delta, jm)
+    e_new = _plus_plate_energy(e_layer, model.plate, z)
     return e_new, e_new + acc[0] - w_new - e0
 
 

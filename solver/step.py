@@ -42,13 +42,15 @@ from numba import njit
 from .layout import B_D, B_U, ETD34
 from .model.body import _body_error, _step_work, body_accel, body_coefficients
 from .model.contact import count_contacts
-from .model.layer import layer_forcing_at, layer_forcing_strain
+from .model.layer import layer_forcing_at, layer_forcing_strain, rule_energy
 from .model.plate import (HALF_C, KIND, OMEGA, dissipation_rate, emul, mode_a, mode_adot, mode_phis, phi_from,
                           plate_damped)
 
 #: the state at one time, arrays filled in place: z (N,) complex, forcing P (N,), a, adot (N,),
 #: delta and eps at the nodes (J,), the body's deficits yb (2,) (B_D, B_U), the step's local error
-#: err (N,) complex and errb (2,), and acc (2,): the energy dissipated by then, the layer's power
+#: err (N,) complex and errb (2,), and acc (3,): the energy dissipated by then, the layer's power,
+#: the layer's energy by the contact-resolving rule (solver.model.layer.rule_energy; NaN by the
+#: paper's)
 State = namedtuple("State", "z forcing a adot delta eps yb err errb acc")
 #: the scalars a step carries from its start: force F [N m-1], work W [J m-1], dissipated energy
 #: [J m-1], the viscoelastic layer's power [W m-1], contact intervals
@@ -289,7 +291,8 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     stage's pass over the table), the body (yb; the prescribed body stays at d = u = 0 exactly),
     the local error estimate (err, errb), and acc = (energy dissipated by t_new: the step's
     weights on the damped plate's dissipation rate plus the viscoelastic layer's power at its
-    stages, 0 for the paper's elastic ice and layer; the layer's power at t_new). Returns
+    stages, 0 for the paper's elastic ice and layer; the layer's power at t_new; its energy by
+    the contact-resolving rule, from the last stage's pass). Returns
     (status, F(t_new), jmax(t_new), W(t_new), event): status 1 if a stage reached delta >= 1
     (out then meaningless); event if the number of contact intervals changed among the stages.
     """
@@ -330,6 +333,7 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     out.acc[0] = (carried.dissipated + h * ((D[1] + carried.power) / 6.0 + (D[2] + Lp[2] + D[3] + Lp[3]) / 3.0
                                             + (D[4] + Lp[4]) / 6.0) if damped else carried.dissipated)
     out.acc[1] = Lp[5]
+    out.acc[2] = rule_energy(model, w.fvals)
     return 0, w.table[F_ROW, 5], jm, w_new, event
 
 

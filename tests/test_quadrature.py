@@ -11,7 +11,8 @@ from scipy import integrate, optimize
 
 from solver import Parameters, Settings, solve
 from solver.model.assemble import Tables
-from solver.model.layer import law_pressure, layer_forcing_at
+from solver.model.layer import law_pressure, layer_energy, layer_forcing_at, layer_forcing_strain, rule_energy
+from solver.model.quadrature import cosine_table
 
 
 def _state(p, t_tilde, **rule):
@@ -124,6 +125,31 @@ def test_gauss_rule_does_not_depend_on_the_table(several_intervals):
     coarse = _forcing(p, a, s, quadrature="gauss", subintervals=250)[0]
     fine = _forcing(p, a, s, quadrature="gauss", subintervals=4000)[0]
     assert np.linalg.norm(coarse - fine) <= 1e-12 * np.linalg.norm(P)
+
+
+def test_cosine_table_by_recurrence_is_the_cosines():
+    """The Chebyshev recurrence of the rule's cosine table against numpy's cosines, 240 modes (the
+    full plate at N = 120) at points all over the plate, the ends and the centre included: within
+    n^2 eps, its bound near x = 0 (measured 2.6e-12)."""
+    lam1 = np.pi / 12.0
+    x = np.concatenate([[0.0, 1e-9, 12.0, 6.0], np.random.default_rng(3).uniform(0.0, 12.0, 400)])
+    table = np.empty((240, x.size))
+    cosine_table(lam1, x, np.empty(x.size), table)
+    exact = np.cos(np.outer(lam1 * np.arange(1, 241), x))
+    assert np.abs(table - exact).max() < 240**2 * np.finfo(float).eps
+
+
+def test_the_energy_the_last_stage_leaves_is_the_layers_energy(several_intervals):
+    """A step's end computes the forcing, the strain and, by the Gauss rule, the layer's energy in
+    one pass (rule_energy); it is the energy layer_energy computes afresh, to round-off."""
+    p, a, s, _ = several_intervals
+    tab = Tables(p, 500, quadrature="gauss")
+    J = tab.xq.size
+    delta, fvals = np.empty(J), np.empty(J)
+    st, _, jmax, _ = layer_forcing_strain(tab.model, s, p.V, a, a, delta, fvals, np.empty(p.Nmod), np.empty(J))
+    stored = rule_energy(tab.model, fvals)
+    fresh = layer_energy(tab.model, a, s, delta, jmax)
+    assert st == 0 and fresh > 0 and abs(stored - fresh) <= 1e-14 * fresh
 
 
 GAUSS = dict(quadrature="gauss", error_estimate=False)

@@ -25,6 +25,7 @@ d = V t over the half-width a = sqrt(2 R d) (tests/test_layer_law.py):
     linear: F = (4/3) (K/he) d a;   paper: F = K [(2/sqrt(A B)) arctan(a sqrt(B/A)) - 2a],
     A = 1 - d/he, B = 1/(2 R he).
 """
+import math
 from collections import namedtuple
 
 import numpy as np
@@ -78,13 +79,15 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
     jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum(a, model.basis.cosq, delta, jmax)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
-                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, fvals, P), P)
+                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
+                                  False), P)
 
 
 @njit(cache=True, nogil=True, inline="always")
 def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     """layer_forcing_at, and the strain at every node into eps (strain_nodes), from one pass over
-    the table where both are needed."""
+    the table where both are needed; the contact-resolving rule also leaves the layer's energy
+    in fvals[0] (rule_energy)."""
     cosq = model.basis.cosq
     if model.layer.K == 0.0:
         strain_nodes(a, model.plate.modes[STRAIN], cosq, eps)
@@ -94,7 +97,20 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum_strain(a, model.plate.modes[STRAIN], cosq, delta, eps, jmax)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
-                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, fvals, P), P)
+                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
+                                  True), P)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def rule_energy(model, fvals):
+    """E_layer [J m-1] at the state of the last layer_forcing_strain, by the contact-resolving
+    rule, which leaves he int G dx there in fvals[0] (the paper's rule: NaN; layer_energy
+    computes its energy from delta)."""
+    if model.basis.rule != 1:
+        return math.nan
+    if model.layer.K == 0.0:
+        return 0.0
+    return model.basis.mirror * model.layer.K * fvals[0]
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -176,16 +192,18 @@ def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
 
 
 @njit(cache=True, nogil=True)
-def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, fvals, P):
+def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """The rest of layer_forcing_at, given the deflection sum_n a_n cos(lambda_n x_j) in delta
-    (j < jmax) and modes = (a, adot): P / (K coef_n) and int f dx by the basis's rule. The paper's (rule 0): the nodes'
-    f (node_reaction), the hat weights on the nodes (the trapezoid's half weights at x = 0 and at
-    the far end), and the split subintervals. The contact-resolving rule (1): delta at the nodes,
-    then solver.model.quadrature. (The Body, Basis and Layer it reads, not the Model: see
-    contact.py.)"""
-    a, adot = modes
+    (j < jmax) and modes = (a, adot), out = (fvals, P): P / (K coef_n) and int f dx by the
+    basis's rule. The paper's (rule 0): the nodes' f (node_reaction), the hat weights on the
+    nodes (the trapezoid's half weights at x = 0 and at the far end), and the split
+    subintervals. The contact-resolving rule (1): delta at the nodes, then
+    solver.model.quadrature, and with energy, he int G dx into fvals[0]. (The Body, Basis and
+    Layer it reads, not the Model: see contact.py.)"""
     if basis.rule == 1:
-        return _gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P)
+        return _gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy)
+    adot = modes[1]
+    fvals, P = out
     N = P.shape[0]
     J = delta.shape[0]
     cosq = basis.cosq
@@ -213,10 +231,12 @@ def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, fvals, P):
 
 
 @njit(cache=True, nogil=True)
-def _gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P):
+def _gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """layer_reaction by the contact-resolving rule: delta at the nodes j < jmax (status 1 if
-    one has delta >= 1), then gauss_reaction: (status, int f dx, jmax, the power with its factor
-    mirror K), as the paper's rule returns them."""
+    one has delta >= 1), then gauss_reaction into out = (fvals, P), he int G dx into fvals[0]
+    if energy: (status, int f dx, jmax, the power with its factor mirror K), as the paper's rule
+    returns them."""
+    fvals, P = out
     he = layer.he
     profile = body.profile
     for j in range(jmax):
@@ -224,9 +244,11 @@ def _gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P):
         delta[j] = d
         if d > 0.0 and not d < 1.0:
             return 1, 0.0, jmax, 0.0
-    st, force, power = gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P)
+    st, force, power, stored = gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, P, energy)
     if st != 0:
         return 1, 0.0, jmax, 0.0
+    if energy:
+        fvals[0] = stored
     return 0, force, jmax, basis.mirror * layer.K * power
 
 

@@ -22,7 +22,8 @@ over the union I of the contact intervals (the caller scales them: K coef_n, mir
    polynomial of degree lambda_N, b is smooth), and f vanishes at the interval's ends, so the
    rule converges spectrally in the number of nodes and the root's error enters only at
    second order.
-3. At the Gauss nodes: cos(lambda_n x_k) into a table (N, K) by rotation, vectorised over k;
+3. At the Gauss nodes: cos(lambda_n x_k) into a table (N, K) by the Chebyshev recurrence,
+   vectorised over k;
    delta_k from it (basis.modal_sum_range), f_k (and a viscoelastic layer's
    f max(1 + tau delta', 0)), then P = table . (w f) (basis.modal_projection).
 
@@ -51,6 +52,14 @@ PANEL_POINTS = 8
 RHO_MIN = 10.0 ** (12.0 / 16.0)
 MAX_PIECES = 64
 MAX_ROUNDS = 12
+#: rows of the panels' ends (2, panels) and of the rule's nodes (NODE_ROWS, K): place, weight,
+#: delta, a viscoelastic layer's rate (sum_n a_n' cos(lambda_n x)), the weighted pressure, and
+#: 2 cos(lambda_1 x) for the cosine table
+LO, HI = 0, 1
+X, W, DELTA, RATE, G, C2 = range(6)
+NODE_ROWS = 6
+#: the largest |t| on the Bernstein ellipse rho = RHO_MIN (its half major axis)
+ELLIPSE_T = 0.5 * (RHO_MIN + 1.0 / RHO_MIN)
 #: no panel narrower than this fraction of the plate's length is cut
 NARROWEST = 1e-12
 
@@ -184,15 +193,15 @@ def _pieces(body, xa, xb, cuts):
 @njit(cache=True, nogil=True)
 def first_panels(body, basis, edges, count):
     """The panels of the contact intervals: each cut at the body's corners, each piece into equal
-    panels no wider than basis.panel. Returns (lo, hi) arrays of the panels' ends [m]."""
+    panels no wider than basis.panel. Returns the panels' ends [m], rows LO and HI."""
     cuts = np.empty(5)
     total = 0
     for i in range(count):
         p = _pieces(body, edges[2 * i], edges[2 * i + 1], cuts)
         for q in range(p - 1):
             total += max(1, int(math.ceil((cuts[q + 1] - cuts[q]) / basis.panel)))
-    lo = np.empty(total)
-    hi = np.empty(total)
+    panels = np.empty((2, total))
+    lo, hi = panels[LO], panels[HI]
     k = 0
     for i in range(count):
         p = _pieces(body, edges[2 * i], edges[2 * i + 1], cuts)
@@ -203,24 +212,24 @@ def first_panels(body, basis, edges, count):
                 lo[k] = cuts[q] + r * h
                 hi[k] = cuts[q] + (r + 1) * h if r < npan - 1 else cuts[q + 1]
                 k += 1
-    return lo, hi
+    return panels
 
 
 @njit(cache=True, nogil=True)
-def gauss_nodes(basis, lo, hi):
-    """The rule's nodes and weights on the panels [lo_i, hi_i]: (xk, wk), m = len(gauss_x) a panel."""
+def gauss_nodes(basis, panels, nodes):
+    """The rule's nodes and weights on the panels [lo_i, hi_i] (rows LO, HI) into the rows X and
+    W of nodes (NODE_ROWS, K), m = len(gauss_x) a panel."""
     gx = basis.gauss_x
     gw = basis.gauss_w
     m = gx.shape[0]
-    xk = np.empty(m * lo.shape[0])
-    wk = np.empty(m * lo.shape[0])
+    lo, hi = panels[LO], panels[HI]
+    xk, wk = nodes[X], nodes[W]
     for i in range(lo.shape[0]):
         c = 0.5 * (lo[i] + hi[i])
         r = 0.5 * (hi[i] - lo[i])
         for g in range(m):
             xk[m * i + g] = c + r * gx[g]
             wk[m * i + g] = r * gw[g]
-    return xk, wk
 
 
 @njit(cache=True, nogil=True)
@@ -254,6 +263,10 @@ def near_pole(dk, gx, gw, i):
     # (delta >= 1 at a node: bottomed, which the caller reports; nothing to resolve)
     if not (0.0 < dmax < 1.0):
         return 1
+    # no root inside the ellipse rho = RHO_MIN, where |t| <= ELLIPSE_T: |delta - c0| stays below
+    # |c1| |t| + |c2| |P2(t)| there (most panels: no complex roots to take)
+    if c0 + abs(c1) * ELLIPSE_T + abs(c2) * (1.5 * ELLIPSE_T * ELLIPSE_T + 0.5) < 1.0:
+        return 1
     A = 1.5 * c2
     B = c1
     C = c0 - 0.5 * c2 - 1.0
@@ -269,51 +282,55 @@ def near_pole(dk, gx, gw, i):
 
 
 @njit(cache=True, nogil=True)
-def cosine_table(lam1, N, xk):
-    """table[n, k] = cos(lambda_n x_k), lambda_n = (n + 1) lam1: a rotation per mode, each row a
-    vectorised pass over the nodes."""
+def cosine_table(lam1, xk, c2, table):
+    """table[n, k] = cos(lambda_n x_k) (N, K), lambda_n = (n + 1) lam1, by the Chebyshev
+    recurrence cos((n + 1) t) = 2 cos t cos(n t) - cos((n - 1) t), t = lam1 x_k: one
+    multiply-add an entry, each row a vectorised pass over the nodes (its rounding grows as n^2
+    eps near x = 0: 7e-13 at n = 120, 3e-12 at 240, far below the rule's own error); c2 (K,):
+    scratch."""
     K = xk.shape[0]
-    table = np.empty((N, K))
-    rr = np.empty(K)
-    ri = np.empty(K)
-    cr = np.empty(K)
-    ci = np.empty(K)
+    N = table.shape[0]
+    if N == 0:
+        return
+    first = table[0]
     for k in range(K):
-        rr[k] = math.cos(lam1 * xk[k])
-        ri[k] = math.sin(lam1 * xk[k])
-        cr[k] = rr[k]
-        ci[k] = ri[k]
-    for n in range(N):
-        row = table[n]
+        c = math.cos(lam1 * xk[k])
+        first[k] = c
+        c2[k] = 2.0 * c
+    if N > 1:
+        second = table[1]
         for k in range(K):
-            row[k] = cr[k]
-            re = cr[k] * rr[k] - ci[k] * ri[k]
-            ci[k] = cr[k] * ri[k] + ci[k] * rr[k]
-            cr[k] = re
-    return table
+            second[k] = c2[k] * first[k] - 1.0
+    for n in range(2, N):
+        row = table[n]
+        r1 = table[n - 1]
+        r2 = table[n - 2]
+        for k in range(K):
+            row[k] = c2[k] * r1[k] - r2[k]
 
 
 @njit(cache=True, nogil=True)
-def _deltas(body, s, he, a, xk, N, lam1):
-    """delta at the nodes xk and the cosine table there."""
-    table = cosine_table(lam1, N, xk)
-    dk = np.empty(xk.shape[0])
+def _deltas(body, s, he, a, lam1, nodes, table):
+    """The cosine table at the nodes (row X of nodes) into table (N, K), and delta there into
+    row DELTA."""
+    xk, dk = nodes[X], nodes[DELTA]
+    cosine_table(lam1, xk, nodes[C2], table)
     modal_sum_range(a, table, dk, 0, xk.shape[0])
     for k in range(xk.shape[0]):
         dk[k] = (dk[k] + s - body_profile(xk[k], body)) / he
-    return table, dk
 
 
 @njit(cache=True, nogil=True)
-def _split(lo, hi, pieces):
+def _split(panels, pieces):
     """The panels of the next round: panel i cut into pieces[i] equal parts where pieces[i] > 1
     (a panel with pieces[i] == 1 is resolved and not carried)."""
+    lo, hi = panels[LO], panels[HI]
     n = 0
     for i in range(lo.shape[0]):
         if pieces[i] > 1:
             n += pieces[i]
-    lo2 = np.empty(n)
-    hi2 = np.empty(n)
+    cut = np.empty((2, n))
+    lo2, hi2 = cut[LO], cut[HI]
     k = 0
     for i in range(lo.shape[0]):
         q = pieces[i]
@@ -323,30 +340,33 @@ def _split(lo, hi, pieces):
                 lo2[k] = lo[i] + r * h
                 hi2[k] = lo[i] + (r + 1) * h if r < q - 1 else hi[i]
                 k += 1
-    return lo2, hi2
+    return cut
 
 
 @njit(cache=True, nogil=True)
 def _round(layer, body, basis, s, U, modes, panels, out, flags):
-    """One round of the rule on the panels = (lo, hi), [lo_i, hi_i]: the panels resolved (for the
-    paper's law, not near its pole, near_pole; in the last round, or at NARROWEST, all) add to
-    out = (sums, P), sums = [int f dx, the viscoelastic power, he int G dx], and to P if flags =
-    (project, last) asks; returns (status, pieces), pieces[i] > 1 for the panels to cut.
-    status 1: delta >= 1 at a node."""
+    """One round of the rule on the panels [lo_i, hi_i] (rows LO, HI): the panels resolved (for
+    the paper's law, not near its pole, near_pole; in the last round, or at NARROWEST, all) add
+    to out = (sums, P, Q), sums = [int f dx, the viscoelastic power, he int G dx], and to P if
+    flags = (project, energy, last) asks (he int G dx only with energy; Q (N,): scratch);
+    returns (status, pieces), pieces[i] > 1 for the panels to cut. status 1: delta >= 1 at a
+    node."""
     a, adot = modes
-    lo, hi = panels
-    sums, P = out
-    project, last = flags
+    lo, hi = panels[LO], panels[HI]
+    sums, P, Q = out
+    project, energy, last = flags
     he = layer.he
     m = basis.gauss_x.shape[0]
-    xk, wk = gauss_nodes(basis, lo, hi)
-    K = xk.shape[0]
-    table, dk = _deltas(body, s, he, a, xk, a.shape[0], basis.lam1)
-    rate = np.empty(K)
+    K = m * lo.shape[0]
+    nodes = np.empty((NODE_ROWS, K))
+    table = np.empty((a.shape[0], K))
+    gauss_nodes(basis, panels, nodes)
+    _deltas(body, s, he, a, basis.lam1, nodes, table)
+    wk, dk, rate, g = nodes[W], nodes[DELTA], nodes[RATE], nodes[G]
     if layer.tau > 0.0:
         modal_sum_range(adot, table, rate, 0, K)
     pieces = np.ones(lo.shape[0], np.int64)
-    g = np.zeros(K)
+    g[:] = 0.0
     for i in range(lo.shape[0]):
         if layer.law == 0 and not last and hi[i] - lo[i] > NARROWEST * basis.length:
             pieces[i] = near_pole(dk, basis.gauss_x, basis.gauss_w, i)
@@ -358,7 +378,8 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
                 if not d < 1.0:
                     return 1, pieces
                 f = law_pressure(layer.law, d)
-                sums[2] += wk[k] * he * law_energy(layer.law, d)
+                if energy:
+                    sums[2] += wk[k] * he * law_energy(layer.law, d)
                 if layer.tau > 0.0:
                     r = (rate[k] + U) / he
                     gk = f * max(1.0 + layer.tau * r, 0.0)
@@ -367,7 +388,6 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
                 g[k] = wk[k] * f
                 sums[0] += g[k]
     if project and K > 0:
-        Q = np.empty(P.shape[0])
         modal_projection(g, table, Q, K)
         for n in range(P.shape[0]):
             P[n] += Q[n]
@@ -375,35 +395,39 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
 
 
 @njit(cache=True, nogil=True)
-def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, project):
+def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     """The rule over the contact intervals found from delta at the nodes j < jmax, modes = (a,
     adot): (status, int f dx, the viscoelastic layer's power, he int G dx) without their factors
-    mirror K, and (project) P_n = int f cos(lambda_n x) dx unscaled, as layer_reaction leaves it.
-    Rounds of panels: the first panels, then the pieces of those near the paper law's pole."""
+    mirror K, wanted = (project, energy): P_n = int f cos(lambda_n x) dx unscaled, as
+    layer_reaction leaves it, if project; the energy (else 0) if energy. Rounds of panels: the
+    first panels, then the pieces of those near the paper law's pole."""
+    project, energy = wanted
     a = modes[0]
     edges = np.empty(jmax + 8)
     count = contact_intervals(body, basis, s, a, layer.he, delta, jmax, edges)
-    lo, hi = first_panels(body, basis, edges, count)
+    panels = first_panels(body, basis, edges, count)
     for n in range(P.shape[0]):
         P[n] = 0.0
     sums = np.zeros(3)
+    Q = np.empty(P.shape[0])
     for r in range(MAX_ROUNDS):
-        st, pieces = _round(layer, body, basis, s, U, modes, (lo, hi), (sums, P), (project, r == MAX_ROUNDS - 1))
+        st, pieces = _round(layer, body, basis, s, U, modes, panels, (sums, P, Q),
+                            (project, energy, r == MAX_ROUNDS - 1))
         if st != 0:
             return 1, 0.0, 0.0, 0.0
-        lo, hi = _split(lo, hi, pieces)
-        if lo.shape[0] == 0:
+        panels = _split(panels, pieces)
+        if panels.shape[1] == 0:
             break
     return 0, sums[0], sums[1], sums[2]
 
 
 @njit(cache=True, nogil=True)
-def gauss_reaction(layer, body, basis, s, U, a, adot, jmax, delta, P):
+def gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, P, energy):
     """P_n = int f cos(lambda_n x) dx over the contact intervals (unscaled, as layer_reaction
-    leaves it), given delta at the nodes j < jmax: (status, int f dx, the viscoelastic layer's
-    power without its factor mirror K). status 1: delta >= 1 at a node of the rule."""
-    st, force, power, _ = gauss_sums(layer, body, basis, s, U, (a, adot), jmax, delta, P, True)
-    return st, force, power
+    leaves it), given delta at the nodes j < jmax and modes = (a, adot): (status, int f dx, the viscoelastic layer's
+    power without its factor mirror K, he int G dx if energy else 0). status 1: delta >= 1 at a
+    node of the rule."""
+    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, (True, energy))
 
 
 @njit(cache=True, nogil=True)
@@ -411,7 +435,7 @@ def gauss_energy(layer, body, basis, s, a, delta, jmax):
     """he int G(delta) dx over the contact intervals on the rule's nodes (the caller's factor
     mirror K), delta at the nodes j < jmax."""
     P = np.empty(a.shape[0])
-    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, False)
+    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, (False, True))
     return energy if st == 0 else np.inf
 
 
