@@ -58,6 +58,9 @@ MAX_ROUNDS = 12
 LO, HI = 0, 1
 X, W, DELTA, RATE, G, C2 = range(6)
 NODE_ROWS = 6
+#: a panel is halved where the quadratic fit of delta misses a node by more than this fraction of
+#: the distance 1 - max delta to the pole
+FIT_MISS = 0.1
 #: the largest |t| on the Bernstein ellipse rho = RHO_MIN (its half major axis)
 ELLIPSE_T = 0.5 * (RHO_MIN + 1.0 / RHO_MIN)
 #: no panel narrower than this fraction of the plate's length is cut
@@ -263,6 +266,14 @@ def near_pole(dk, gx, gw, i):
     # (delta >= 1 at a node: bottomed, which the caller reports; nothing to resolve)
     if not (0.0 < dmax < 1.0):
         return 1
+    # a fit that misses the nodes by a tenth of the distance to the pole cannot place it: halve
+    # the panel (a wide panel of few modes, where the body's profile dominates delta)
+    miss = 0.0
+    for g in range(m):
+        x = gx[g]
+        miss = max(miss, abs(dk[m * i + g] - (c0 + c1 * x + c2 * 0.5 * (3.0 * x * x - 1.0))))
+    if miss > FIT_MISS * (1.0 - dmax):
+        return 2
     # no root inside the ellipse rho = RHO_MIN, where |t| <= ELLIPSE_T: |delta - c0| stays below
     # |c1| |t| + |c2| |P2(t)| there (most panels: no complex roots to take)
     if c0 + abs(c1) * ELLIPSE_T + abs(c2) * (1.5 * ELLIPSE_T * ELLIPSE_T + 0.5) < 1.0:
