@@ -28,7 +28,7 @@ from .layout import (B_D, B_U, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_
 from .model.basis import strain_nodes
 from .model.body import body_coefficients, body_position, body_residual, body_speed
 from .model.contact import count_contacts, gap_peak
-from .model.layer import layer_energy, layer_forcing_at
+from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, _plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
@@ -129,14 +129,14 @@ def _finite_state(st, w_new, z, yb):
 @njit(cache=True, nogil=True, inline="always")
 def _residual(model, state, jm, w_new, e0):
     """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state
-    (its z, delta, acc and yb, the time and scratch (N,): the arrays it reads, not the State, whose
-    every array numba would count a reference to). The contact-resolving rule's E_layer is the
-    one its last stage computed (acc[2]); the paper's, from delta."""
-    z, delta, acc, yb, t, a = state
+    (its z, delta and acc: the arrays it reads, not the State, whose every array numba would
+    count a reference to). The contact-resolving rule's E_layer is the one its last stage
+    computed (acc[2]); the paper's, from delta."""
+    z, delta, acc = state
     if model.basis.rule == 1:
         e_layer = acc[2]
     else:
-        e_layer = layer_energy(model, a, 0.0, delta, jm)
+        e_layer = node_energy(model, delta, jm)
     e_new = _plus_plate_energy(e_layer, model.plate, z)
     return e_new, e_new + acc[0] - w_new - e0
 
@@ -144,12 +144,12 @@ def _residual(model, state, jm, w_new, e0):
 @njit(cache=True, nogil=True, inline="always")
 def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
     """The verdict on a trial step from t (z0 at t) to new, trial = (status, W(t_new), jmax, t, h,
-    error exponent, t_new), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
+    error exponent), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
     scratch (N,): (verdict, h to retry with, error ratio, residual at t_new, run status,
     rejections counted). A non-finite state or a stage at delta >= 1 retries at h/4, an error
     above the tolerance at the controller's h, a jump of the energy identity at h/4; below h_min,
     or for a fixed step, the run stops with its reason."""
-    st, w_new, jm5, t, h_step, expo, t_new = trial
+    st, w_new, jm5, t, h_step, expo = trial
     e0, resid, work = energies
     if not _finite_state(st, w_new, new.z, new.yb):
         if not adaptive:
@@ -172,7 +172,7 @@ def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, di
                 failed_at(diag, t, float(FAIL_STEP_UNDERFLOW))
                 return STOP, h, ratio, 0.0, STEP_LIMIT, 1
             return RETRY, h, ratio, 0.0, OK, 1
-    e_new, resid_new = _residual(model, (new.z, new.delta, new.acc, new.yb, t_new, scratch), jm5, w_new, e0)
+    e_new, resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)
     if not abs(resid_new - resid) <= energy_allowance(new.delta, jm5, e_new, w_new, e0, work, model.basis.mirror):
         diag[D_ENERGY_JUMPS] += 1.0
         h = 0.25 * h_step
@@ -284,7 +284,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         diag[D_T_REACHED] = t
         failed_at(diag, t, float(FAIL_BOTTOMED))
         return LAYER_BOTTOMED_OUT, 0, records
-    e0 = _residual(model, (cur.z, cur.delta, cur.acc, cur.yb, t, step_work.rows[0]), jmax, 0.0, 0.0)[0]
+    e0 = _residual(model, (cur.z, cur.delta, cur.acc), jmax, 0.0, 0.0)[0]
     work = diss = err_sum = resid = max_residual = max_body_residual = peak_work = 0.0
     free_body = model.body.inv_mass > 0.0
     body_resid0 = body_residual(model.body, t, cur.yb, work)
@@ -317,7 +317,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         expo = 1.0 / 3.0 if event else 0.25
         verdict, h_try, ratio, resid_new, status, counted = _judge(adaptive, model, control, cur.z, new, gap0,
                                                                    step_work.rows[0],
-                                                                   (st, w_new, jm5, t, h_step, expo, t_new),
+                                                                   (st, w_new, jm5, t, h_step, expo),
                                                                    (e0, resid, work), diag)
         rejected += counted
         if verdict != ACCEPT:
@@ -338,8 +338,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                 _copy_state(sub, new)
                 gap1[:] = value
                 reached = stepper.work.rows
-                resid_new = _residual(model, (new.z, new.delta, new.acc, new.yb, t_new, step_work.rows[0]), jm5,
-                                      w_new, e0)[1]
+                resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)[1]
         # ----- accepted: observers on [t, t + h_eff], then the states swap
         steps += 1
         if not bottomed:

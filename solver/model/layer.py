@@ -295,6 +295,12 @@ def layer_energy(model, a, s, delta, jmax):
     if model.basis.rule == 1:
         return model.basis.mirror * model.layer.K * gauss_energy(model.layer, model.body, model.basis, s, a, delta,
                                                                   jmax)
+    return node_energy(model, delta, jmax)
+
+
+@njit(cache=True, nogil=True)
+def node_energy(model, delta, jmax):
+    """E_layer by the paper's rule from delta at the nodes j < jmax (layer_energy)."""
     J = delta.shape[0]
     dx = model.basis.dx
     law = model.layer.law
