@@ -70,11 +70,11 @@ bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests/test_variables.py checks it)
 	$(PY) -m pipeline.variables
 
-bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 8 cases, every output array
+bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 23 cases (15 at the paper's rule, 8 Gauss), settings pinned, every output array
 	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)
 
-bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa .") -> results/bench/revisions.md
-	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .)
+bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa ." RULE=paper|gauss, settings pinned) -> results/bench/revisions.md
+	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .) --rule $(or $(RULE),paper)
 
 bench-quadrature: setup  ## error against wall time of both forcing quadratures, N = 20, 60, 120, four cases (about 10 min) -> results/bench/quadrature.{md,csv,png}
 	$(PY) benchmarks/quadrature.py

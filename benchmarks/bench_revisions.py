@@ -3,12 +3,14 @@
 Each revision is checked out into a temporary git worktree ("." means the working tree as it
 is, uncommitted changes included). Rounds run every revision once in turn, each in its own
 process that warms up (numba compile or cache load) and then times several solves; the
-machine's drift and noise then fall on all revisions alike. Reported: the median over rounds
+machine's drift and noise then fall on all revisions alike. The settings are pinned by value (--rule paper,
+the default: the paper's rule at 1000 subintervals and tolerance 1e-8, as every revision before
+issue 24 ran by default; --rule gauss: today's default). Reported: the median over rounds
 of each round's median wall time of the integration (Result.wall_time, no error-estimate
 companion), the error (relative L2 of the strain at the paper's snapshots against a tolerance
 1e-13 run of the same revision) and the step counts. Writes results/bench/revisions.md.
 
-    python benchmarks/bench_revisions.py [--revisions 46d95fa .] [--rounds 5] [--nmod 60]
+    python benchmarks/bench_revisions.py [--revisions 46d95fa .] [--rounds 5] [--nmod 60] [--rule paper|gauss]
 """
 from __future__ import annotations
 
@@ -24,16 +26,22 @@ ROOT = Path(__file__).resolve().parents[1]
 
 #: run inside each revision's tree; prints one JSON line
 PROBE = r"""
-import json, statistics, sys
+import dataclasses, json, statistics, sys
 import numpy as np
 from solver import Parameters, Settings, solve
 p = Parameters(Nmod=int(sys.argv[1]))
+rule = json.loads(sys.argv[3])
+if not set(rule) <= {f.name for f in dataclasses.fields(Settings)}:
+    rule = {k: v for k, v in rule.items() if k in ("subintervals", "tolerance")} if rule.get("quadrature") == "paper" else None
+if rule is None:
+    print(json.dumps(None))
+    sys.exit(0)
 times = np.round(np.arange(0.0, 4.6 + 1e-9, 0.2), 10) * p.time_scale
 kw = dict(times=times, fields=("strain",))
-ref = solve(p, Settings(tolerance=1e-13, error_estimate=False), **kw).fields["strain"]
+ref = solve(p, Settings(**dict(rule, tolerance=1e-13), error_estimate=False), **kw).fields["strain"]
 walls = []
 for _ in range(int(sys.argv[2])):
-    r = solve(p, Settings(error_estimate=False), **kw)
+    r = solve(p, Settings(**rule, error_estimate=False), **kw)
     walls.append(r.wall_time)
 err = float(np.linalg.norm(r.fields["strain"] - ref) / np.linalg.norm(ref))
 print(json.dumps({"wall": statistics.median(walls), "error": err, "steps": r.steps,
@@ -50,8 +58,15 @@ def checkout(rev: str, tmp: Path) -> Path:
     return path
 
 
-def probe(tree: Path, nmod: int, solves: int) -> dict:
-    proc = subprocess.run([sys.executable, "-c", PROBE, str(nmod), str(solves)], cwd=tree,
+#: the settings timed, pinned by value so that a change of the defaults does not change the
+#: comparison: the paper's rule as every revision before issue 24 ran it by default, or the Gauss
+#: rule, today's default (a revision without it is left out)
+RULES = {"paper": {"quadrature": "paper", "subintervals": 1000, "tolerance": 1e-8},
+         "gauss": {"quadrature": "gauss", "subintervals": 250, "quadrature_density": 4.0, "tolerance": 1e-9}}
+
+
+def probe(tree: Path, nmod: int, solves: int, rule: str) -> dict:
+    proc = subprocess.run([sys.executable, "-c", PROBE, str(nmod), str(solves), json.dumps(RULES[rule])], cwd=tree,
                           env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin"}, capture_output=True,
                           text=True, timeout=1200)
     if proc.returncode != 0:
@@ -65,6 +80,9 @@ def main(argv=None):
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--solves", type=int, default=7, help="timed solves per process")
     ap.add_argument("--nmod", type=int, default=60)
+    ap.add_argument("--rule", choices=sorted(RULES), default="paper",
+                    help="the quadrature and its settings, pinned (paper: 1000 subintervals, tolerance 1e-8; "
+                         "gauss: 250 subintervals, density 4, tolerance 1e-9)")
     ap.add_argument("--out", default="results/bench/revisions.md")
     args = ap.parse_args(argv)
     runs = {rev: [] for rev in args.revisions}
@@ -73,7 +91,9 @@ def main(argv=None):
         try:
             for i in range(args.rounds):
                 for rev, tree in trees.items():
-                    runs[rev].append(probe(tree, args.nmod, args.solves))
+                    result = probe(tree, args.nmod, args.solves, args.rule)
+                    if result is not None:
+                        runs[rev].append(result)
                 print(f"  round {i + 1}/{args.rounds} done", flush=True)
         finally:
             for rev, tree in trees.items():
@@ -83,14 +103,17 @@ def main(argv=None):
     described = {rev: (subprocess.run(["git", "log", "-1", "--format=%h %cs %s", rev], cwd=ROOT,
                                       capture_output=True, text=True).stdout.strip()[:80]
                        if rev != "." else "working tree") for rev in args.revisions}
-    base = statistics.median(r["wall"] for r in runs[args.revisions[0]])
+    skipped = [rev for rev in args.revisions if not runs[rev]]
+    revisions = [rev for rev in args.revisions if runs[rev]]
+    base = statistics.median(r["wall"] for r in runs[revisions[0]])
     lines = ["# Solver side by side, git revisions", "",
              f"Generated by `make bench-revisions` (bench_revisions.py). Reference case, Nmod = {args.nmod}, "
-             f"default tolerance, no error-estimate companion; {args.rounds} rounds of one process per "
-             f"revision in turn, {args.solves} timed solves per process; medians.", "",
+             f"{args.rule}'s rule ({RULES[args.rule]}), no error-estimate companion; {args.rounds} rounds of one "
+             f"process per revision in turn, {args.solves} timed solves per process; medians."
+             + (f" Left out (no such settings): {', '.join(skipped)}." if skipped else ""), "",
              "| revision | wall time [s] | speed-up vs the first | strain error | accepted steps | rejected |",
              "|---|---|---|---|---|---|"]
-    for rev in args.revisions:
+    for rev in revisions:
         wall = statistics.median(r["wall"] for r in runs[rev])
         last = runs[rev][-1]
         lines.append(f"| `{described[rev]}` | {wall:.4f} | {base / wall:.2f}x | {last['error']:.2g} | "

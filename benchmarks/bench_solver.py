@@ -24,6 +24,13 @@ from solver.model.layer import layer_energy, layer_forcing
 from solver.model.assemble import Tables
 
 
+#: the integrators are compared on the paper's rule at 1000 subintervals, pinned by value (the
+#: default before issue 24), so that the table stays comparable with its history
+PAPER = dict(quadrature="paper", subintervals=1000)
+#: today's default, compared with the paper's default against the continuous-x model
+DEFAULT = Settings()
+
+
 def snapshots(p):
     return np.round(np.arange(0.0, 4.6 + 1e-9, 0.2), 10) * p.time_scale
 
@@ -56,16 +63,21 @@ def dop853_run(p, times, x, rtol):
 def profile_step(p, repeats=2000):
     """Microseconds per call of the pieces of one etd34 step, on a late state (t~ = 3.8)."""
     tab = Tables(p, 1000)
-    r = solve(p, Settings(tolerance=1e-10), times=[3.8 * p.time_scale], fields=())
+    r = solve(p, Settings(tolerance=1e-10, **PAPER), times=[3.8 * p.time_scale], fields=())
     a, t = r.amplitudes[0], r.times[0]
     J = tab.xq.size
     delta, fvals, P, eps = np.empty(J), np.empty(J), np.empty(p.Nmod), np.empty(J)
     args = (tab.model, t, a, delta, fvals, P)
     _, _, jmax = layer_forcing(*args)
     out = {}
+    s = p.V * t
+    gauss = Tables(p, DEFAULT.subintervals, quadrature=DEFAULT.quadrature, quadrature_density=DEFAULT.quadrature_density)
+    g_delta, g_fvals = np.empty(gauss.xq.size), np.empty(gauss.xq.size)
+    g_args = (gauss.model, t, a, g_delta, g_fvals, np.empty(p.Nmod))
     for name, fn in [("forcing (one stage)", lambda: layer_forcing(*args)),
+                     ("forcing (one stage), the default Gauss rule", lambda: layer_forcing(*g_args)),
                      ("strain at the nodes (in the loop: the last stage's second pass over the table)", lambda: strain_nodes(a, tab.strain_coef, tab.cosq, eps)),
-                     ("layer energy (diagnostics)", lambda: layer_energy(tab.model, delta, jmax)),
+                     ("layer energy (diagnostics)", lambda: layer_energy(tab.model, a, s, delta, jmax)),
                      ("contact intervals", lambda: count_contacts(delta, jmax, 2.0))]:
         fn()
         t0 = time.perf_counter()
@@ -86,16 +98,16 @@ def main(argv=None):
     fields = ("strain",)
 
     print("tight reference (etd34, tolerance 1e-13) ...", flush=True)
-    ref = solve(p60, Settings(tolerance=1e-13, error_estimate=False), times=times, fields=fields)
+    ref = solve(p60, Settings(tolerance=1e-13, error_estimate=False, **PAPER), times=times, fields=fields)
     ref_strain = ref.fields["strain"]
 
     # the integrators alone: the error estimate's companion run is switched off
     candidates = {
-        "rk4, paper's rule (step = period of mode N / 20)": Settings(integrator="rk4", error_estimate=False),
-        "etd34, tolerance 1e-8 (default)": Settings(tolerance=1e-8, error_estimate=False),
-        "etd34, tolerance 1e-10": Settings(tolerance=1e-10, error_estimate=False),
-        "etd34, tolerance 3e-11": Settings(tolerance=3e-11, error_estimate=False),
-        "etd34, tolerance 1e-11": Settings(tolerance=1e-11, error_estimate=False),
+        "rk4, paper's rule (step = period of mode N / 20)": Settings(integrator="rk4", error_estimate=False, **PAPER),
+        "etd34, tolerance 1e-8 (the default before issue 24)": Settings(tolerance=1e-8, error_estimate=False, **PAPER),
+        "etd34, tolerance 1e-10": Settings(tolerance=1e-10, error_estimate=False, **PAPER),
+        "etd34, tolerance 3e-11": Settings(tolerance=3e-11, error_estimate=False, **PAPER),
+        "etd34, tolerance 1e-11": Settings(tolerance=1e-11, error_estimate=False, **PAPER),
     }
     walls = {k: [] for k in candidates}
     results = {}
@@ -131,12 +143,28 @@ def main(argv=None):
         for rep in range(args.repeats):
             for N in per_n:
                 p = Parameters(Nmod=N)
-                r = solve(p, Settings(tolerance=tol, error_estimate=False), times=snapshots(p), fields=fields)
+                r = solve(p, Settings(tolerance=tol, error_estimate=False, **PAPER), times=snapshots(p), fields=fields)
                 per_n[N].append(r.wall_time)
                 steps[N] = r.steps
         scaling.append((tol, {N: statistics.median(v) for N, v in per_n.items()}, steps))
 
     prof, jmax, ncontact = profile_step(p60)
+
+    # today's default beside the paper's, against the continuous-x model (a Gauss run at density 24,
+    # tolerance 1e-12: docs/numerics.md, "The quadrature")
+    continuous = solve(p60, Settings(quadrature="gauss", quadrature_density=24, tolerance=1e-12, error_estimate=False),
+                       times=times, fields=fields).fields["strain"]
+    defaults = {"the paper's rule, 1000 subintervals, tolerance 1e-8 (the default before issue 24)":
+                Settings(tolerance=1e-8, error_estimate=False, **PAPER),
+                f"the Gauss rule, {DEFAULT.subintervals} subintervals, density {DEFAULT.quadrature_density:g}, "
+                f"tolerance {DEFAULT.tolerance:g} (the default)": Settings(error_estimate=False)}
+    default_walls = {k: [] for k in defaults}
+    default_results = {}
+    for rep in range(args.repeats):
+        for name, s in defaults.items():
+            r = solve(p60, s, times=times, fields=fields)
+            default_walls[name].append(r.wall_time)
+            default_results[name] = r
 
     # the smallest etd34 tolerance cost at an error no larger than rk4's
     better = [row for row in rows if row[0].startswith("etd34") and row[2] <= e_paper]
@@ -150,7 +178,7 @@ def main(argv=None):
         f"Generated by `make bench` ({Path(__file__).name}) on {time.strftime('%Y-%m-%d')}, "
         f"{platform.machine()}, Python {platform.python_version()}; {args.repeats} interleaved repeats, "
         "medians. Reference case (K = 8 MPa, he = 2 cm, R = 10 m, V = 5 m/s, hi = 0.5 m), "
-        "Nmod = 60, 1000 subintervals, 0 < t < L^2/(6RV).",
+        "Nmod = 60, the paper's rule at 1000 subintervals, 0 < t < L^2/(6RV).",
         "Error: relative L2 of the strain at the 24 snapshots t~ = 0, 0.2, ..., 4.6 (241 points on -L..L) "
         "against etd34 at tolerance 1e-13 with the same Nmod and subintervals.",
         "",
@@ -160,6 +188,14 @@ def main(argv=None):
     for name, med, err, st, rj, nf, sp in rows:
         lines.append(f"| {name} | {med:.3f} | {err:.1e} | {st if st is not None else '-'} | "
                      f"{rj if rj is not None else '-'} | {nf} | {sp:.1f}x |")
+    lines += ["", "## The default against the continuous-x model (etd34, N = 60, same snapshots)", "",
+              "Error against a Gauss run at density 24 and tolerance 1e-12, which resolves the continuous-x "
+              "N-mode model (docs/numerics.md, \"The quadrature\").", "",
+              "| settings | wall time [s] | strain error | accepted steps | energy residual |", "|---|---|---|---|---|"]
+    for name, r in default_results.items():
+        lines.append(f"| {name} | {statistics.median(default_walls[name]):.3f} | "
+                     f"{rel(r.fields['strain'], continuous):.1e} | {r.steps} | "
+                     f"{r.diagnostics['energy_residual']:.1e} |")
     lines += ["", "## Cost against Nmod (etd34, same snapshots)", "",
               "| tolerance | " + " | ".join(f"N = {N} [s]" for N in (20, 60, 120, 240)) + " | N=240 / N=60 | accepted steps N=60, N=240 |",
               "|---|---|---|---|---|---|---|"]
@@ -169,7 +205,8 @@ def main(argv=None):
     lines += ["", "## Where an etd34 step goes (Nmod = 60, state at t~ = 3.8)", "",
               f"{jmax} of 1001 nodes can touch the body (contact_bound: four modes exact, the rest by sum |a_n|), {ncontact} are in contact.",
               "", "| piece | microseconds per call | calls per accepted step |", "|---|---|---|"]
-    calls = {"forcing (one stage)": "4", "strain at the nodes (in the loop: the last stage's second pass over the table)": "1",
+    calls = {"forcing (one stage)": "4", "forcing (one stage), the default Gauss rule": "4",
+             "strain at the nodes (in the loop: the last stage's second pass over the table)": "1",
              "layer energy (diagnostics)": "1", "contact intervals": "5"}
     for name, us in prof.items():
         lines.append(f"| {name} | {us:.1f} | {calls[name]} |")

@@ -37,7 +37,17 @@ TARGETS = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
 OUT = Path("results/bench")
 
 
-def runs(quick: bool):
+#: the paper's default before issue 24, pinned by value
+PAPER_DEFAULT = dict(quadrature="paper", subintervals=1000, tolerance=1e-8)
+
+
+def runs(quick: bool, defaults_only: bool = False):
+    yield "paper default", PAPER_DEFAULT
+    default = Settings()
+    yield "default", dict(quadrature=default.quadrature, quadrature_density=default.quadrature_density,
+                          subintervals=default.subintervals, tolerance=default.tolerance)
+    if defaults_only:
+        return
     tols = TOLERANCES[::4] if quick else TOLERANCES
     for sub in ((1000, 4000) if quick else (1000, 2000, 4000, 8000)):
         for tol in tols:
@@ -61,6 +71,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--nmod", type=int, nargs="+", default=[20, 60, 120])
     ap.add_argument("--quick", action="store_true", help="a few runs a case (a smoke test)")
+    ap.add_argument("--defaults-only", action="store_true",
+                    help="only the paper's old default beside today's (3 min): results/bench/quadrature_defaults.md")
     ap.add_argument("--plot-only", action="store_true", help="redraw the figure from results/bench/quadrature.csv")
     args = ap.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
@@ -89,8 +101,8 @@ def main() -> None:
                          f"of the stage; its uncertainty (density 16 against 24) {own:.1e}")
             print(notes[-1], flush=True)
             case_rows = []
-            for rule, kws in runs(args.quick):
-                r, wall = strain(p, Settings(error_estimate=False, **kws), times, x)
+            for rule, kws in runs(args.quick, args.defaults_only):
+                r, wall = strain(p, Settings(error_estimate=False, **kws), times, x, repeats=3 if "default" in rule else 2)
                 ok = r.valid[valid]
                 err = (np.linalg.norm(r.fields["strain"][valid] - e_ref) / norm) if ok.all() else np.inf
                 row = dict(case=name, N=N, rule=rule, subintervals=kws["subintervals"],
@@ -98,6 +110,15 @@ def main() -> None:
                            time=wall, energy_residual=r.diagnostics["energy_residual"], status=r.status)
                 rows.append(row)
                 case_rows.append(row)
+            old, new = case_rows[0], case_rows[1]
+            notes.append(f"- {name}, N = {N}: the paper's default (1000 subintervals, tol 1e-8) {old['error']:.1e} in "
+                         f"{old['time']:.3f} s, energy residual {old['energy_residual']:.1e}; today's default "
+                         f"({new['subintervals']} subintervals, density {new['density']:g}, tol {new['tolerance']:g}) "
+                         f"{new['error']:.1e} in {new['time']:.3f} s ({new['time'] / old['time']:.2f} of the time), "
+                         f"energy residual {new['energy_residual']:.1e}")
+            print(notes[-1], flush=True)
+            if args.defaults_only:
+                continue
             for target in TARGETS:
                 best = {}
                 for rule in ("paper", "gauss"):
@@ -125,6 +146,10 @@ def main() -> None:
                              f"density {g['density']:g}, tol {g['tolerance']:g}, {g['error']:.1e} in "
                              f"{g['time']:.3f} s ({g['time'] / d['time']:.2f} of the default's time)")
                 print(notes[-1], flush=True)
+    if args.defaults_only:
+        (OUT / "quadrature_defaults.md").write_text("\n".join(notes) + "\n")
+        print(f"wrote {OUT / 'quadrature_defaults.md'}")
+        return
     with open(OUT / "quadrature.csv", "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()

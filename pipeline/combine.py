@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
-from solver.parameters import CHOICES
+from solver.parameters import CHOICES, NAMED_SETTINGS
 
 from . import provenance
 from .casefile import DamagedFile, read_batch_arrays, tension_records, time_coordinate_attrs
@@ -50,7 +50,7 @@ FLUSH_BYTES = 16 * 2**20
 
 def _parameter_coord(key, values):
     long_name, units = PARAMETER_INFO[key] if key in PARAMETER_INFO else SETTING_INFO[key]
-    if key == "integrator" or key in CHOICES:           # names, not numbers
+    if key in NAMED_SETTINGS or key in CHOICES:          # names, not numbers
         return np.asarray(values, dtype=object), {"long_name": long_name}
     if key == "error_estimate":
         return np.asarray(values, dtype=np.int8), {"long_name": long_name, "units": "1"}

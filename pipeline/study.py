@@ -36,7 +36,7 @@ import numpy as np
 
 from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings,
                     default_eps_Y)
-from solver.parameters import CHOICES, check_combination
+from solver.parameters import CHOICES, NAMED_SETTINGS, check_combination
 from solver.axes import linear_axis, log_axis, round_significant
 
 from .errors import StudyError
@@ -286,6 +286,12 @@ def _number(where: str, value, integer=False):
     return value
 
 
+def _setting_name(where: str, key: str, value) -> None:
+    """A setting that takes one of a few names (solver.parameters.NAMED_SETTINGS)."""
+    if not isinstance(value, str) or value not in NAMED_SETTINGS[key]:
+        raise StudyError(f"{where} must be one of {', '.join(NAMED_SETTINGS[key])}, got {value!r}")
+
+
 def _check_parameters(where: str, table: dict, settings=False, reference=False) -> dict:
     """Validate a table of parameter keys (and solver settings where ``settings``)."""
     if not isinstance(table, dict):
@@ -303,9 +309,8 @@ def _check_parameters(where: str, table: dict, settings=False, reference=False) 
         elif key in PARAMETER_INFO:
             _number(f"{where}.{key}", value)
         elif settings and key in SETTING_INFO:
-            if key == "integrator":
-                if not isinstance(value, str):
-                    raise StudyError(f"{where}.integrator must be a name, got {value!r}")
+            if key in NAMED_SETTINGS:
+                _setting_name(f"{where}.{key}", key, value)
             elif key == "error_estimate":
                 if not isinstance(value, bool):
                     raise StudyError(f"{where}.error_estimate must be true or false, got {value!r}")
@@ -604,9 +609,8 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
         for v in values:
             if key in CHOICES:
                 _choice(f"[grid] {key} value", key, v)
-            elif key == "integrator":
-                if not isinstance(v, str):
-                    raise StudyError(f"[grid] integrator values must be names, got {v!r}")
+            elif key in NAMED_SETTINGS:
+                _setting_name(f"[grid] {key}", key, v)
             elif key == "error_estimate":
                 if not isinstance(v, bool):
                     raise StudyError(f"[grid] error_estimate values must be true or false, got {v!r}")

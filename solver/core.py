@@ -267,7 +267,7 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
             "error_estimate_modes": modes, "error_estimate_quadrature": quadrature}
 
 
-def _energy_bound_message(p: Parameters, diagnostics: dict) -> str:
+def _energy_bound_message(p: Parameters, diagnostics: dict, quadrature: str = "gauss") -> str:
     """Which energy balance ended the run above ENERGY_BOUND: the ice's, or a free body's
     own (with its round-off floor when the body is so heavy that M V^2 x 1e-16 is not small
     against the work)."""
@@ -280,8 +280,10 @@ def _energy_bound_message(p: Parameters, diagnostics: dict) -> str:
             text += (f"; at body_mass = {p.body_mass:g} kg/m its round-off alone, M V^2 x 1e-16, is {floor:.1e} of "
                      f"the work: a body this heavy is the paper's body (body_mass = inf)")
         return text
+    mend = ("more subintervals, quadrature = \"gauss\" or a tighter tolerance" if quadrature == "paper"
+            else "a tighter tolerance or a larger quadrature_density")
     return (f"energy identity broken: the residual |E_plate + E_layer + D - W| reached {plate:.2e} of the work "
-            f"(bound {ENERGY_BOUND:g}; more subintervals or a tighter tolerance may mend it)")
+            f"(bound {ENERGY_BOUND:g}; {mend} may mend it)")
 
 
 def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, until_separation, full_plate):
@@ -404,8 +406,8 @@ def _message(p, s, status, diagnostics, diag, t_end, fixed, fail, full_plate) ->
                        f"than {ENERGY_JUMP:g} of the energy in play, and " +
                        ("a fixed step cannot be retried" if fixed > 0 else f"no step down to {floor} mended it"))
         elif kind == kn.FAIL_ENERGY_BOUND:
-            message = _energy_bound_message(p, diagnostics) + (f"; the run reached t = {t_reached:.6g} s "
-                                                               f"({t_reached / t_sc:.4g} t_sc)")
+            message = _energy_bound_message(p, diagnostics, s.quadrature) + (
+                f"; the run reached t = {t_reached:.6g} s ({t_reached / t_sc:.4g} t_sc)")
             if math.isfinite(diagnostics["bottoming_time"]):
                 message += ", where the layer bottomed out"
         else:

@@ -19,9 +19,11 @@ def test_energy_residual_small_for_rk4_at_paper_rule():
 
 
 def test_energy_residual_second_order_in_subintervals():
+    """The paper's rule (f linear between the nodes): its residual is its O(dx^2) quadrature
+    error. The Gauss rule's is the time integration's (tests/test_quadrature.py)."""
     p = Parameters(Nmod=20)
     J = np.array([250, 500, 1000, 2000])
-    res = np.array([solve(p, Settings(subintervals=int(j), tolerance=1e-11), fields=())
+    res = np.array([solve(p, Settings(quadrature="paper", subintervals=int(j), tolerance=1e-11), fields=())
                     .diagnostics["energy_residual"] for j in J])
     order = -np.polyfit(np.log(J), np.log(res), 1)[0]
     print("residuals", res, "order in dx", order)

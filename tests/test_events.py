@@ -151,7 +151,7 @@ def test_bottomed_out_data_never_reaches_delta_one():
     r = _bottoming(20, 1e-8)
     tb = r.diagnostics["bottoming_time"]
     x = np.linspace(-p.L, p.L, 20001)
-    near = solve(p, Settings(error_estimate=False), times=np.r_[np.linspace(0, tb, 30, endpoint=False),
+    near = solve(p, Settings(tolerance=1e-8, error_estimate=False), times=np.r_[np.linspace(0, tb, 30, endpoint=False),
                                                                tb * (1 - 1e-9)],
                  fields=("compression",), x=x)
     assert near.valid.all()

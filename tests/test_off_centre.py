@@ -125,18 +125,22 @@ def test_departure_from_the_centred_run_is_odd_and_even_in_x0():
 
 
 def test_energy_identity_off_centre_falls_with_the_quadrature():
-    """The residual at the default settings is of the centred run's size, and it is the
-    quadrature's: it falls as dx^2 with the subintervals."""
+    """The paper's rule: the residual at its settings is of the centred run's size, and it is
+    the quadrature's: it falls as dx^2 with the subintervals. The Gauss rule's is far below."""
     p = Parameters(Nmod=24, x0=1.0, V=3.0)
     t_end = 3.5 * p.time_scale
-    centred = solve(p.replace(x0=0.0), Settings(error_estimate=False), t_end=t_end, fields=())
+    paper = dict(quadrature="paper", tolerance=1e-8, subintervals=1000, error_estimate=False)
+    centred = solve(p.replace(x0=0.0), Settings(**paper), t_end=t_end, fields=())
     residuals = []
     counts = np.array([250, 500, 1000])
     for n in counts:
-        r = solve(p, Settings(subintervals=int(n), tolerance=1e-10, error_estimate=False), t_end=t_end, fields=())
+        r = solve(p, Settings(**dict(paper, subintervals=int(n), tolerance=1e-10)), t_end=t_end, fields=())
         assert r.status == "ok", r.message
         residuals.append(r.diagnostics["energy_residual"])
-    default = solve(p, Settings(error_estimate=False), t_end=t_end, fields=()).diagnostics["energy_residual"]
+    default = solve(p, Settings(**paper), t_end=t_end, fields=()).diagnostics["energy_residual"]
+    # the Gauss rule (the default) on the full plate: the time integration's residual
+    gauss = solve(p, Settings(error_estimate=False), t_end=t_end, fields=()).diagnostics["energy_residual"]
+    assert gauss < 0.1 * default, (gauss, default)
     slope = np.polyfit(np.log(counts), np.log(residuals), 1)[0]
     print(f"residuals {residuals} (slope {slope:.2f}); default {default:.2e}, centred "
           f"{centred.diagnostics['energy_residual']:.2e}")
@@ -182,5 +186,9 @@ def test_off_centre_study_runs_and_stores_x0(tmp_path):
         assert rel(mirrored, strain.sel(x0=1.0).values) < 1e-6
         assert ds["max_strain"].sel(x0=1.0).item() == pytest.approx(ds["max_strain"].sel(x0=-1.0).item(), rel=1e-6)
         assert ds["max_strain"].sel(x0=1.0).item() != ds["max_strain"].sel(x0=0.0).item()
-        for name in ("max_strain_x", "crack_onset_x"):                  # signed, mirrored
-            np.testing.assert_allclose(ds[name].sel(x0=-1.0).values, -ds[name].sel(x0=1.0).values, atol=1e-6)
+        # signed, mirrored. The mirrored runs differ by round-off, so their adaptive steps differ,
+        # and the place where the tension first reaches eps_Y moves by the run's error there
+        # (a place on a flat maximum moves more than the value): measured up to 4.2e-6 m, at one
+        # eps_Y of 42 (the Gauss rule, tolerance 1e-9, N = 6)
+        for name in ("max_strain_x", "crack_onset_x"):
+            np.testing.assert_allclose(ds[name].sel(x0=-1.0).values, -ds[name].sel(x0=1.0).values, atol=5e-5)

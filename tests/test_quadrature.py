@@ -161,7 +161,8 @@ def test_gauss_energy_identity_holds_to_the_time_error():
     p = Parameters(Nmod=60)
     res = [solve(p, Settings(tolerance=tol, **GAUSS), fields=()).diagnostics["energy_residual"]
            for tol in (1e-8, 1e-10)]
-    paper = solve(p, Settings(tolerance=1e-10, error_estimate=False), fields=()).diagnostics["energy_residual"]
+    paper = solve(p, Settings(quadrature="paper", subintervals=1000, tolerance=1e-10, error_estimate=False),
+                  fields=()).diagnostics["energy_residual"]
     print("gauss residuals at 1e-8, 1e-10:", res, "paper at 1e-10:", paper)
     assert res[0] < 5e-7 and res[1] < 5e-8 < paper
 
@@ -206,12 +207,15 @@ def test_wedge_bottoming_is_the_continuous_models():
 
 
 def test_the_quadrature_is_part_of_a_case_id():
-    """A Gauss run is another case; the paper's keeps the id it had before the setting existed."""
+    """A Gauss run is another case; the paper's keeps the id it had before the setting existed
+    (a study that names the paper's rule, its 1000 subintervals and tolerance 1e-8, the defaults
+    before issue 24, finds its finished cases)."""
     from pipeline.study import _used_settings, case_id
     p = Parameters()
     output = {"times": [0.5], "fields": [], "x_points": 11, "end": "stage"}
-    paper = Settings()
+    paper = Settings(quadrature="paper")
     assert "quadrature" not in _used_settings(paper)
+    assert _used_settings(Settings())["quadrature"] == "gauss"
     ids = {case_id(p, s, output) for s in (paper, Settings(quadrature="gauss"),
                                            Settings(quadrature="gauss", quadrature_density=6))}
     assert len(ids) == 3
