@@ -21,8 +21,8 @@ from .casefile import temporary_path  # noqa: E402
 from .tables import COMPLETE  # noqa: E402
 
 DIAGNOSTICS = [
-    ("max_strain", "max tensile strain, upper surface"),
-    ("max_strain_lower", "max tensile strain, lower surface"),
+    ("max_strain", "max tensile strain, upper surface (plate-wide)"),
+    ("max_strain_lower", "max tensile strain, lower surface (plate-wide)"),
     ("crack_onset_time", "crack onset, upper [ms]"),
     ("crack_onset_time_lower", "crack onset, lower [ms]"),
     ("max_contact_intervals", "max contact intervals"),
@@ -156,8 +156,8 @@ def _paper_eps_Y(ds: xr.Dataset) -> float:
 MAX_LINES = 8
 #: the diagnostics drawn as heat maps (a large study): name, title, log colour scale
 MAP_DIAGNOSTICS = [
-    ("max_strain", "max tensile strain, upper", True),
-    ("max_strain_lower", "max tensile strain, lower", True),
+    ("max_strain", "max tensile strain, upper (plate-wide)", True),
+    ("max_strain_lower", "max tensile strain, lower (plate-wide)", True),
     ("crack_onset_time", "crack onset, upper [ms]", False),
     ("max_contact_intervals", "max contact intervals", False),
     ("max_compression", "max layer compression δ", False),
@@ -239,6 +239,17 @@ def _sweep_line(ax, x, values, ok, on_axis, color, marker, label) -> None:
     ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)   # legend entry
 
 
+#: the plate-wide maxima whose place the figures mark when it is at a wall (x = +-L)
+PLACED_MAXIMA = ("max_strain", "max_strain_lower")
+
+
+def at_wall(ds: xr.Dataset, name: str) -> xr.DataArray:
+    """True where the plate-wide maximum ``name`` sits at a wall, |name_x| = L (to 1e-9 L): in
+    the paper's confined plate the ice rises along the walls and bends hardest there late in
+    the stage (docs/user_guide.md, "Where the largest tension is")."""
+    return np.abs(ds[f"{name}_x"]) >= ds["L"] * (1.0 - 1e-9)
+
+
 def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     """Each diagnostic against the first grid key, one line per value of the other keys (a
     grid with more than MAX_LINES combinations of the other keys: heat maps instead).
@@ -273,6 +284,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
             label = ", ".join(_label(k, v) for k, v in zip(others, combo)) or None
             _sweep_line(ax, all_x, shown, ok, on_axis, color, marker, label)
             unbounded.append((color, xvals[inf[on_axis]]))
+            if name in PLACED_MAXIMA:                    # ringed: the maximum is at a wall
+                wall = np.asarray(at_wall(ds, name).sel(where).values, dtype=bool) & on_axis
+                ax.plot(all_x[wall], shown[wall], "o", mfc="none", mec="black", mew=1.0, ms=11)
         if any(x.size for _, x in unbounded):           # drawn just inside the top edge
             for i, (color, x) in enumerate(unbounded):   # one row per line, so none hides another
                 ax.plot(x, np.full(x.size, 0.95 - 0.05 * i), "^", color=color, ms=7,
@@ -290,6 +304,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
                               ha="right" if first == "case" else "center", fontsize=8)
             else:
                 ax.ticklabel_format(axis="x", useOffset=False)
+        if name in PLACED_MAXIMA:
+            walls = int(np.sum(at_wall(ds, name).values & np.isfinite(ds[name].values)))
+            title = f"{title}\n○: at a wall (x = ±L), {walls} of {ds[name].size} cases"
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
                       "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")

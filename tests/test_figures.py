@@ -92,3 +92,23 @@ def test_paper_fig2_of_a_case_that_ended_early_is_skipped_with_a_note(tmp_path):
     assert code == 0 and "Traceback" not in err, err
     assert "note: paper_fig2 shows the first case at 3.8 ... 4.6 t_sc, and it ended at 0.16 t_sc" in err, err
     assert not (tmp_path / "out" / "paper_fig2.png").exists()
+
+
+def test_plate_wide_maxima_at_a_wall_are_ringed_and_counted(log_study, monkeypatch, tmp_path):
+    """The strain panels say their maxima are plate-wide, ring each case whose maximum sits at
+    a wall (x = +-L) and count them in the title (issue 25: the confined plate bends hardest at
+    the walls late in the stage); a maximum moved off the wall is not ringed."""
+    ds, _ = log_study
+    ds = ds.copy()
+    x = ds["max_strain_x"].values.copy()
+    x.flat[0], x.flat[1] = float(ds["L"]), 0.5 * float(ds["L"])        # one case at a wall, one not
+    ds["max_strain_x"].values = x
+    axes = _figure_axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
+    upper = axes[0]
+    walls = int(plots.at_wall(ds, "max_strain").sum())
+    assert "plate-wide" in upper.get_title()
+    assert f"at a wall (x = ±L), {walls} of {ds['max_strain'].size} cases" in upper.get_title()
+    rings = [line for line in upper.lines if line.get_marker() == "o" and line.get_markerfacecolor() == "none"
+             and line.get_markeredgecolor() == "black"]
+    assert sum(len(line.get_xdata()) for line in rings) == walls >= 1
+    assert bool(plots.at_wall(ds, "max_strain").values.flat[0]) and not plots.at_wall(ds, "max_strain").values.flat[1]
