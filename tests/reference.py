@@ -10,7 +10,9 @@ where the spread is 0 (values the step sequence does not move: output times, t_s
 SPREAD_FACTOR: over the four tolerances other than the reference's own, the largest difference
 from the reference was 1.7x the spread (max_force of V = 5, hi = 0.5, near bottoming); a
 difference 2.5e-5 relative in layer_pressure seen on an AMD EPYC with AVX-512 against a
-reference made with AVX2 was 1.1x the spread. 4 leaves a margin over both.
+reference made with AVX2 was 1.1x the spread. With the reference at the Gauss rule (issue 24),
+40 tolerances from 0.8e-11 to 1.25e-11 under numba generic moved the strain of V = 3, hi = 0.3
+by up to 4.2x the spread (tests/test_integrators.py); 5 leaves a margin over all three.
 """
 from pathlib import Path
 
@@ -20,7 +22,7 @@ import xarray as xr
 ROOT = Path(__file__).resolve().parents[1]
 REFERENCE = ROOT / "tests" / "data" / "regression_small.nc"
 SPREAD = ROOT / "tests" / "data" / "regression_small_spread.nc"
-SPREAD_FACTOR = 4.0
+SPREAD_FACTOR = 5.0
 #: measures of the run's own error, which another step sequence moves relative to themselves:
 #: they are maxima over the steps' ends (energy_residual) or estimates. With numba's generic
 #: target energy_residual moved by 0.65% (4x its spread over tolerances), so they are compared
