@@ -60,6 +60,19 @@ def dop853_run(p, times, x, rtol):
     return wall, strain, sol.nfev
 
 
+def interleaved(p, runs: dict, repeats: int, times, fields):
+    """Each named Settings solved once a round, round-robin over repeats (the machine's drift
+    falls on all alike): ({name: wall times}, {name: the last Result})."""
+    walls, results = {k: [] for k in runs}, {}
+    for rep in range(repeats):
+        for name, s in runs.items():
+            r = solve(p, s, times=times, fields=fields)
+            walls[name].append(r.wall_time)
+            results[name] = r
+        print(f"  repeat {rep + 1}/{repeats} done", flush=True)
+    return walls, results
+
+
 def profile_step(p, repeats=2000):
     """Microseconds per call of the pieces of one etd34 step, on a late state (t~ = 3.8)."""
     tab = Tables(p, 1000)
@@ -109,14 +122,7 @@ def main(argv=None):
         "etd34, tolerance 3e-11": Settings(tolerance=3e-11, error_estimate=False, **PAPER),
         "etd34, tolerance 1e-11": Settings(tolerance=1e-11, error_estimate=False, **PAPER),
     }
-    walls = {k: [] for k in candidates}
-    results = {}
-    for rep in range(args.repeats):
-        for name, s in candidates.items():
-            r = solve(p60, s, times=times, fields=fields)
-            walls[name].append(r.wall_time)
-            results[name] = r
-        print(f"  repeat {rep + 1}/{args.repeats} done", flush=True)
+    walls, results = interleaved(p60, candidates, args.repeats, times, fields)
     dop_walls = []
     for rep in range(max(1, args.repeats // 2)):
         w, dop_strain, nfev = dop853_run(p60, times, ref.x, rtol=1e-9)
@@ -158,13 +164,7 @@ def main(argv=None):
                 Settings(tolerance=1e-8, error_estimate=False, **PAPER),
                 f"the Gauss rule, {DEFAULT.subintervals} subintervals, density {DEFAULT.quadrature_density:g}, "
                 f"tolerance {DEFAULT.tolerance:g} (the default)": Settings(error_estimate=False)}
-    default_walls = {k: [] for k in defaults}
-    default_results = {}
-    for rep in range(args.repeats):
-        for name, s in defaults.items():
-            r = solve(p60, s, times=times, fields=fields)
-            default_walls[name].append(r.wall_time)
-            default_results[name] = r
+    default_walls, default_results = interleaved(p60, defaults, args.repeats, times, fields)
 
     # the smallest etd34 tolerance cost at an error no larger than rk4's
     better = [row for row in rows if row[0].startswith("etd34") and row[2] <= e_paper]

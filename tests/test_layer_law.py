@@ -63,6 +63,16 @@ def laws(tmp_path_factory):
     return xr.open_dataset(out / "study.nc")
 
 
+def _against_closed_form(laws, law, subintervals, quadrature):
+    """(t, force, relative difference from the closed form) of one run, from t = 2 STEP."""
+    case = laws.sel(layer_law=law, subintervals=subintervals, quadrature=quadrature)
+    assert str(case["status"].values) == "ok"
+    t = case["t"].values
+    late = t >= 2 * STEP
+    force = case["force"].values[late]
+    return t[late], force, np.abs(force / closed_form(law, t[late]) - 1.0)
+
+
 @pytest.mark.parametrize("law", ["paper", "linear"])
 def test_force_is_the_closed_form_on_ice_that_does_not_move(laws, law):
     """Both laws to the paper's quadrature's accuracy, which is O((dx/a)^2): f is linear between
@@ -73,20 +83,15 @@ def test_force_is_the_closed_form_on_ice_that_does_not_move(laws, law):
     p = Parameters()
     errors = {}
     for subintervals in (1000, 2000):
-        case = laws.sel(layer_law=law, subintervals=subintervals, quadrature="paper")
-        assert str(case["status"].values) == "ok"
-        t = case["t"].values
-        late = t >= 2 * STEP
-        expected = closed_form(law, t[late])
-        error = np.abs(case["force"].values[late] / expected - 1.0)
-        scale = (p.L / subintervals) ** 2 / (2.0 * p.R * p.V * t[late])       # (dx / a)^2
+        t, force, error = _against_closed_form(laws, law, subintervals, "paper")
+        scale = (p.L / subintervals) ** 2 / (2.0 * p.R * p.V * t)              # (dx / a)^2
         errors[subintervals] = error
         print(f"{law}, {subintervals} subintervals: relative difference {error.min():.2e}..{error.max():.2e}, "
               f"over (dx/a)^2 at most {np.max(error / scale):.3f}")
         assert np.all(error <= 0.3 * scale)
         # the laws differ by far more than that: the paper's f = delta / (1 - delta) is stiffer
-        other = closed_form("linear" if law == "paper" else "paper", t[late])
-        assert np.all(np.abs(other / case["force"].values[late] - 1.0) > 0.05)
+        other = closed_form("linear" if law == "paper" else "paper", t)
+        assert np.all(np.abs(other / force - 1.0) > 0.05)
     ratio = errors[1000] / errors[2000]
     print(f"{law}: error ratio for dx halved {ratio.min():.2f}..{ratio.max():.2f}")
     assert np.all((ratio > 3.0) & (ratio < 5.0))                              # second order in dx
@@ -103,12 +108,7 @@ def test_the_gauss_rule_is_the_closed_form_whatever_the_table(laws, law):
     further off (above)."""
     force = {}
     for subintervals in (1000, 2000):
-        case = laws.sel(layer_law=law, subintervals=subintervals, quadrature="gauss")
-        assert str(case["status"].values) == "ok"
-        t = case["t"].values
-        late = t >= 2 * STEP
-        force[subintervals] = case["force"].values[late]
-        error = np.abs(force[subintervals] / closed_form(law, t[late]) - 1.0)
+        _, force[subintervals], error = _against_closed_form(laws, law, subintervals, "gauss")
         print(f"gauss, {law}, {subintervals} subintervals: relative difference {error.max():.2e}")
         assert np.all(error < 1e-6)
     assert np.all(np.abs(force[2000] / force[1000] - 1.0) < 1e-9)
