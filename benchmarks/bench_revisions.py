@@ -22,6 +22,9 @@ import sys
 import tempfile
 from pathlib import Path
 
+from solver import Settings
+from solver.parameters import PAPER_NUMERICS
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: run inside each revision's tree; prints one JSON line
@@ -61,8 +64,8 @@ def checkout(rev: str, tmp: Path) -> Path:
 #: the settings timed, pinned by value so that a change of the defaults does not change the
 #: comparison: the paper's rule as every revision before issue 24 ran it by default, or the Gauss
 #: rule, today's default (a revision without it is left out)
-RULES = {"paper": {"quadrature": "paper", "subintervals": 1000, "tolerance": 1e-8},
-         "gauss": {"quadrature": "gauss", "subintervals": 250, "quadrature_density": 4.0, "tolerance": 1e-9}}
+RULES = {"paper": PAPER_NUMERICS,
+         "gauss": {k: getattr(Settings(), k) for k in ("quadrature", "subintervals", "quadrature_density", "tolerance")}}
 
 
 def probe(tree: Path, nmod: int, solves: int, rule: str) -> dict:

@@ -15,6 +15,7 @@ refactoring that must not change results (issue 12's "bit for bit or <= 1e-12"):
 from __future__ import annotations
 
 import argparse
+import json
 import pickle
 import subprocess
 import sys
@@ -24,11 +25,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_revisions import ROOT, checkout  # noqa: E402
+from bench_revisions import ROOT, RULES, checkout  # noqa: E402
 
-#: run inside each tree: pickles {case: {name: value}} to argv[1]
+#: run inside each tree: pickles {case: {name: value}} to argv[1]; argv[2]: [paper rule, Gauss rule] as JSON
 PROBE = r"""
-import dataclasses, pickle, sys
+import dataclasses, json, pickle, sys
 import numpy as np
 from solver import Parameters, Settings, solve
 KNOWN = {f.name for f in dataclasses.fields(Settings)}
@@ -36,10 +37,11 @@ def S(**kw):
     # settings pinned by value, so that a change of the defaults is not a difference; a tree whose
     # Settings lacks a key asked for (a revision before the Gauss rule) skips the case
     return Settings(**kw) if set(kw) <= KNOWN else None
-PAPER = dict(quadrature="paper", subintervals=1000, tolerance=1e-8, error_estimate=False)
-GAUSS = dict(quadrature="gauss", subintervals=250, quadrature_density=4.0, tolerance=1e-9, error_estimate=False)
+# the rules as the working tree pins them (bench_revisions.RULES); the paper's without the key
+# "quadrature" in a tree from before it, where that rule was the only one
+PAPER, GAUSS = (dict(rule, error_estimate=False) for rule in json.loads(sys.argv[2]))
 if "quadrature" not in KNOWN:
-    PAPER = dict(subintervals=1000, tolerance=1e-8, error_estimate=False)
+    PAPER.pop("quadrature")
 quiet = S(**PAPER)
 gauss = S(**GAUSS)
 cases = {
@@ -88,7 +90,8 @@ pickle.dump(out, open(sys.argv[1], "wb"))
 
 
 def run(tree: Path, path: Path) -> dict:
-    proc = subprocess.run([sys.executable, "-c", PROBE, str(path)], cwd=tree,
+    rules = json.dumps([RULES["paper"], RULES["gauss"]])
+    proc = subprocess.run([sys.executable, "-c", PROBE, str(path), rules], cwd=tree,
                           env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin"}, capture_output=True,
                           text=True, timeout=1800)
     if proc.returncode != 0:

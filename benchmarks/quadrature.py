@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import Parameters, Settings, solve
+from solver.parameters import PAPER_NUMERICS
 
 #: name -> (parameters, the part of the stage compared: the fast impact bottoms out at 0.86..0.94
 #: of it, by N, so its runs stop at 0.8)
@@ -37,12 +38,8 @@ TARGETS = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
 OUT = Path("results/bench")
 
 
-#: the paper's default before issue 24, pinned by value
-PAPER_DEFAULT = dict(quadrature="paper", subintervals=1000, tolerance=1e-8)
-
-
 def runs(quick: bool, defaults_only: bool = False):
-    yield "paper default", PAPER_DEFAULT
+    yield "paper default", PAPER_NUMERICS
     default = Settings()
     yield "default", dict(quadrature=default.quadrature, quadrature_density=default.quadrature_density,
                           subintervals=default.subintervals, tolerance=default.tolerance)

@@ -271,10 +271,15 @@ def x_positions(x_points: int, L: float) -> np.ndarray:
     return round_significant(x_fractions(x_points) * L)
 
 
+#: the keys that take one of a few names: parameters (layer_law) and settings (integrator,
+#: quadrature)
+NAMES = {**CHOICES, **NAMED_SETTINGS}
+
+
 def _choice(where: str, key: str, value):
-    """A parameter that takes one of a few names (solver.parameters.CHOICES)."""
-    if not isinstance(value, str) or value not in CHOICES[key]:
-        raise StudyError(f"{where} must be one of {', '.join(CHOICES[key])}, got {value!r}")
+    """A key that takes one of a few names (NAMES)."""
+    if not isinstance(value, str) or value not in NAMES[key]:
+        raise StudyError(f"{where} must be one of {', '.join(NAMES[key])}, got {value!r}")
     return value
 
 
@@ -284,12 +289,6 @@ def _number(where: str, value, integer=False):
     if integer and (not float(value).is_integer()):
         raise StudyError(f"{where} must be an integer, got {value!r}")
     return value
-
-
-def _setting_name(where: str, key: str, value) -> None:
-    """A setting that takes one of a few names (solver.parameters.NAMED_SETTINGS)."""
-    if not isinstance(value, str) or value not in NAMED_SETTINGS[key]:
-        raise StudyError(f"{where} must be one of {', '.join(NAMED_SETTINGS[key])}, got {value!r}")
 
 
 def _check_parameters(where: str, table: dict, settings=False, reference=False) -> dict:
@@ -310,7 +309,7 @@ def _check_parameters(where: str, table: dict, settings=False, reference=False) 
             _number(f"{where}.{key}", value)
         elif settings and key in SETTING_INFO:
             if key in NAMED_SETTINGS:
-                _setting_name(f"{where}.{key}", key, value)
+                _choice(f"{where}.{key}", key, value)
             elif key == "error_estimate":
                 if not isinstance(value, bool):
                     raise StudyError(f"{where}.error_estimate must be true or false, got {value!r}")
@@ -610,7 +609,7 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
             if key in CHOICES:
                 _choice(f"[grid] {key} value", key, v)
             elif key in NAMED_SETTINGS:
-                _setting_name(f"[grid] {key}", key, v)
+                _choice(f"[grid] {key}", key, v)
             elif key == "error_estimate":
                 if not isinstance(v, bool):
                     raise StudyError(f"[grid] error_estimate values must be true or false, got {v!r}")

@@ -267,7 +267,7 @@ def error_estimates(amplitudes, strain_coef, energy_residual, accumulated=None, 
             "error_estimate_modes": modes, "error_estimate_quadrature": quadrature}
 
 
-def _energy_bound_message(p: Parameters, diagnostics: dict, quadrature: str = "gauss") -> str:
+def _energy_bound_message(p: Parameters, diagnostics: dict, quadrature: str) -> str:
     """Which energy balance ended the run above ENERGY_BOUND: the ice's, or a free body's
     own (with its round-off floor when the body is so heavy that M V^2 x 1e-16 is not small
     against the work)."""

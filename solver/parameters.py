@@ -121,6 +121,9 @@ INTEGRATORS = ("etd34", "rk4", "dop853")
 QUADRATURES = ("paper", "gauss")
 #: the settings that take one of a few names (a study's [solver] and [grid] check them so)
 NAMED_SETTINGS = {"integrator": INTEGRATORS, "quadrature": QUADRATURES}
+#: the paper's rule at its 1000 subintervals and tolerance 1e-8, the defaults before issue 24:
+#: Settings(**PAPER_NUMERICS) reproduces those runs bit for bit, and their case ids
+PAPER_NUMERICS = {"quadrature": "paper", "subintervals": 1000, "tolerance": 1e-8}
 #: largest Nmod and subintervals accepted (memory: the tables are Nmod x subintervals doubles)
 MAX_MODES = 4096
 MAX_SUBINTERVALS = 1_000_000
@@ -512,8 +515,8 @@ class Settings:
     250 subintervals) were chosen by measurement (docs/numerics.md, "The quadrature"): on the
     reference case at N = 60 their strain error against the continuous-x model is 1.9e-6, in
     less time than the paper's rule took for 1.2e-5 at its 1000 subintervals and tolerance
-    1e-8, the defaults before issue 24. ``Settings(quadrature="paper", subintervals=1000,
-    tolerance=1e-8)`` reproduces those runs bit for bit, and their case ids.
+    1e-8, the defaults before issue 24. ``Settings(**PAPER_NUMERICS)`` reproduces those runs bit
+    for bit, and their case ids.
 
     Parameters
     ----------

@@ -9,6 +9,7 @@ from dop853_check import against_dop853
 from neutral_ids import assert_ids_hold_at_neutral, run_swept_study
 from solver import ParameterError, Parameters, Settings, solve
 from solver.model.assemble import Tables
+from solver.parameters import PAPER_NUMERICS
 
 FIELDS = ("deflection", "strain", "layer_pressure", "compression")
 X = np.linspace(-6.0, 6.0, 97)                     # symmetric about 0: X[::-1] == -X
@@ -131,7 +132,7 @@ def test_energy_identity_off_centre_falls_with_the_quadrature():
     the quadrature's: it falls as dx^2 with the subintervals. The Gauss rule's is far below."""
     p = Parameters(Nmod=24, x0=1.0, V=3.0)
     t_end = 3.5 * p.time_scale
-    paper = dict(quadrature="paper", tolerance=1e-8, subintervals=1000, error_estimate=False)
+    paper = dict(PAPER_NUMERICS, error_estimate=False)
     centred = solve(p.replace(x0=0.0), Settings(**paper), t_end=t_end, fields=())
     residuals = []
     counts = np.array([250, 500, 1000])

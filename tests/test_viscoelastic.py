@@ -16,6 +16,7 @@ from solver.diagnostics import Outputs
 from solver.loop import integrate
 from solver.model.assemble import Tables
 from solver.model.plate import HALF_C, KIND, OMEGA, OMEGA_D
+from solver.parameters import PAPER_NUMERICS
 from dop853_check import against_dop853
 from test_pipeline import pipeline
 
@@ -117,7 +118,7 @@ def test_energy_identity_with_the_dissipated_energy():
     p = Parameters(Nmod=30, tau=1e-4)
     r = solve(p, Settings(error_estimate=False), fields=())
     elastic = solve(Parameters(Nmod=30), Settings(error_estimate=False), fields=())
-    paper = Settings(quadrature="paper", subintervals=1000, tolerance=1e-8, error_estimate=False)
+    paper = Settings(**PAPER_NUMERICS, error_estimate=False)
     paper_damped = solve(p, paper, fields=()).diagnostics["energy_residual"]
     paper_elastic = solve(Parameters(Nmod=30), paper, fields=()).diagnostics["energy_residual"]
     d = r.diagnostics
