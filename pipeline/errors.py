@@ -27,6 +27,11 @@ class ResultsIOError(Exception):
     """Reading or writing results failed (permissions, full disk): exit 74."""
 
 
+class WriteFailed(ResultsIOError):
+    """A write into the results directory failed; the runner first asks whether the directory
+    itself went (make clean mid-run), which it reports instead."""
+
+
 def free_space(path: Path) -> str:
     """The free space of the filesystem that holds path (or its nearest existing parent)."""
     path = Path(path).absolute()
@@ -38,6 +43,6 @@ def free_space(path: Path) -> str:
         return "free space unknown"
 
 
-def write_failed(what: Path, err: BaseException) -> ResultsIOError:
+def write_failed(what: Path, err: BaseException) -> WriteFailed:
     detail = getattr(err, "strerror", None) or str(err) or type(err).__name__
-    return ResultsIOError(f"cannot write {what} ({free_space(Path(what).parent)}): {detail}; finished cases are kept")
+    return WriteFailed(f"cannot write {what} ({free_space(Path(what).parent)}): {detail}; finished cases are kept")

@@ -13,7 +13,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, write_failed
+from .errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, WriteFailed, write_failed
 from .lock import StudyLock
 from .report import _count, _label, ledger_states, print_table
 
@@ -266,9 +266,9 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
             except BaseException as err:
                 if writer is not None:
                     writer.abandon()
-                if isinstance(err, OSError):
-                    # a batch or study.nc write failing because the directory went (make clean
-                    # mid-run) says so
+                if isinstance(err, (OSError, WriteFailed)):
+                    # a batch, ledger or study.nc write failing because the directory went (make
+                    # clean mid-run) says so
                     _still_ours(out_dir, identity)
                 raise
             if fresh is not None:                      # done: no damaged batch file

@@ -253,6 +253,32 @@ def test_results_directory_removed_mid_run_stops_the_runner(tmp_path):
     assert "Traceback" not in err and err.strip().splitlines()[-1].startswith("error: the results directory"), err
 
 
+#: runs the pipeline with the results directory removed just before the first ledger append,
+#: after the runner last looked: the race of make clean with a batch coming back
+_REMOVED_BEFORE_APPEND = r"""
+import runpy, shutil, sys
+import pipeline.ledger as L
+original = L.Ledger.append
+def append(self, entry):
+    shutil.rmtree(self.path.parent)
+    return original(self, entry)
+L.Ledger.append = append
+sys.argv = ["pipeline", *sys.argv[1:]]
+runpy.run_module("pipeline", run_name="__main__")
+"""
+
+
+def test_results_directory_removed_just_before_a_ledger_append_says_so(study_file, tmp_path):
+    """The ledger write fails because the directory went (not the disk): the one line says the
+    directory was removed, as when the runner sees it gone first."""
+    out = tmp_path / "removed"
+    proc = subprocess.run([sys.executable, "-c", _REMOVED_BEFORE_APPEND, "run", str(study_file), "--out", str(out),
+                           "--no-plots"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 74, proc.stderr
+    assert "Traceback" not in proc.stderr
+    last = proc.stderr.strip().splitlines()[-1]
+    assert last.startswith(f"error: the results directory {out} was removed or replaced"), last
+
 #: runs the pipeline with every ledger append failing as on a full disk, after half the line
 #: reached the file (a torn write)
 _TORN_LEDGER = r"""
