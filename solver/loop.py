@@ -173,7 +173,7 @@ def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, di
                 return STOP, h, ratio, 0.0, STEP_LIMIT, 1
             return RETRY, h, ratio, 0.0, OK, 1
     e_new, resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)
-    if not abs(resid_new - resid) <= energy_allowance(new.delta, jm5, e_new, w_new, e0, work, model.basis.mirror):
+    if not abs(resid_new - resid) <= energy_allowance(new.delta, jm5, e_new, w_new, e0, work, model.basis):
         diag[D_ENERGY_JUMPS] += 1.0
         h = 0.25 * h_step
         if not adaptive or h < control.h_min:

@@ -1,6 +1,8 @@
 """The per-case strain error estimate against true errors (a small work-precision study).
 
-The requirement: the estimate must not understate the true error by more than a factor 3.
+The requirement: the estimate must not understate the true error by more than a factor 3. The
+quadrature part is checked under each rule: the paper's (O(dx^2), 4 x the energy residual) and
+the Gauss rule at and above its default density, where the time error dominates.
 The full three-case check (reference, fast impact, thin ice) is in the slow suite; the study
 itself is studies/work_precision.toml.
 """
@@ -63,17 +65,36 @@ def test_modal_part_reference_case():
 
 
 def test_quadrature_part_reference_case():
+    """The paper's rule: 4 x the energy residual against its O(dx^2) quadrature error."""
     p = Parameters(Nmod=20)
     times = _times(p)
-    ref = solve(p, Settings(tolerance=1e-11, subintervals=8000, error_estimate=False), times=times,
-                fields=("strain",))
+    ref = solve(p, Settings(quadrature="paper", tolerance=1e-11, subintervals=8000, error_estimate=False),
+                times=times, fields=("strain",))
     for J in (250, 500, 1000):
-        r = solve(p, Settings(tolerance=1e-11, subintervals=J), times=times, fields=("strain",))
+        r = solve(p, Settings(quadrature="paper", tolerance=1e-11, subintervals=J), times=times, fields=("strain",))
         true = _common_l2(r.fields["strain"], ref.fields["strain"])
         est = r.diagnostics["error_estimate_quadrature"]
         print(f"J = {J}: true {true:.2e} estimate {est:.2e} ratio {est / true:.2f}")
         assert true / 3 <= est <= 30 * true
         assert r.diagnostics["error_estimate"] >= est
+
+
+@pytest.mark.parametrize("density, tolerance", [(4.0, 1e-9), (6.0, 1e-9), (4.0, 1e-11)])
+def test_gauss_rule_time_and_quadrature_parts(density, tolerance):
+    """The Gauss rule (the default at density 4, tolerance 1e-9): its time and quadrature parts
+    against the true error from density 24 at 1e-12, same modes (measured 0.80, 2.8, 0.72 x;
+    at density 3 and 1e-11 it understates 14x, docs/numerics.md)."""
+    p = Parameters(Nmod=20)
+    times = np.linspace(0.05, 0.97, 24) * p.stage_duration
+    ref = solve(p, Settings(quadrature_density=24, tolerance=1e-12, error_estimate=False), times=times,
+                fields=("strain",), t_end=times[-1])
+    r = solve(p, Settings(quadrature_density=density, tolerance=tolerance), times=times, fields=("strain",),
+              t_end=times[-1])
+    assert r.status == "ok", r.message
+    true = relative_l2(r.fields["strain"], ref.fields["strain"])
+    est = r.diagnostics["error_estimate_time"] + r.diagnostics["error_estimate_quadrature"]
+    print(f"density {density:g} tol {tolerance:g}: true {true:.2e} estimate {est:.2e} ratio {est / true:.2f}")
+    assert true / 3 <= est <= 30 * true
 
 
 def test_no_time_estimate_without_local_errors():
@@ -91,9 +112,10 @@ def test_estimate_on_the_work_precision_cases(name):
     _check_time_part(p, [Settings(tolerance=tol) for tol in (1e-6, 1e-7, 1e-8, 1e-9, 1e-10)]
                      + [Settings(integrator="rk4", rk4_step_fraction=f) for f in (0.3, 0.2, 0.1)])
     _check_modal_part(p, modes=(20, 40, 60, 80), reference_modes=240)
-    ref = solve(p, Settings(tolerance=1e-11, subintervals=8000, error_estimate=False), times=_times(p),
-                fields=("strain",))
+    ref = solve(p, Settings(quadrature="paper", tolerance=1e-11, subintervals=8000, error_estimate=False),
+                times=_times(p), fields=("strain",))
     for J in (250, 1000):
-        r = solve(p, Settings(tolerance=1e-11, subintervals=J), times=_times(p), fields=("strain",))
+        r = solve(p, Settings(quadrature="paper", tolerance=1e-11, subintervals=J), times=_times(p),
+                  fields=("strain",))
         true = _common_l2(r.fields["strain"], ref.fields["strain"])
         assert true / 3 <= r.diagnostics["error_estimate_quadrature"] <= 30 * true
