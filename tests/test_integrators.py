@@ -180,12 +180,16 @@ def test_round_off_spread_near_bottoming_is_within_the_regression_bound():
     assert diffs.max() <= bound
 
 
-@pytest.mark.parametrize("changes", [{}, {"body_mass": 2000.0}, {"x0": 1.0}], ids=["paper", "free_body", "off_centre"])
+@pytest.mark.parametrize("changes", [pytest.param({}, marks=pytest.mark.slow, id="paper"),
+                                     pytest.param({"body_mass": 2000.0}, marks=pytest.mark.slow, id="free_body"),
+                                     pytest.param({"x0": 1.0}, id="off_centre")])
 def test_dop853_reports_the_diagnostics(changes):
     """The outside reference observes the kernels' diagnostics on its dense output (8 points a
     step, the largest tensions at the maxima of the Hermite pieces between them): every one etd34
     reports is there, but the error estimates (DOP853 returns none), and they agree with etd34
-    (measured: max strain within 1.1e-6, crack onset 2e-6 relative, here and with numba generic)."""
+    (measured: max strain within 1.1e-6, crack onset 2e-6 relative, here and with numba generic).
+    The paper's case and the free body run in make test-slow (30-40 s each); the default suite
+    checks them against DOP853 in test_quadrature, test_events and test_body_mass."""
     p = Parameters(Nmod=20, **changes)
     d = solve(p, Settings(integrator="dop853", tolerance=1e-9), fields=())
     e = solve(p, Settings(tolerance=1e-11), fields=())
