@@ -221,6 +221,14 @@ def _runs(flat: np.ndarray):
     return list(zip(edges[:-1], edges[1:]))
 
 
+def _case_coordinates(study: Study) -> list:
+    """The per-case variables a [[cases]] or [design] study's data variables name as their
+    coordinates (CF): the keys that vary, and the cases' group labels when there are any (the
+    work_precision and extremes outputs select by group)."""
+    groups = any(c.get("group", "") for c in study.case_list)
+    return list(study.varying_keys) + (["group"] if groups else [])
+
+
 class StudyWriter:
     """study.nc opened with netCDF4; filled slice by slice; finished atomically."""
 
@@ -242,7 +250,7 @@ class StudyWriter:
             nc.createDimension("tension_node", None)
             nc.createDimension("contact_change", None)
         self._coords(t_coord, x_fraction)
-        varying = [] if study.grid else study.varying_keys
+        varying = [] if study.grid else _case_coordinates(study)
         for name, tail, kind, attrs in self.variables:
             dims = self.dims + tail
             if kind == "f":
@@ -322,8 +330,8 @@ class StudyWriter:
         ids = nc.createVariable("case_id", str, self.dims)
         ids[...] = np.array(study.case_ids, dtype=object).reshape(self.shape)
         ids.long_name = "id of the case (its row in ledger.jsonl names its batch file)"
-        if not study.grid and study.varying_keys:
-            ids.coordinates = " ".join(study.varying_keys)
+        if not study.grid and _case_coordinates(study):
+            ids.coordinates = " ".join(_case_coordinates(study))
 
     def _put(self, name, flat, values):
         """values[k] belongs at flat grid index flat[k] (flat sorted)."""

@@ -63,3 +63,36 @@ def test_failed_cases_are_recorded_skipped_and_rerun_on_request(tmp_path):
     assert code == 1 and "2 cases, 0 to run, 2 already done" in err
     code, _, err = pipeline("run", study, "--out", out, "--workers", "1", "--no-plots", "--rerun-failed")
     assert code == 1 and "2 cases, 2 to run, 0 already done" in err
+
+
+GROUPS = """
+description = "two groups, two integrators"
+cases = [
+  { group = "slow", V = 3.0, Nmod = 6 },
+  { group = "slow", V = 3.0, Nmod = 6, integrator = "rk4", quadrature = "paper", max_steps = 2000 },
+  { group = "fast", V = 20.0, Nmod = 6 },
+  { group = "fast", V = 20.0, Nmod = 6, integrator = "rk4", quadrature = "paper", max_steps = 2000 },
+]
+[output]
+times = { unit = "t_sc", step = 0.5, stop = 1.0 }
+fields = []
+[plots]
+kinds = ["extremes"]
+"""
+
+
+def test_groups_are_coordinates_and_the_extremes_table_is_written(tmp_path):
+    """A [[cases]] study's group labels are coordinates of its variables in study.nc (the
+    extremes table and the work_precision figure select by them: they were skipped when the
+    labels were a plain variable)."""
+    study = tmp_path / "groups.toml"
+    study.write_text(GROUPS)
+    out = tmp_path / "out"
+    code, _, err = pipeline("run", study, "--out", out, "--workers", "1")
+    assert code in (0, 1), err
+    assert "extremes needs" not in err, err
+    with xr.open_dataset(out / "study.nc") as ds:
+        assert "group" in ds.coords and list(ds["group"].values) == ["slow", "slow", "fast", "fast"]
+        assert "group" in ds["max_strain"].coords
+    table = (out / "extremes.md").read_text()
+    assert "| slow | ok |" in table and "| fast |" in table
