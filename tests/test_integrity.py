@@ -272,12 +272,19 @@ def test_results_directory_removed_just_before_a_ledger_append_says_so(study_fil
     """The ledger write fails because the directory went (not the disk): the one line says the
     directory was removed, as when the runner sees it gone first."""
     out = tmp_path / "removed"
-    proc = subprocess.run([sys.executable, "-c", _REMOVED_BEFORE_APPEND, "run", str(study_file), "--out", str(out),
-                           "--no-plots"], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    last = _last_line_of_a_patched_run(_REMOVED_BEFORE_APPEND, study_file, out)
+    assert last.startswith(f"error: the results directory {out} was removed or replaced"), last
+
+
+def _last_line_of_a_patched_run(script: str, study_file, out) -> str:
+    """Run the study under a script that patches the ledger; it must stop with exit 74 and one
+    line, no traceback: that line."""
+    proc = subprocess.run([sys.executable, "-c", script, "run", str(study_file), "--out", str(out), "--no-plots"],
+                          cwd=ROOT, capture_output=True, text=True, timeout=300)
     assert proc.returncode == 74, proc.stderr
     assert "Traceback" not in proc.stderr
-    last = proc.stderr.strip().splitlines()[-1]
-    assert last.startswith(f"error: the results directory {out} was removed or replaced"), last
+    return proc.stderr.strip().splitlines()[-1]
+
 
 #: runs the pipeline with every ledger append failing as on a full disk, after half the line
 #: reached the file (a torn write)
@@ -304,11 +311,7 @@ runpy.run_module("pipeline", run_name="__main__")
 def test_disk_full_at_the_ledger_is_exit_74_one_line_and_no_torn_line(study_file, finished, tmp_path):
     from pipeline.ledger import Ledger
     out = tmp_path / "full_ledger"
-    proc = subprocess.run([sys.executable, "-c", _TORN_LEDGER, "run", str(study_file), "--out", str(out),
-                           "--no-plots"], cwd=ROOT, capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 74, proc.stderr
-    assert "Traceback" not in proc.stderr
-    last = proc.stderr.strip().splitlines()[-1]
+    last = _last_line_of_a_patched_run(_TORN_LEDGER, study_file, out)
     assert last.startswith(f"error: cannot write {out / LEDGER}") and "MiB free" in last, last
     assert "finished cases are kept" in last
     ledger = Ledger.load(out)
