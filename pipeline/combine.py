@@ -221,12 +221,12 @@ def _runs(flat: np.ndarray):
     return list(zip(edges[:-1], edges[1:]))
 
 
-def _case_coordinates(study: Study) -> list:
-    """The per-case variables a [[cases]] or [design] study's data variables name as their
-    coordinates (CF): the keys that vary, and the cases' group labels when there are any (the
-    work_precision and extremes outputs select by group)."""
-    groups = any(c.get("group", "") for c in study.case_list)
-    return list(study.varying_keys) + (["group"] if groups else [])
+def _groups(study: Study) -> list:
+    """The group labels of a [[cases]] study's cases, or [] when none has one (a grid: [])."""
+    if study.grid:
+        return []
+    groups = [c.get("group", "") for c in study.case_list]
+    return groups if any(groups) else []
 
 
 class StudyWriter:
@@ -249,8 +249,11 @@ class StudyWriter:
         if study.output["records"]:
             nc.createDimension("tension_node", None)
             nc.createDimension("contact_change", None)
-        self._coords(t_coord, x_fraction)
-        varying = [] if study.grid else _case_coordinates(study)
+        # a [[cases]] or [design] study's variables name their per-case coordinates (CF): the
+        # keys that vary, and the group labels (work_precision and extremes select by them)
+        groups = _groups(study)
+        coordinates = "" if study.grid else " ".join([*study.varying_keys, *(["group"] if groups else [])])
+        self._coords(t_coord, x_fraction, groups, coordinates)
         for name, tail, kind, attrs in self.variables:
             dims = self.dims + tail
             if kind == "f":
@@ -259,7 +262,7 @@ class StudyWriter:
                 var = nc.createVariable(name, "i8", dims, fill_value=False)
             else:
                 var = nc.createVariable(name, str, dims)
-            var.setncatts(attrs if not varying else {**attrs, "coordinates": " ".join(varying)})
+            var.setncatts({**attrs, "coordinates": coordinates} if coordinates else attrs)
         if study.output["records"]:
             for name, (long_name, units) in {**TENSION_RECORD_INFO, **CONTACT_RECORD_INFO}.items():
                 dim = "tension_node" if name in TENSION_RECORD_INFO else "contact_change"
@@ -269,7 +272,7 @@ class StudyWriter:
         self.seen = np.zeros(study.n_cases, dtype=bool)
         self.buffer, self.buffered = [], 0
 
-    def _coords(self, t_coord, x_fraction):
+    def _coords(self, t_coord, x_fraction, groups: list, coordinates: str):
         nc, study = self.nc, self.study
         first = study.case(0)
         t = nc.createVariable("t", "f8", ("t",))
@@ -311,8 +314,7 @@ class StudyWriter:
                 v = nc.createVariable(key, str if data.dtype == object else data.dtype, (dim,))
                 v[:] = data
                 v.setncatts(attrs)
-            groups = [c.get("group", "") for c in study.case_list]
-            if any(groups):
+            if groups:
                 v = nc.createVariable("group", str, (dim,))
                 v[:] = np.array(groups, dtype=object)
                 v.long_name = "label of the case in the study file"
@@ -330,8 +332,8 @@ class StudyWriter:
         ids = nc.createVariable("case_id", str, self.dims)
         ids[...] = np.array(study.case_ids, dtype=object).reshape(self.shape)
         ids.long_name = "id of the case (its row in ledger.jsonl names its batch file)"
-        if not study.grid and _case_coordinates(study):
-            ids.coordinates = " ".join(_case_coordinates(study))
+        if coordinates:
+            ids.coordinates = coordinates
 
     def _put(self, name, flat, values):
         """values[k] belongs at flat grid index flat[k] (flat sorted)."""

@@ -73,7 +73,6 @@ def test_extreme_case_60_modes(name):
     _check({**FAST, **SLOW}[name], Nmod=60 if "Nmod" not in {**FAST, **SLOW}[name] else 200)
 
 
-
 def test_gauss_guard_holds_the_identity_on_a_stiff_fast_corner():
     """The Gauss rule's energy guard allows the step's work only on the step from first touch
     (docs/model.md, "The energy guard"): on the soft layer at 40 m/s it rejects the step that
