@@ -43,6 +43,10 @@ from .errors import StudyError
 
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
 SCHEMA_VERSION = 8
+#: bump when the Gauss rule's results change at the same settings: its cases stored under an
+#: older one are recomputed, the paper rule's keep their ids. 2 (2026-11-25): the energy guard
+#: allows a step's work only from first touch; contact changes placed on the continuous plate
+GAUSS_REVISION = 2
 
 SECTIONS = {"description", "base", "grid", "cases", "design", "analysis", "search", "output", "solver", "plots",
             "reference",
@@ -711,11 +715,13 @@ def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
 
 def _used_settings(settings: Settings) -> dict:
     """The settings the run reads. The quadrature enters only when it is not the paper's, so that
-    the ids of the cases run before it was a setting stay what they were."""
+    the ids of the cases run before it was a setting stay what they were; with it the revision of
+    its results (GAUSS_REVISION)."""
     used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
     if settings.quadrature != "paper":
         used["quadrature"] = settings.quadrature
         used["quadrature_density"] = settings.quadrature_density
+        used["quadrature_revision"] = GAUSS_REVISION
     return used
 
 

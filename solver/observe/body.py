@@ -46,7 +46,7 @@ def observe_body(body, t, h, yb0, yb1, F0, F1, contacts, record, diag):
     rec_c, n_c = record
     t_sep = t + h
     if n_c > 0 and rec_c[n_c - 1, 1] == 0.0:
-        t_sep = max(rec_c[n_c - 1, 0], diag[D_STOP_T])
+        t_sep = min(max(rec_c[n_c - 1, 0], diag[D_STOP_T]), t + h)
     th = min(max((t_sep - t) / h, 0.0), 1.0)
     diag[D_SEPARATION_T] = t_sep
     diag[D_SEPARATION_SPEED] = -cubic(c0, c1, c2, c3, th)
