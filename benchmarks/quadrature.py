@@ -11,6 +11,10 @@ For each error target the cheapest run of each rule that meets it, and the ratio
 case today's default (paper, 1000 subintervals, tolerance 1e-8) beside the cheapest Gauss run
 within 2e-6, go to results/bench/quadrature.md; every run to results/bench/quadrature.csv; error against time to
 results/bench/quadrature.png.
+
+--loose (about 4 min): the targets 1e-3, 1e-4, 1e-5 with each rule on its cheapest tables too,
+the paper's at 500 and 1000 subintervals, the Gauss rule at 125 and 250 and density 3 and 4, at
+tolerances 1e-5..1e-8, to results/bench/quadrature_loose.md (docs/numerics.md, "Loose targets").
 """
 import argparse
 import csv
@@ -35,10 +39,26 @@ TOLERANCES = [1e-6, 3e-7, 1e-7, 3e-8, 1e-8, 3e-9, 1e-9, 3e-10, 1e-10, 1e-11]
 #: default (1000 subintervals, tolerance 1e-8)
 DEFAULT_TARGET = 2e-6
 TARGETS = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7]
+LOOSE_TOLERANCES = [1e-5, 3e-6, 1e-6, 3e-7, 1e-7, 3e-8, 1e-8]
+LOOSE_TARGETS = [1e-3, 1e-4, 1e-5]
 OUT = Path("results/bench")
 
 
-def runs(quick: bool, defaults_only: bool = False):
+def loose_runs():
+    """Each rule on its cheapest tables at loose tolerances (--loose)."""
+    for sub in (500, 1000):
+        for tol in LOOSE_TOLERANCES:
+            yield "paper", dict(subintervals=sub, tolerance=tol)
+    for dens in (3.0, 4.0):
+        for sub in (125, 250):
+            for tol in LOOSE_TOLERANCES:
+                yield "gauss", dict(quadrature="gauss", quadrature_density=dens, subintervals=sub, tolerance=tol)
+
+
+def runs(quick: bool, defaults_only: bool = False, loose: bool = False):
+    if loose:
+        yield from loose_runs()
+        return
     yield "paper default", PAPER_NUMERICS
     default = Settings()
     yield "default", dict(quadrature=default.quadrature, quadrature_density=default.quadrature_density,
@@ -70,6 +90,8 @@ def main() -> None:
     ap.add_argument("--quick", action="store_true", help="a few runs a case (a smoke test)")
     ap.add_argument("--defaults-only", action="store_true",
                     help="only the paper's old default beside today's (3 min): results/bench/quadrature_defaults.md")
+    ap.add_argument("--loose", action="store_true",
+                    help="targets 1e-3..1e-5, each rule on its cheapest tables: results/bench/quadrature_loose.md")
     ap.add_argument("--plot-only", action="store_true", help="redraw the figure from results/bench/quadrature.csv")
     args = ap.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
@@ -98,7 +120,7 @@ def main() -> None:
                          f"of the stage; its uncertainty (density 16 against 24) {own:.1e}")
             print(notes[-1], flush=True)
             case_rows = []
-            for rule, kws in runs(args.quick, args.defaults_only):
+            for rule, kws in runs(args.quick, args.defaults_only, args.loose):
                 r, wall = strain(p, Settings(error_estimate=False, **kws), times, x, repeats=3 if "default" in rule else 2)
                 ok = r.valid[valid]
                 err = (np.linalg.norm(r.fields["strain"][valid] - e_ref) / norm) if ok.all() else np.inf
@@ -107,6 +129,10 @@ def main() -> None:
                            time=wall, energy_residual=r.diagnostics["energy_residual"], status=r.status)
                 rows.append(row)
                 case_rows.append(row)
+            if args.loose:
+                md.extend(_target_rows(name, N, case_rows, LOOSE_TARGETS))
+                print("\n".join(md[-len(LOOSE_TARGETS):]), flush=True)
+                continue
             old, new = case_rows[0], case_rows[1]
             notes.append(f"- {name}, N = {N}: the paper's default (1000 subintervals, tol 1e-8) {old['error']:.1e} in "
                          f"{old['time']:.3f} s, energy residual {old['energy_residual']:.1e}; today's default "
@@ -116,22 +142,7 @@ def main() -> None:
             print(notes[-1], flush=True)
             if args.defaults_only:
                 continue
-            for target in TARGETS:
-                best = {}
-                for rule in ("paper", "gauss"):
-                    ok = [r for r in case_rows if r["rule"] == rule and r["error"] <= target]
-                    best[rule] = min(ok, key=lambda r: r["time"]) if ok else None
-
-                def label(r):
-                    if r is None:
-                        return "none reaches it", "—"
-                    dens = f", density {r['density']:g}" if r["rule"] == "gauss" else ""
-                    return (f"{r['subintervals']} subintervals{dens}, tol {r['tolerance']:g} "
-                            f"(error {r['error']:.1e})", f"{r['time']:.3f}")
-                ratio = (f"{best['paper']['time'] / best['gauss']['time']:.2f}"
-                         if best["paper"] and best["gauss"] else "—")
-                md.append(f"| {name} | {N} | {target:g} | {' | '.join(label(best['paper']))} | "
-                          f"{' | '.join(label(best['gauss']))} | {ratio} |")
+            md.extend(_target_rows(name, N, case_rows, TARGETS))
             print("\n".join(md[-len(TARGETS):]), flush=True)
             default = [r for r in case_rows if r["rule"] == "paper" and r["subintervals"] == 1000
                        and r["tolerance"] == 1e-8]
@@ -143,6 +154,10 @@ def main() -> None:
                              f"density {g['density']:g}, tol {g['tolerance']:g}, {g['error']:.1e} in "
                              f"{g['time']:.3f} s ({g['time'] / d['time']:.2f} of the default's time)")
                 print(notes[-1], flush=True)
+    if args.loose:
+        (OUT / "quadrature_loose.md").write_text("\n".join(notes + [""] + md) + "\n")
+        print(f"wrote {OUT / 'quadrature_loose.md'}")
+        return
     if args.defaults_only:
         (OUT / "quadrature_defaults.md").write_text("\n".join(notes) + "\n")
         print(f"wrote {OUT / 'quadrature_defaults.md'}")
@@ -154,6 +169,27 @@ def main() -> None:
     (OUT / "quadrature.md").write_text("\n".join(notes + [""] + md) + "\n")
     figure(rows, args.nmod, OUT / "quadrature.png")
     print(f"wrote {OUT / 'quadrature.md'}, {OUT / 'quadrature.csv'}, {OUT / 'quadrature.png'}")
+
+
+def _target_rows(name, N, case_rows, targets):
+    """A table row per target: the cheapest run of each rule that reaches it, and their ratio."""
+    out = []
+    for target in targets:
+        best = {}
+        for rule in ("paper", "gauss"):
+            ok = [r for r in case_rows if r["rule"] == rule and r["error"] <= target]
+            best[rule] = min(ok, key=lambda r: r["time"]) if ok else None
+
+        def label(r):
+            if r is None:
+                return "none reaches it", "—"
+            dens = f", density {r['density']:g}" if r["rule"] == "gauss" else ""
+            return (f"{r['subintervals']} subintervals{dens}, tol {r['tolerance']:g} "
+                    f"(error {r['error']:.1e})", f"{r['time']:.3f}")
+        ratio = f"{best['paper']['time'] / best['gauss']['time']:.2f}" if best["paper"] and best["gauss"] else "—"
+        out.append(f"| {name} | {N} | {target:g} | {' | '.join(label(best['paper']))} | "
+                   f"{' | '.join(label(best['gauss']))} | {ratio} |")
+    return out
 
 
 def figure(rows, nmods, path):
