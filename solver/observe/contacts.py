@@ -13,6 +13,7 @@ test_contact_changes_are_placed_on_the_continuous_plate; and tests/test_kernel_p
 interval shorter than a step is counted, the default's 250-node record agrees with a 4000-node one,
 and the observer on the nodes bounded by reach_in_step equals the observer on every node.
 """
+import math
 from collections import namedtuple
 
 import numpy as np
@@ -86,6 +87,8 @@ def _between_nodes(model, near, t0, h, end0, end1, j, th):
         if not valid or rate == 0.0:
             return t0 + th * h if s == th else t0 + s * h
         step = -value / (rate * h)
+        if not math.isfinite(step):
+            return t0 + th * h
         s_new = s + step
         if s_new < 0.0 or s_new > 1.0 or abs(step) < 1e-12:
             return t0 + min(s_new, 2.0) * h        # beyond the step: linear from inside it
