@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ..cubic import cubic, cubic_sign_changes, hermite
-from ..model.basis import modal_sum_range
+from ..model.basis import modal_sum_range, refine
 from ..model.body import body_position, body_speed
 from ..model.contact import count_contacts, node_deltas, reach_in_step
 from .record import append_row
@@ -41,10 +41,10 @@ def contact_work(J):
 
 @njit(cache=True, nogil=True)
 def _extremum(near, rates, he, h, j, th):
-    """The extremum over x of the parabola through delta at nodes j - 1, j, j + 1 at th (each the
-    cubic Hermite of its ends near[0:2] and rates near[2:4] + the body's speed rates (U0, U1), over
-    he), and delta's rate there: (value, rate, whether the neighbours share a sign: only then
-    is the extremum within half a node of j)."""
+    """The extremum over x of the parabola through delta at nodes j - 1, j, j + 1 at th
+    (basis.refine; each node's delta the cubic Hermite of its ends near[0:2] and rates near[2:4]
+    + the body's speed rates (U0, U1), over he), and delta's rate there: (value, rate, whether
+    the neighbours share a sign: only then is the extremum within half a node of j)."""
     d = np.empty(3)
     r = np.empty(3)
     for k in range(3):
@@ -55,9 +55,11 @@ def _extremum(near, rates, he, h, j, th):
     curv = d[0] - 2.0 * d[1] + d[2]
     if (d[0] > 0.0) != (d[2] > 0.0) or curv == 0.0:
         return d[1], r[1], False
-    off = 0.5 * (d[0] - d[2]) / curv
+    sign = 1.0 if curv < 0.0 else -1.0                 # a peak, or a dip
+    value, x = refine(d, sign, 1, 3, 1.0)
+    off = x - 1.0
     rate = r[1] + 0.5 * off * (r[2] - r[0]) + 0.5 * off * off * (r[0] - 2.0 * r[1] + r[2])
-    return d[1] - 0.25 * (d[0] - d[2]) * off, rate, True
+    return sign * value, rate, True
 
 
 @njit(cache=True, nogil=True)
@@ -85,7 +87,7 @@ def _between_nodes(model, near, t0, h, end0, end1, j, th):
     for _ in range(6):
         value, rate, valid = _extremum(near, rates, he, h, j, s)
         if not valid or rate == 0.0:
-            return t0 + th * h if s == th else t0 + s * h
+            return t0 + s * h
         step = -value / (rate * h)
         if not math.isfinite(step):
             return t0 + th * h
