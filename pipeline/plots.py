@@ -243,11 +243,17 @@ def _sweep_line(ax, x, values, ok, on_axis, color, marker, label) -> None:
 PLACED_MAXIMA = ("max_strain", "max_strain_lower")
 
 
+def walled(ds: xr.Dataset) -> xr.DataArray:
+    """True for the cases between walls (edges = "walls", and every case of a dataset from before
+    free floes); a free floe's edges are not walls."""
+    return ds["edges"] != "free" if "edges" in ds.variables else xr.DataArray(True)
+
+
 def at_wall(ds: xr.Dataset, name: str) -> xr.DataArray:
     """True where the plate-wide maximum ``name`` sits at a wall, |name_x| = L (to 1e-9 L): in
     the paper's confined plate the ice rises along the walls and bends hardest there late in
-    the stage (docs/user_guide.md, "Where the largest tension is")."""
-    return np.abs(ds[f"{name}_x"]) >= ds["L"] * (1.0 - 1e-9)
+    the stage (docs/user_guide.md, "Where the largest tension is"). Never on a free floe."""
+    return (np.abs(ds[f"{name}_x"]) >= ds["L"] * (1.0 - 1e-9)) & walled(ds)
 
 
 def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
@@ -304,9 +310,11 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
                               ha="right" if first == "case" else "center", fontsize=8)
             else:
                 ax.ticklabel_format(axis="x", useOffset=False)
-        if name in PLACED_MAXIMA:
+        if name in PLACED_MAXIMA and bool(np.any(walled(ds).values)):
             walls = int(np.sum(at_wall(ds, name).values & np.isfinite(ds[name].values)))
             title = f"{title}\n○: at a wall (x = ±L), {walls} of {ds[name].size} cases"
+        elif name in PLACED_MAXIMA:
+            title = f"{title}\nfree floe: no walls"
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
                       "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")

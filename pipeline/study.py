@@ -42,7 +42,8 @@ from solver.axes import linear_axis, log_axis, round_significant
 from .errors import StudyError
 
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
-SCHEMA_VERSION = 8
+#: (9, 2026-11-25: the parameters edges and duration, the diagnostic gravity_time_ratio)
+SCHEMA_VERSION = 9
 #: bump when the Gauss rule's results change at the same settings: its cases stored under an
 #: older one are recomputed, the paper rule's keep their ids. 2 (2026-11-25): the energy guard
 #: allows a step's work only from first touch; contact changes placed on the continuous plate

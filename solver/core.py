@@ -92,7 +92,10 @@ DIAGNOSTIC_INFO = {
     "body_energy_residual": ("max over time of |M (U^2 - V^2)/2 - M body_g s + W| divided by the largest "
                              "work W: the free body's own energy balance (NaN for the paper's body)", "1",
                              kn.D_BODY_RESIDUAL),
-    # computed by solve() from the outputs (index None): estimates of the relative L2 strain error
+    # computed by solve() from the outputs (index None): how short a free floe's run is against
+    # the time the open water needs to respond, and estimates of the relative L2 strain error
+    "gravity_time_ratio": ("time reached over sqrt(L/g), the gravity-wave time of a free floe: phi = 0 on the "
+                           "open water outside it holds for values << 1 (NaN: the walled plate)", "1", None),
     "error_estimate": ("estimated relative L2 strain error over the output times: "
                        "error_estimate_time + error_estimate_modes + error_estimate_quadrature", "1", None),
     "error_estimate_time": ("time-integration part (etd34: difference from a companion run at 10x "
@@ -210,7 +213,7 @@ def _layer_pressure(p, tables, a, s, x, adot=None, U=None):
     same law the forcing integrates); with the contact-resolving rule, which integrates
     f(delta(x)) itself, K f(delta(x)) on the modes."""
     if tables.model.basis.rule == 1:      # the contact-resolving rule integrates f(delta(x)) itself
-        cos = np.cos(np.outer(tables.kernel_x(x), tables.lam))               # (X, N)
+        cos = tables.mode_values(x)                                          # (X, N)
         d = (cos @ a + s - p.body_profile(x)) / p.he
         on = d > 0
         f = np.where(on, law_pressure.py_func(tables.model.layer.law, np.where(on & (d < 1), d, 0.5)), 0.0)
@@ -322,6 +325,9 @@ def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, un
     v0 = np.zeros(N) if initial_velocities is None else np.asarray(initial_velocities, float)
     if a0.shape != (N,) or v0.shape != (N,):
         raise ParameterError(f"initial amplitudes and velocities must have shape ({N},)")
+    if p.edges == "free" and (np.any(a0 != 0) or np.any(v0 != 0) or t_start != 0):
+        raise ParameterError("a free floe's run starts at rest at first touch (t_start = 0, no initial "
+                             "amplitudes or velocities)")
     if not isinstance(until_separation, bool):
         raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
     check_combination(p, s)
@@ -348,13 +354,15 @@ def _field_values(p, tab, fields, x, out_a, out_adot, series, valid) -> dict:
         return field_values
     T = out_a.shape[0]
     body_s = series[:, kn.S_BODY_POSITION]
-    cosx = np.cos(np.outer(tab.kernel_x(x), tab.lam))                     # (X, N)
-    w = out_a @ cosx.T
+    modes = tab.mode_values(x)                                            # (X, N)
+    w = out_a @ modes.T
     for name in fields:
         if name == "deflection":
             field_values[name] = w
+        elif name == "strain" and tab.floe is None:
+            field_values[name] = (out_a * tab.strain_coef) @ modes.T
         elif name == "strain":
-            field_values[name] = (out_a * tab.strain_coef) @ cosx.T
+            field_values[name] = out_a @ tab.mode_values(x, "strain").T
         elif name == "compression":
             field_values[name] = (w + body_s[:, None] - p.body_profile(x)) / p.he
         elif name == "layer_pressure":
@@ -511,6 +519,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     level_x += tab.origin
     field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
+    diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan
     companion = None
     extra = {}
     if s.error_estimate and s.integrator == "etd34" and s.fixed_step == 0 and n_out > 0:

@@ -25,7 +25,7 @@ from .layout import (B_D, B_U, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_
                      D_T_REACHED, ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP,
                      FAIL_MAX_STEPS, FAIL_NONFINITE, FAIL_STEP_UNDERFLOW, LAYER_BOTTOMED_OUT, N_REC, NONFINITE,
                      OK, SEPARATED, STEP_LIMIT, STOPPED)
-from .model.basis import strain_nodes
+from .model.basis import node_strain
 from .model.body import body_coefficients, body_position, body_residual, body_speed
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
@@ -87,7 +87,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
     rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
-    strain_nodes(cur.a, plate.modes[STRAIN], model.basis.cosq, cur.eps)
+    node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], cur.a, cur.eps)
     tw = ws.tension
     for s_ in range(2):
         peak = tw.track[PEAKS + s_]
@@ -346,7 +346,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
         else:
-            strain_nodes(new.a, model.plate.modes[STRAIN], model.basis.cosq, new.eps)
+            node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
         contacts, records, left = _observe(model, observers, cur, new, carried, t, h_eff,
                                            (jmax, jm5, F5, reached), records, diag)
         # exact crossings of the levels, for verification: after the observers (the search's

@@ -23,78 +23,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .model.layer import LAW_CODES
-
-#: key -> (long_name, units) for every physical parameter.
-PARAMETER_INFO = {
-    "K": ("rigidity of the elastic layer", "Pa"),
-    "he": ("thickness of the elastic layer", "m"),
-    "R": ("radius of curvature of the body", "m"),
-    "V": ("impact speed of the body", "m s-1"),
-    "hi": ("ice thickness", "m"),
-    "Nmod": ("number of retained normal modes", "1"),
-    "L": ("half-length of the ice plate", "m"),
-    "E": ("Young's modulus of ice", "Pa"),
-    "nu": ("Poisson's ratio of ice", "1"),
-    "rho_i": ("ice density", "kg m-3"),
-    "rho_w": ("water density", "kg m-3"),
-    "g": ("gravitational acceleration", "m s-2"),
-    "H": ("water depth under the ice (inf: deep water, the paper's model)", "m"),
-    "body_mass": ("mass of the body per unit width (inf: driven at the constant speed V, the paper's "
-                  "model)", "kg m-1"),
-    "body_g": ("downward acceleration of a free body besides the ice's reaction (gravity; 0 for a body "
-               "whose weight is carried)", "m s-2"),
-    "body_p": ("exponent p of the body's power-law profile (|x| - flat_width)^p / (p R^(p-1)) "
-               "(2: the paper's parabola)", "1"),
-    "flat_width": ("half-width of the body's flat bottom; its corners follow the profile beyond "
-                   "(0: the paper's parabola)", "m"),
-    "deadrise": ("deadrise angle of a wedge-shaped body, (|x| - flat_width) tan(deadrise) (0: not a "
-                 "wedge; R and body_p are then unused)", "degree"),
-    "tau": ("retardation time of the Kelvin-Voigt viscoelastic ice, D -> D (1 + tau d/dt) (0: elastic, "
-            "the paper's)", "s"),
-    "layer_tau": ("retardation time of the viscoelastic layer: pressure K f(delta) max(1 + layer_tau "
-                  "d(delta)/dt, 0) where compressed (0: elastic, the paper's)", "s"),
-    "x0": ("horizontal position of the body's centre, -L < x0 < L (0: the paper's centred impact)", "m"),
-    "layer_law": ("law of the layer's pressure K f(delta): paper, f = delta / (1 - delta); linear, the "
-                  "classical Winkler layer f = delta", ""),
-}
-
-#: parameters that take one of a few names: key -> the names (each module of solver.model that
-#: reads one declares its names)
-CHOICES = {"layer_law": tuple(LAW_CODES)}
-
-#: parameters beyond the paper's model, with the value that is the paper's model: a case id
-#: leaves them out at that value, so the ids of every study from before they existed hold
-PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
-                  "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0, "layer_law": "paper"}
-
-#: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
-#: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
-#: outside (one line naming the range) unless it says ``accept_extreme_values = true``; the
-#: solver itself takes any finite positive value. Besides: hi <= L (a plate, not a block).
-PHYSICAL_RANGES = {
-    "K": (1e3, 1e12), "he": (1e-5, 1.0), "R": (1e-2, 1e4), "V": (1e-3, 1e3), "hi": (1e-3, 100.0),
-    "L": (0.1, 1e5), "E": (1e6, 1e12), "rho_i": (10.0, 1e5),
-    "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
-    "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
-    "tau": (0.0, 10.0), "layer_tau": (0.0, 10.0),
-}
-
-
-def outside_physical_range(values: dict) -> str | None:
-    """A one-line reason if a parameter lies outside PHYSICAL_RANGES (or hi > L), else None."""
-    for key, value in values.items():
-        lo, hi = PHYSICAL_RANGES.get(key, (None, None))
-        if key in CHOICES or (key in PAPER_DEFAULTS and float(value) == PAPER_DEFAULTS[key]):
-            continue                                       # H = inf: deep water; M = inf
-        if lo is not None and not lo <= float(value) <= hi:
-            unit = PARAMETER_INFO[key][1]
-            return (f"{key} = {value!r} lies outside the range the model is meant for, {lo:g}..{hi:g} "
-                    f"{unit}".rstrip())
-    if "hi" in values and "L" in values and values["hi"] > values["L"]:
-        return f"hi = {values['hi']!r} m is thicker than the plate's half-length L = {values['L']!r} m"
-    return None
-
+from .keys import (BEYOND_BOUNDS, CHOICES, PAPER_DEFAULTS, PARAMETER_INFO, PHYSICAL_RANGES,  # noqa: F401
+                   outside_physical_range)
 
 #: key -> (long_name, units) for every solver setting.
 SETTING_INFO = {
@@ -133,17 +63,6 @@ class ParameterError(ValueError):
     """A parameter or setting with a value outside its allowed range."""
 
 
-#: the allowed values of the keys beyond the paper: key -> (lowest, lowest excluded, inf allowed,
-#: a note for the message)
-BEYOND_BOUNDS = {
-    "H": (0.0, True, True, "inf: deep water"),
-    "body_mass": (0.0, True, True, "inf: the paper's body at constant speed"),
-    "body_g": (0.0, False, False, ""),
-    "body_p": (1.0, False, False, "a convex body"),
-    "flat_width": (0.0, False, False, ""),
-    "tau": (0.0, False, False, "0: elastic ice"),
-    "layer_tau": (0.0, False, False, "0: elastic layer"),
-}
 
 
 def _check_bound(name: str, value, lowest: float, strict: bool, infinite: bool, note: str) -> None:
@@ -265,6 +184,13 @@ class Parameters:
         The law of the layer's pressure ``K f(delta)`` (docs/model.md, "Layer law"): "paper"
         (the default), ``f = delta / (1 - delta)``, stiffening without bound as the layer is
         crushed; "linear", the classical Winkler layer ``f = delta``.
+    edges : {"walls", "free"}
+        "walls" (the default): the paper's basin, sliding walls at x = +-L. "free": a floe of
+        half-length L in open water, free edges, heave and pitch, phi = 0 on the water outside
+        (docs/model.md, "A free floe"); Nmod symmetric and Nmod antisymmetric elastic modes.
+    duration : float
+        Length of the run [s]. 0 (the default): the walled plate's impact stage ``b_mean / V``
+        (``L^2 / (6 R V)`` for the parabola); a free floe has no such end and needs a duration.
     """
 
     K: float = 8e6
@@ -289,6 +215,8 @@ class Parameters:
     layer_tau: float = 0.0
     x0: float = 0.0
     layer_law: str = "paper"
+    edges: str = "walls"
+    duration: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):
@@ -318,7 +246,20 @@ class Parameters:
             object.__setattr__(self, f.name, int(value) if f.name == "Nmod" else float(value))
         if not abs(self.x0) < self.L:
             raise ParameterError(f"x0 must lie inside the plate, -L < x0 < L = {self.L!r} m, got {self.x0!r}")
+        if self.edges == "free":
+            self._check_floe()
         self._check_scales()
+
+    def _check_floe(self) -> None:
+        """What a free floe needs and does not have yet (one line each)."""
+        if not self.duration > 0.0:
+            raise ParameterError("a free floe (edges = 'free') needs duration > 0 [s]: its run has no end of its "
+                                 "own (the walls' impact stage follows from int w dx = 0, which a floe lacks)")
+        if self.tau > 0.0:
+            raise ParameterError("a free floe (edges = 'free') is elastic for now: tau must be 0 (Kelvin-Voigt "
+                                 "damping is not diagonal in its wet modes)")
+        if math.isfinite(self.H):
+            raise ParameterError("a free floe (edges = 'free') floats on deep water: H must be inf")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,
@@ -478,6 +419,8 @@ class Parameters:
         """``T = L^2 / (6 R V)``, the impact stage computed [s]; for any body shape and centre
         ``T = b_mean / V``, ``b_mean = (1/2L) int_-L^L b(x - x0) dx`` (docs/model.md, "Body
         shapes"; the parabola off centre: ``(L^2/3 + x0^2) / (2 R V)``)."""
+        if self.duration > 0.0:
+            return self.duration
         if self.parabola and not self.off_centre:
             return self.L**2 / (6.0 * self.R * self.V)
         return self.profile_mean() / self.V
@@ -590,6 +533,9 @@ class Settings:
 
 def check_combination(parameters: Parameters, settings: Settings) -> None:
     """Refuse parameters and settings that are each valid but do not go together (one line)."""
+    if parameters.edges == "free" and settings.quadrature != "paper":
+        raise ParameterError("a free floe (edges = 'free') runs the paper's quadrature for now: set quadrature = "
+                             "\"paper\" (the Gauss rule evaluates the walls' cosines)")
     if (parameters.tau > 0 or parameters.layer_tau > 0) and settings.integrator == "rk4":
         raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
                              "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")

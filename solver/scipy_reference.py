@@ -24,6 +24,7 @@ from . import layout as kn
 from .control import BOTTOM_GAP
 from .cubic import cubic_max, hermite
 from .model.body import body_accel, body_residual
+from .model.basis import field_sum, global_peak, node_strain
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
@@ -92,11 +93,20 @@ class _Observer:
 
     def sample(self, t, a, v, work, contacts, force, delta_max, s, U):
         tab, p = self.tab, self.p
-        coef = a * tab.strain_coef
-        eps = coef @ tab.cosq
+        if tab.floe is None:
+            coef = a * tab.strain_coef
+            eps = coef @ tab.cosq
+        else:                                  # a floe's wet modes: the kernels' strain and peaks
+            basis, eps = tab.model.basis, np.empty(tab.xq.size)
+            a, v = np.ascontiguousarray(a), np.ascontiguousarray(v)
+            node_strain(basis.cosq, basis.floe, tab.strain_coef, a, eps)
         for k, sign in enumerate((1.0, -1.0)):
-            value, x = _peak(coef, tab.lam, tab.xq, eps, sign)
-            rate = sign * np.sum(v * tab.strain_coef * np.cos(tab.lam * x))
+            if tab.floe is None:
+                value, x = _peak(coef, tab.lam, tab.xq, eps, sign)
+                rate = sign * np.sum(v * tab.strain_coef * np.cos(tab.lam * x))
+            else:
+                value, x, _ = global_peak(eps, sign, basis, tab.strain_coef, a)
+                rate = sign * field_sum(basis.lam1, basis.floe, (tab.strain_coef, 1), v, x)
             row = [t, value, rate, x, 0.0]
             previous = self.last[k]
             if value > self.running[k]:            # a piece from the previous sample to this one

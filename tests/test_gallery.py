@@ -85,6 +85,13 @@ def test_plot_off_centre(tmp_path, monkeypatch):
     assert r.parameters.x0 == 2.0 and not np.allclose(strain, strain[::-1], rtol=1e-3)
 
 
+def test_plot_floe_size(tmp_path, monkeypatch):
+    g = run("plot_floe_size.py", tmp_path, monkeypatch)
+    upper, lower = (np.asarray(g["tension"][s]) for s in ("upper", "lower"))
+    assert upper[0] < 8e-5 < upper[-1] and lower[0] < lower[-1] / 5   # the small floe barely bends
+    assert g["r"].parameters.edges == "free" and g["r"].status == "ok"
+
+
 def test_plot_viscoelastic(tmp_path, monkeypatch):
     g = run("plot_viscoelastic.py", tmp_path, monkeypatch)
     dissipated = np.asarray(g["dissipated"])

@@ -17,6 +17,7 @@ import numpy as np
 
 from .basis import QUADRATURE_CODES, Basis
 from .body import Body
+from .floe import _dry_values, floe_tables
 from .layer import LAW_CODES, Layer
 from .plate import COEF, MASS, STRAIN, Plate, make_plate
 from .quadrature import PANEL_POINTS, legendre_rule
@@ -35,7 +36,12 @@ class Tables:
 
     def __init__(self, p, subintervals: int, full_plate: bool | None = None, quadrature: str = "paper",
                  quadrature_density: float = 8.0):
+        self.floe = None
+        self.hi = float(p.hi)
         full = p.off_centre if full_plate is None else bool(full_plate)
+        if p.edges == "free":
+            self._free_floe(p, subintervals, full)
+            return
         self.full_plate = full
         if full:
             lam = np.pi * np.arange(1, 2 * p.Nmod + 1) / (2.0 * p.L)
@@ -57,9 +63,50 @@ class Tables:
         # panels of PANEL_POINTS Gauss nodes, quadrature_density of them per wavelength of the last mode
         panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(lam[-1])
         basis = Basis(float(lam[0]), float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
-                      float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel)
+                      float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
+                      0.0, np.zeros(0))
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]))
+
+    def _free_floe(self, p, subintervals, full):
+        """A free floe (docs/model.md, "A free floe"): its wet modes (solver.model.floe) in the
+        node table, the paper's rule; the full floe -L..L in kernel coordinates xi = x + L, or for
+        a centred impact the half floe 0..L and the symmetric wet modes (mirror = 2)."""
+        self.full_plate = full
+        self.origin = -p.L if full else 0.0
+        self.dx = p.L / subintervals
+        self.xq = self.dx * np.arange((2 if full else 1) * subintervals + 1)
+        self.x_nodes = self.xq + self.origin
+        fl = self.floe = floe_tables(p, self.xq, full)
+        self.floe_length = float(p.L)
+        N = fl["omega"].size
+        self.omega, self.damping = fl["omega"], np.zeros(N)
+        self.lam = np.full(N, np.nan)                 # no wavenumbers: the wet modes are not cosines
+        self.cosq, self.wq = fl["cosq"], np.zeros(N)
+        mass = fl["mass"]
+        plate = make_plate(self.omega, (-1.0 if full else -2.0) / mass, fl["strain_scale"], mass, np.zeros(N),
+                           self.omega, np.zeros(N), mass[0])
+        self.coef, self.LM, self.strain_coef = plate.modes[COEF], plate.modes[MASS], plate.modes[STRAIN]
+        gauss_x, gauss_w = legendre_rule(PANEL_POINTS)
+        basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
+                      float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES["paper"], gauss_x, gauss_w, 0.0, 1.0,
+                      fl["packed"])
+        self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
+                                                                    LAW_CODES[p.layer_law]))
+
+    def mode_values(self, x, field: str = "deflection"):
+        """(X, N): each kernel mode's deflection (field "deflection") or upper-surface strain
+        ("strain") per unit amplitude at plate positions x [m] (numpy; on the cosines the strain
+        is their deflection times strain_coef)."""
+        ax = self.kernel_x(x)
+        if self.floe is None:
+            cos = np.cos(np.outer(ax, self.lam))
+            return cos if field == "deflection" else cos * self.strain_coef
+        fl = self.floe
+        order = 0 if field == "deflection" else 2
+        values = (fl["Q"].T @ _dry_values(fl["kinds"], fl["betas"], fl["norms"], self.floe_length,
+                                          ax + self.origin, order)).T
+        return values if field == "deflection" else -0.5 * self.hi * values
 
     def _plate(self, p, M, full):
         """The Plate table: the modes' constants and the Kelvin-Voigt damping."""
@@ -95,6 +142,8 @@ class Tables:
         """Modal amplitudes in the kernel's order from those of cos(lambda_n x) (and of
         sin((m - 1/2) pi x / L) on the full plate): the last axis has Nmod entries each."""
         symmetric = np.asarray(symmetric, dtype=float)
+        if self.floe is not None:         # a floe starts at rest (solve refuses other initial states)
+            return np.zeros(symmetric.shape[:-1] + (self.omega.size,))
         if not self.full_plate:
             return symmetric
         n = symmetric.shape[-1]
@@ -109,7 +158,7 @@ class Tables:
         """(symmetric, antisymmetric) amplitudes of cos(lambda_n x) and sin((m - 1/2) pi x / L)
         from the kernel's; on the half plate the antisymmetric ones are 0 (NaN where the
         symmetric are)."""
-        if not self.full_plate:
+        if not self.full_plate or self.floe is not None:   # a floe's: its wet modes' amplitudes, none apart
             return amplitudes, np.where(np.isnan(amplitudes), np.nan, 0.0)
         n = amplitudes.shape[-1] // 2
         sign = (-1.0) ** np.arange(1, n + 1)

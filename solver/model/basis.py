@@ -26,12 +26,18 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
+from .floe import TABLE_STRAIN, floe_plane, floe_sums
+
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
 #: the hat weights dx sinc^2(lambda_n dx / 2) [m], mirror (2: the symmetric half plate, whose
 #: integrals over 0..L are doubled; 1: the full plate), length = dx (J - 1) [m] (L, or 2L); the
 #: forcing's rule (QUADRATURE_CODES: 0 the paper's, 1 the contact-resolving one) with, for the
-#: latter, its Gauss-Legendre nodes gauss_x and weights gauss_w on [-1, 1] and the widest panel [m]
-Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel")
+#: latter, its Gauss-Legendre nodes gauss_x and weights gauss_w on [-1, 1] and the widest panel [m];
+#: kind (0: these cosines; 1: a free floe's wet modes, solver.model.floe, whose node table is cosq
+#: and whose other tables and shapes are packed in floe; empty on the cosines)
+Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe")
+
+
 
 #: Settings.quadrature -> Basis.rule
 QUADRATURE_CODES = {"paper": 0, "gauss": 1}
@@ -286,28 +292,28 @@ def _newton_move(x, d1, d2, xlo, xhi, stop):
 
 
 @njit(cache=True, nogil=True)
-def continuous_peak(vals, sign, j, n, basis, w, c, scale, q2, q0):
+def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     """Largest value over continuous x near node j of the field
-        v(x) = sign * scale * sum_n w_n c_n cos(lambda_n x) + q2 x^2 + q0,
+        v(x) = sign * scale * sum_n w_n c_n cos(lambda_n x) + q2 x^2 + q0
+    (field = (w, code): the weights w on the cosines, or a floe's field code, see field_sums),
     whose node values are sign * vals: Newton on v' from the parabola through j - 1, j, j + 1,
     kept within [x_{j-1}, x_{j+1}]. On an end node (x = 0, the symmetry line; x = L, the wall)
     the node. Returns (value, x). Refining on the modes, not on the node values, keeps the
     peak a smooth function of time (a parabola through nodes wobbles by ~1e-4 of a sharp peak
     each time the peak crosses a node)."""
     dx = basis.dx
-    lam1 = basis.lam1
     if j == 0 or j == n - 1:
         return sign * vals[j], j * dx
     v, x = refine(vals, sign, j, n, dx)
     xlo = (j - 1) * dx
     xhi = (j + 1) * dx
     for _ in range(8):
-        s0, s1, s2 = mode_sums(w, c, lam1, x)
+        s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
         x, done = _newton_move(x, sign * scale * s1 + 2.0 * q2 * x, sign * scale * s2 + 2.0 * q2, xlo, xhi,
                                NEWTON_STOP * dx)
         if done:
             break
-    s0, s1, s2 = mode_sums(w, c, lam1, x)
+    s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
     return sign * scale * s0 + q2 * x * x + q0, x
 
 
@@ -321,7 +327,8 @@ def global_peak(eps, sign, basis, w, a):
     jtop = argmax_node(eps, sign, J)
     top = sign * eps[jtop]
     floor = top - PEAK_MARGIN * abs(top)
-    bv, bx = continuous_peak(eps, sign, jtop, J, basis, w, a, 1.0, 0.0, 0.0)
+    field = (w, 1)
+    bv, bx = continuous_peak(eps, sign, jtop, J, basis, field, a, 1.0, 0.0, 0.0)
     bj = jtop
     for j in range(J):
         v = sign * eps[j]
@@ -329,7 +336,40 @@ def global_peak(eps, sign, basis, w, a):
             continue
         if (j > 0 and sign * eps[j - 1] > v) or (j < J - 1 and sign * eps[j + 1] > v):
             continue
-        cv, cx = continuous_peak(eps, sign, j, J, basis, w, a, 1.0, 0.0, 0.0)
+        cv, cx = continuous_peak(eps, sign, j, J, basis, field, a, 1.0, 0.0, 0.0)
         if cv > bv:
             bv, bx, bj = cv, cx, j
     return bv, bx, bj
+
+
+@njit(cache=True, nogil=True, inline="always")
+def field_sums(lam1, floe, field, c, x):
+    """A modal field and its first two x-derivatives at one point x (kernel coordinates), from
+    a Basis's lam1 and floe (not the Basis: numba counts a reference to each of its arrays at
+    every call): field = (w, code), on the cosines (floe empty) sum_n w_n c_n cos(lambda_n x)
+    (mode_sums), on a floe's wet modes the field of that code, 0 the deflection and 1 the
+    upper-surface strain (solver.model.floe.floe_sums)."""
+    w, code = field
+    if floe.shape[0] == 0:
+        return mode_sums(w, c, lam1, x)
+    return floe_sums(floe, c, x, code)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def field_sum(lam1, floe, field, c, x):
+    """The value of field_sums alone (on the cosines, mode_sum)."""
+    w, code = field
+    if floe.shape[0] == 0:
+        return mode_sum(w, c, lam1, x)
+    return floe_sums(floe, c, x, code)[0]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def node_strain(cosq, floe, strain, a, eps):
+    """The upper-surface strain at every node into eps, from a Basis's cosq and floe (see
+    field_sums): strain_nodes on the cosines (weights strain = (hi/2) lambda_n^2), the strain
+    table on a floe's wet modes."""
+    if floe.shape[0] == 0:
+        strain_nodes(a, strain, cosq, eps)
+    else:
+        modal_sum(a, floe_plane(floe, cosq.shape[0], cosq.shape[1], TABLE_STRAIN), eps, eps.shape[0])

@@ -19,8 +19,7 @@ step; the contact observer on the bounded nodes equals the observer on every nod
 import numpy as np
 from numba import njit
 
-from .basis import (NEWTON_STOP, _newton_move, argmax_node, continuous_peak, modal_sum_range, mode_sum,
-                    mode_sums, refine)
+from .basis import NEWTON_STOP, _newton_move, argmax_node, continuous_peak, field_sum, field_sums, modal_sum_range, refine
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
 from .plate import ONES
 
@@ -145,21 +144,20 @@ def shape_peak(model, delta, j, n, a, s):
     """continuous_peak of delta = (w + s - b(x)) / he for any body shape: Newton on delta'
     with b', b'' from body_slope_curvature, kept within [x_{j-1}, x_{j+1}]. Returns (value, x)."""
     dx = model.basis.dx
-    lam1 = model.basis.lam1
     he = model.layer.he
-    ones = model.plate.modes[ONES]
+    deflection = (model.plate.modes[ONES], 0)
     if j == 0 or j == n - 1:
         return delta[j], j * dx
     v, x = refine(delta, 1.0, j, n, dx)
     xlo = (j - 1) * dx
     xhi = (j + 1) * dx
     for _ in range(8):
-        s0, s1, s2 = mode_sums(ones, a, lam1, x)
+        s0, s1, s2 = field_sums(model.basis.lam1, model.basis.floe, deflection, a, x)
         b1, b2 = body_slope_curvature(x, model.body)
         x, done = _newton_move(x, s1 - b1, s2 - b2, xlo, xhi, NEWTON_STOP * dx)
         if done:
             break
-    s0, s1, s2 = mode_sums(ones, a, lam1, x)
+    s0, s1, s2 = field_sums(model.basis.lam1, model.basis.floe, deflection, a, x)
     value = (s0 + s - body_profile(x, model.body)) / he
     if value < delta[j]:                 # a corner the iteration could not settle on: the node
         return delta[j], j * dx
@@ -171,10 +169,10 @@ def _corner_peak(model, a, s, v, x):
     """The larger of (v, x) and delta at the body's corners on the plate (a wedge's apex, a flat
     bottom's edges), where delta has a kink that Newton on delta' cannot settle on: (value, x)."""
     body = model.body
-    ones = model.plate.modes[ONES]
+    deflection = (model.plate.modes[ONES], 0)
     for c in body_corners(body):
         if 0.0 <= c <= model.basis.length:
-            d = (mode_sum(ones, a, model.basis.lam1, c) + s - body_profile(c, body)) / model.layer.he
+            d = (field_sum(model.basis.lam1, model.basis.floe, deflection, a, c) + s - body_profile(c, body)) / model.layer.he
             if d > v:
                 v, x = d, c
     return v, x
@@ -188,18 +186,18 @@ def gap_peak(model, s, U, delta, jm, a, adot, out):
     delta holds the nodes j < jm (beyond them delta < 0); the peak is refined on the modes.
     """
     he = model.layer.he
-    ones = model.plate.modes[ONES]
+    deflection = (model.plate.modes[ONES], 0)
     n = jm if jm < delta.shape[0] else delta.shape[0]
     j = argmax_node(delta, 1.0, n)
     if j == n - 1 and n < delta.shape[0]:
         v, x = delta[j], j * model.basis.dx     # the next node is outside the computed range
     elif is_parabola(model.body):
-        v, x = continuous_peak(delta, 1.0, j, n, model.basis, ones, a, 1.0 / he,
+        v, x = continuous_peak(delta, 1.0, j, n, model.basis, deflection, a, 1.0 / he,
                                -0.5 / (model.body.R * he), s / he)
     else:
         v, x = shape_peak(model, delta, j, n, a, s)
         if model.basis.rule == 1:        # the contact-resolving rule integrates up to the corners
             v, x = _corner_peak(model, a, s, v, x)
     out[0] = v
-    out[1] = (mode_sum(ones, adot, model.basis.lam1, x) + U) / he
+    out[1] = (field_sum(model.basis.lam1, model.basis.floe, deflection, adot, x) + U) / he
     out[2] = x

@@ -31,7 +31,8 @@ from collections import namedtuple
 import numpy as np
 from numba import njit
 
-from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, strain_nodes
+from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, node_strain
+from .floe import TABLE_HAT, floe_plane, floe_segment
 from .contact import contact_bound
 from .law import law_energy, law_pressure
 from .quadrature import gauss_energy, gauss_reaction
@@ -90,12 +91,16 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     in fvals[0] (rule_energy)."""
     cosq = model.basis.cosq
     if model.layer.K == 0.0:
-        strain_nodes(a, model.plate.modes[STRAIN], cosq, eps)
+        node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], a, eps)
         for n in range(P.shape[0]):
             P[n] = 0.0
         return 0, 0.0, 0, 0.0
     jmax = contact_bound(model.body, model.basis, s, a, delta)
-    modal_sum_strain(a, model.plate.modes[STRAIN], cosq, delta, eps, jmax)
+    if model.basis.kind == 0.0:
+        modal_sum_strain(a, model.plate.modes[STRAIN], cosq, delta, eps, jmax)
+    else:                            # a floe's wet modes: the strain from its own table
+        modal_sum(a, cosq, delta, jmax)
+        node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], a, eps)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
                                   True), P)
@@ -211,7 +216,10 @@ def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     st, force, jc, power = node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals)
     if st != 0:
         return 1, 0.0, jmax, 0.0
-    if jc > 0:
+    if jc > 0 and basis.kind != 0.0:         # a floe's wet modes: their own hat weights
+        modal_projection(fvals, floe_plane(basis.floe, N, J, TABLE_HAT), P, jc)
+        force -= 0.5 * fvals[0] + (0.5 * fvals[J - 1] if jc == J else 0.0)
+    elif jc > 0:
         modal_projection(fvals, cosq, P, jc)
         f0 = 0.5 * fvals[0]          # trapezoid ends: half weight at x = 0 and x = L
         force -= f0
@@ -259,7 +267,6 @@ def split_segments(basis, jmax, delta, fvals, P, force):
     point xs then moves smoothly and P stays C1 when a node changes sign. Corrects P (the hat
     weights' projection) and returns force (int f dx so far) corrected."""
     dx = basis.dx
-    lam1 = basis.lam1
     for j in range(jmax - 1):
         d0 = delta[j]
         d1 = delta[j + 1]
@@ -269,16 +276,28 @@ def split_segments(basis, jmax, delta, fvals, P, force):
             if d0 > 0.0:
                 f0 = fvals[j]
                 xs = x0 + dx * f0 / (f0 - d1)
-                _add_segment(P, lam1, x0, x1, f0, 0.0, -1.0)
-                _add_segment(P, lam1, x0, xs, f0, 0.0, 1.0)
+                _segment(P, basis, j, (x0, x1, f0, 0.0), -1.0)
+                _segment(P, basis, j, (x0, xs, f0, 0.0), 1.0)
                 force += 0.5 * f0 * (xs - x0 - dx)
             else:
                 f1 = fvals[j + 1]
                 xs = x0 + dx * (-d0) / (f1 - d0)
-                _add_segment(P, lam1, x0, x1, 0.0, f1, -1.0)
-                _add_segment(P, lam1, xs, x1, 0.0, f1, 1.0)
+                _segment(P, basis, j, (x0, x1, 0.0, f1), -1.0)
+                _segment(P, basis, j, (xs, x1, 0.0, f1), 1.0)
                 force += 0.5 * f1 * (x1 - xs - dx)
     return force
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _segment(P, basis, j, segment, sign):
+    """P_n += sign * int g(x) mode_n(x) dx over segment = (alpha, beta, ga, gb) in the
+    subinterval j, g linear from ga to gb: exact on the cosines (_add_segment), by the quintic
+    Hermite of the modes on a floe (solver.model.floe.floe_segment)."""
+    alpha, beta, ga, gb = segment
+    if basis.kind == 0.0:
+        _add_segment(P, basis.lam1, alpha, beta, ga, gb, sign)
+    else:
+        floe_segment(P, basis.cosq, basis.floe, basis.dx, j, segment, sign)
 
 
 @njit(cache=True, nogil=True)

@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..model.basis import global_peak, strain_nodes
+from ..model.basis import global_peak, node_strain
 from ..model.body import body_position, body_speed
 from ..model.contact import gap_peak
 from ..model.plate import STRAIN
@@ -31,7 +31,7 @@ def event_value(model, kind, t, jm, state, out):
                  jm, state.a, state.adot, out)
         return out[0]
     sign = float(kind)
-    strain_nodes(state.a, model.plate.modes[STRAIN], model.basis.cosq, state.eps)
+    node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], state.a, state.eps)
     v, x, j = global_peak(state.eps, sign, model.basis, model.plate.modes[STRAIN], state.a)
     out[0] = v
     out[2] = x

@@ -22,7 +22,7 @@ from numba import njit
 
 from ..cubic import cubic_max, hermite
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
-from ..model.basis import NEWTON_STOP, _newton_move, climb, global_peak, mode_sum, mode_sums, strain_nodes
+from ..model.basis import NEWTON_STOP, _newton_move, climb, field_sum, field_sums, global_peak, node_strain
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
 from .record import append_row
@@ -66,17 +66,18 @@ def tension_work(N, J):
 
 
 @njit(cache=True, nogil=True)
-def peak_near(x, xlo, xhi, sign, w, a, adot, lam1, track):
-    """Peak of sign * sum_n w_n a_n cos(lambda_n x) near x (Newton, kept in [xlo, xhi]) and its
-    rate sign * sum_n w_n a_n' cos(lambda_n x*): track[:3] = (value, rate, x)."""
+def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
+    """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
+    near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
+    track[:3] = (value, rate, x)."""
     for _ in range(8):
-        s0, s1, s2 = mode_sums(w, a, lam1, x)
+        s0, s1, s2 = field_sums(lam1, floe, field, a, x)
         x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
         if done:
             break
-    s0, s1, s2 = mode_sums(w, a, lam1, x)
+    s0, s1, s2 = field_sums(lam1, floe, field, a, x)
     track[0] = sign * s0
-    track[1] = sign * mode_sum(w, adot, lam1, x)
+    track[1] = sign * field_sum(lam1, floe, field, adot, x)
     track[2] = x
 
 
@@ -87,7 +88,7 @@ def global_state(model, eps, sign, a, adot, track):
     strain = model.plate.modes[STRAIN]
     v, x, j = global_peak(eps, sign, model.basis, strain, a)
     track[0] = v
-    track[1] = sign * mode_sum(strain, adot, model.basis.lam1, x)
+    track[1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, 1), adot, x)
     track[2] = x
     track[3] = j
 
@@ -146,17 +147,17 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
         tw.marks[DENSE] = 1.0
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
-    strain, lam1, dx, L = model.plate.modes[STRAIN], model.basis.lam1, model.basis.dx, model.basis.length
+    field, dx, L = (model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length
     xf = p0[2]
     for k in range(1, K):
-        peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, strain, tw.A[k - 1], tw.AD[k - 1],
-                  lam1, samples[k])
+        peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, field, tw.A[k - 1], tw.AD[k - 1],
+                  model.basis.lam1, model.basis.floe, samples[k])
         xf = samples[k, 2]
     xb = p1[2]
     back = tw.track[BACK]
     for k in range(K - 1, 0, -1):
-        peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, strain, tw.A[k - 1], tw.AD[k - 1],
-                  lam1, back)
+        peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, field, tw.A[k - 1], tw.AD[k - 1],
+                  model.basis.lam1, model.basis.floe, back)
         xb = back[2]
         if back[0] > samples[k, 0]:
             samples[k, :3] = back[:3]
@@ -185,10 +186,10 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     samples[K, :3] = p1[:3]
     strain = model.plate.modes[STRAIN]
     for k in range(1, K):
-        strain_nodes(tw.A2[k - 1], strain, model.basis.cosq, tw.eps)
+        node_strain(model.basis.cosq, model.basis.floe, strain, tw.A2[k - 1], tw.eps)
         v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1])
         samples[k, 0] = v
-        samples[k, 1] = sign * mode_sum(strain, tw.AD2[k - 1], model.basis.lam1, x)
+        samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, 1), tw.AD2[k - 1], x)
         samples[k, 2] = x
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
