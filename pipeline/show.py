@@ -143,7 +143,10 @@ def stored_case(out_dir: Path, case_id: str):
 
 
 def stage_text(p) -> str:
-    """'impact stage RULE = T ms': L^2/(6RV) for the paper's centred parabola, else b_mean/V."""
+    """'impact stage RULE = T ms': L^2/(6RV) for the paper's centred parabola, else b_mean/V; a
+    run of a given duration (a free floe's) says so."""
+    if p.duration > 0:
+        return f"run of {'a free floe, ' if p.edges == 'free' else ''}duration = {p.duration * 1e3:.4g} ms"
     rule = "L^2/(6RV)" if p.parabola and not p.off_centre else "b_mean/V"
     return f"impact stage {rule} = {p.stage_duration * 1e3:.4g} ms"
 
