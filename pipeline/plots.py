@@ -23,6 +23,8 @@ from .tables import COMPLETE  # noqa: E402
 DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper surface (plate-wide)"),
     ("max_strain_lower", "max tensile strain, lower surface (plate-wide)"),
+    ("impact_zone_max_strain", "max tensile strain, upper surface (impact zone)"),
+    ("impact_zone_max_strain_lower", "max tensile strain, lower surface (impact zone)"),
     ("crack_onset_time", "crack onset, upper [ms]"),
     ("crack_onset_time_lower", "crack onset, lower [ms]"),
     ("max_contact_intervals", "max contact intervals"),
@@ -158,6 +160,7 @@ MAX_LINES = 8
 MAP_DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper (plate-wide)", True),
     ("max_strain_lower", "max tensile strain, lower (plate-wide)", True),
+    ("impact_zone_max_strain", "max tensile strain, upper (impact zone)", True),
     ("crack_onset_time", "crack onset, upper [ms]", False),
     ("max_contact_intervals", "max contact intervals", False),
     ("max_compression", "max layer compression δ", False),
@@ -181,10 +184,11 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
     eps_y = _paper_eps_Y(ds)
     columns = [None] if third is None else list(dict.fromkeys(
         ds[third].values[np.unique(np.linspace(0, ds.sizes[third] - 1, min(4, ds.sizes[third])).round().astype(int))]))
-    fig, axes = plt.subplots(len(MAP_DIAGNOSTICS), len(columns), squeeze=False, sharex=True, sharey=True,
-                             figsize=(3.6 * len(columns) + 1.5, 2.4 * len(MAP_DIAGNOSTICS) + 1.2),
+    shown = [entry for entry in MAP_DIAGNOSTICS if entry[0] in ds]    # (a file from before schema 10:
+    fig, axes = plt.subplots(len(shown), len(columns), squeeze=False, sharex=True, sharey=True,  # no zone)
+                             figsize=(3.6 * len(columns) + 1.5, 2.4 * len(shown) + 1.2),
                              constrained_layout=True)
-    for r, (row, (name, title, log)) in enumerate(zip(axes, MAP_DIAGNOSTICS)):
+    for r, (row, (name, title, log)) in enumerate(zip(axes, shown)):
         var = ds[name].sel(eps_Y=eps_y) * 1e3 if name == "crack_onset_time" else ds[name]
         panels = [var.sel({**rest, **({third: c} if third else {})}).transpose(second, first).values.astype(float)
                   for c in columns]
@@ -239,6 +243,21 @@ def _sweep_line(ax, x, values, ok, on_axis, color, marker, label) -> None:
     ax.plot([], [], "-", color=color, lw=1.6, marker=marker, ms=6, label=label)   # legend entry
 
 
+#: the strain maxima: plate-wide, and of the impact zone (docs/model.md, "Maxima of the impact zone")
+STRAINS = ("max_strain", "max_strain_lower", "impact_zone_max_strain", "impact_zone_max_strain_lower")
+
+
+def _margin(ds: xr.Dataset) -> float:
+    """The study's impact_zone_margin [m] (a grid key, a setting, or the default)."""
+    if "impact_zone_margin" in ds.coords:
+        return float(np.max(ds["impact_zone_margin"].values))
+    import json
+    try:
+        return float(json.loads(ds.attrs.get("solver_settings", "{}")).get("impact_zone_margin", 1.0))
+    except (TypeError, ValueError):
+        return 1.0
+
+
 #: the plate-wide maxima whose place the figures mark when it is at a wall (x = +-L)
 PLACED_MAXIMA = ("max_strain", "max_strain_lower")
 
@@ -266,7 +285,11 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     eps_y = _paper_eps_Y(ds)
     ds = ds.assign({name: ds[name].sel(eps_Y=eps_y) * 1e3
                     for name in ("crack_onset_time", "crack_onset_time_lower")})
-    fig, axes = plt.subplots(3, 3, figsize=(13, 10), constrained_layout=True)
+    panels = [entry for entry in DIAGNOSTICS if entry[0] in ds]      # (before schema 10: no zone)
+    fig, axes = plt.subplots(-(-len(panels) // 3), 3, figsize=(13, 3.3 * -(-len(panels) // 3)),
+                             constrained_layout=True)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
     combos = list(itertools.product(*(ds[d].values for d in others))) or [()]
     styles = _line_styles(len(combos))
     all_x = ds[first].values
@@ -279,7 +302,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         on_axis &= all_x > 0             # a sweep over decades and its neutral 0 (tau = 0)
     xvals = all_x[on_axis]               # an infinite key value (H, body_mass), or that 0: a dashed line
     log_x = not names and _log_spaced(xvals)
-    for ax, (name, title) in zip(axes.flat, DIAGNOSTICS):
+    for ax, (name, title) in zip(axes.flat, panels):
         unbounded = []
         for (color, marker), combo in zip(styles, combos):
             where = dict(zip(others, combo))
@@ -315,12 +338,14 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
             title = f"{title}\n○: at a wall (x = ±L), {walls} of {ds[name].size} cases"
         elif name in PLACED_MAXIMA:
             title = f"{title}\nfree floe: no walls"
+        elif name in STRAINS:
+            title = f"{title}\ncontact's reach + {_margin(ds):g} m, not within it of a wall"
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
                       "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")
-        if name in ("max_strain", "max_strain_lower", "energy_residual", "run_time", "max_force"):
+        if name in STRAINS + ("energy_residual", "run_time", "max_force"):
             _auto_log_y(ax, ds[name].values)
-        if name in ("max_strain", "max_strain_lower"):
+        if name in STRAINS:
             _yield_line(ax, ds[name].values, eps_y)
         ax.grid(alpha=0.3, which="both" if log_x else "major")
     handles, labels = axes.flat[0].get_legend_handles_labels()

@@ -42,8 +42,9 @@ from solver.axes import linear_axis, log_axis, round_significant
 from .errors import StudyError
 
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
-#: (9, 2026-11-25: the parameters edges and duration, the diagnostic gravity_time_ratio)
-SCHEMA_VERSION = 9
+#: (9, 2026-11-25: the parameters edges and duration, the diagnostic gravity_time_ratio; 10: the
+#: impact zone's maxima and contact_extent, the setting impact_zone_margin)
+SCHEMA_VERSION = 10
 #: bump when the Gauss rule's results change at the same settings: its cases stored under an
 #: older one are recomputed, the paper rule's keep their ids. 2 (2026-11-25): the energy guard
 #: allows a step's work only from first touch; contact changes placed on the continuous plate
@@ -700,9 +701,11 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
 #: the settings each integrator reads; the others do not change its result
 RELEVANT_SETTINGS = {
     "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps", "error_estimate",
-              "bottoming_gap"),
-    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps", "error_estimate", "bottoming_gap"),
-    "dop853": ("integrator", "tolerance", "subintervals", "max_steps", "error_estimate", "bottoming_gap"),
+              "bottoming_gap", "impact_zone_margin"),
+    "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps", "error_estimate", "bottoming_gap",
+            "impact_zone_margin"),
+    "dop853": ("integrator", "tolerance", "subintervals", "max_steps", "error_estimate", "bottoming_gap",
+               "impact_zone_margin"),
 }
 
 

@@ -53,16 +53,17 @@ ENERGY_BOUND = 1e-3
 #: in free flight the forcing and hence the error estimate vanish, and only h_max stops a step
 #: from jumping deep into a new contact); max_steps (attempted steps before STEP_LIMIT);
 #: bottom_gap (the layer bottoms out when its gap closes to this fraction of he);
-#: until_separation (a free body's run ends when it separates)
+#: until_separation (a free body's run ends when it separates); zone_margin [m] (the impact zone
+#: reaches this far beyond the contact, solver.observe.zone)
 Control = namedtuple("Control", "t_start t_end tolerance fixed_step h_init h_min h_max max_steps bottom_gap "
-                                "until_separation")
+                                "until_separation zone_margin")
 
 
 def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
-                 until_separation=False):
+                 until_separation=False, zone_margin=1.0):
     """The :data:`Control` of a run (plain Python: built once per run)."""
     return Control(float(t_start), float(t_end), float(tolerance), float(fixed_step), float(h_init), float(h_min),
-                   float(h_max), float(max_steps), float(bottom_gap), bool(until_separation))
+                   float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin))
 
 
 @njit(cache=True, nogil=True, inline="always")

@@ -53,15 +53,29 @@ FIELDS = tuple(FIELD_INFO)
 
 #: diagnostic name -> (long_name, units, kernel index)
 DIAGNOSTIC_INFO = {
-    "max_strain": ("largest tensile strain on the upper surface", "1", kn.D_MAX_UPPER),
+    "max_strain": ("largest tensile strain on the upper surface, plate-wide (at a wall, a walled plate's "
+                   "confinement; impact_zone_max_strain is the impact's own)", "1", kn.D_MAX_UPPER),
     "max_strain_x": ("position of max_strain (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m", kn.D_MAX_UPPER_X),
     "max_strain_time": ("time of max_strain", "s", kn.D_MAX_UPPER_T),
-    "max_strain_lower": ("largest tensile strain on the lower surface (max of -strain)", "1", kn.D_MAX_LOWER),
+    "max_strain_lower": ("largest tensile strain on the lower surface (max of -strain), plate-wide", "1", kn.D_MAX_LOWER),
     "max_strain_lower_x": ("position of max_strain_lower (centred impact: x >= 0; off centre: signed)", "m", kn.D_MAX_LOWER_X),
     "max_strain_lower_time": ("time of max_strain_lower", "s", kn.D_MAX_LOWER_T),
-    "max_abs_strain": ("largest strain magnitude", "1", kn.D_MAX_ABS),
+    "max_abs_strain": ("largest strain magnitude, plate-wide", "1", kn.D_MAX_ABS),
     "max_abs_strain_x": ("position of max_abs_strain (centred impact: x >= 0; off centre: signed)", "m", kn.D_MAX_ABS_X),
     "max_abs_strain_time": ("time of max_abs_strain", "s", kn.D_MAX_ABS_T),
+    "impact_zone_max_strain": ("largest tensile strain on the upper surface within the impact zone (the contact's "
+                               "farthest reach from the body's centre so far plus impact_zone_margin)", "1",
+                               kn.D_ZONE_UPPER),
+    "impact_zone_max_strain_x": ("position of impact_zone_max_strain (centred impact: x >= 0; off centre: signed)",
+                                 "m", kn.D_ZONE_UPPER_X),
+    "impact_zone_max_strain_time": ("time of impact_zone_max_strain", "s", kn.D_ZONE_UPPER_T),
+    "impact_zone_max_strain_lower": ("largest tensile strain on the lower surface within the impact zone",
+                                     "1", kn.D_ZONE_LOWER),
+    "impact_zone_max_strain_lower_x": ("position of impact_zone_max_strain_lower (centred impact: x >= 0; off "
+                                       "centre: signed)", "m", kn.D_ZONE_LOWER_X),
+    "impact_zone_max_strain_lower_time": ("time of impact_zone_max_strain_lower", "s", kn.D_ZONE_LOWER_T),
+    "contact_extent": ("farthest distance from the body's centre that a point in contact (delta > 0) reached "
+                       "over the run", "m", kn.D_CONTACT_EXTENT),
     "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L, intervals that "
                               "open and close within a step included", "1", kn.D_MAX_CONTACTS),
     "max_force": ("largest force on the body per unit width (inf: the layer bottomed out, where the "
@@ -490,12 +504,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     if s.integrator == "dop853":
         code, n_out, out_a, out_adot, series, diag, fail, (up, lo) = integrate_dop853(
             p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init,
-            s.bottoming_gap, until_separation)
+            s.bottoming_gap, until_separation, s.impact_zone_margin)
         records = {"upper": up, "lower": lo}
         contact_record = np.empty((0, 2))
     else:
         control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
-                               s.max_steps, s.bottoming_gap, until_separation)
+                               s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin)
         code, n_out, (up, n_up, lo, n_lo, cont, n_cont) = integrate(
             method, tab.model, control, times, a0, v0, levels, Outputs(out_a, out_adot, series, diag, level_t, level_x))
         # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
@@ -514,9 +528,13 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     out_err = series[:, kn.S_ERR]
     body_s = series[:, kn.S_BODY_POSITION]
     valid = np.arange(T) < n_out
-    for i in (kn.D_MAX_UPPER_X, kn.D_MAX_LOWER_X, kn.D_MAX_ABS_X, kn.D_BOTTOM_X):
+    for i in (kn.D_MAX_UPPER_X, kn.D_MAX_LOWER_X, kn.D_MAX_ABS_X, kn.D_BOTTOM_X, kn.D_ZONE_UPPER_X,
+              kn.D_ZONE_LOWER_X):
         diag[i] += tab.origin
     level_x += tab.origin
+    for i in (kn.D_ZONE_UPPER, kn.D_ZONE_LOWER):
+        if not np.isfinite(diag[i]):                 # the zone never held a peak of that surface
+            diag[i:i + 3] = np.nan
     field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan

@@ -46,7 +46,11 @@ D_SEPARATION_T = 30        # time the body left the ice moving up (after it had 
 D_SEPARATION_SPEED = 31    # the body's upward speed then [m s-1]
 D_BODY_RESIDUAL = 32       # max_t |M (U^2 - V^2)/2 - M g_b s + W| / max_t W
 D_DISSIPATED = 33          # energy dissipated in the viscoelastic ice up to the time reached [J m-1]
-N_DIAG = 34
+# the impact zone's maxima (solver.observe.zone): upper and lower surface, each (value, x, t)
+D_ZONE_UPPER, D_ZONE_UPPER_X, D_ZONE_UPPER_T = 34, 35, 36
+D_ZONE_LOWER, D_ZONE_LOWER_X, D_ZONE_LOWER_T = 37, 38, 39
+D_CONTACT_EXTENT = 40      # largest distance from the body's centre of a point in contact [m]
+N_DIAG = 41
 
 FAIL_NONE = 0
 FAIL_MAX_STEPS = 1         # max_steps attempted

@@ -4,8 +4,8 @@ Each pass of :func:`integrate` records the outputs due at the current time, trie
 (solver.step) of the size the step policy chooses (solver.control), judges it (finite, its local
 error, the energy identity), locates bottoming inside it on true sub-steps, and then calls the
 observers at one fixed point, on the step's two end states and its dense output: the tension
-records, levels of tension located for verification, the contact intervals, a free body's stop
-and separation (solver.observe). The two states swap roles at the end of a step.
+records, the impact zone's maxima, levels of tension located for verification, the contact
+intervals, a free body's stop and separation (solver.observe). The two states swap roles at the end of a step.
 
 What crosses: the Model (solver.model.assemble), the run's Control, the output times, the
 initial modal state, tension levels to locate, and the Outputs to fill (solver.diagnostics).
@@ -34,15 +34,16 @@ from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
 from .observe.events import locate_event
 from .observe.record import append_row
-from .observe.tension import DENSE, PEAKS, RUN_MAX, Dense, global_state, observe_tensions, tension_work
+from .observe.tension import DENSE, PEAKS, RUN_MAX, STEP_BEST, Dense, global_state, observe_tensions, tension_work
+from .observe.zone import observe_zone, zone_work
 from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
 
 #: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
 #: their stepper (its own coefficients and scratch: a search inside a step leaves the step's
-#: buffers as they were), the observers' work, the gap (largest delta, its rate and place) at the
+#: buffers as they were), the observers' work (tension, contacts, impact zone), the gap (largest delta, its rate and place) at the
 #: step's two ends, an event's value (3,), the tension peaks at the step's start (2, 4), and the
 #: fixed step's [target, step]
-Workspace = namedtuple("Workspace", "work sub stepper tension contact gap0 gap1 value peaks0 fixed")
+Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed")
 
 #: a trial step's verdict
 ACCEPT, RETRY, STOP = 0, 1, 2
@@ -61,10 +62,11 @@ def _step_work(N, J):
 
 
 @njit(cache=True, nogil=True)
-def _workspace(method, model, N, J):
+def _workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
-    return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J), np.empty(3),
+    return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J), zone_work(margin),
+                     np.empty(3),
                      np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
 
 
@@ -96,6 +98,8 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
         diag[D_MAX_UPPER + 3 * s_] = peak[0]
         diag[D_MAX_UPPER_X + 3 * s_] = peak[2]
         diag[D_MAX_UPPER_T + 3 * s_] = t
+    observe_zone(model, ws.zone, t, 0.0, (cur.eps, cur.delta, cur.a, cur.adot, jmax, np.full((2, 4), -np.inf)),
+                 diag)
     gap_peak(model, s, U, cur.delta, jmax, cur.a, cur.adot, ws.gap0)
     diag[D_MAX_DELTA] = ws.gap0[0]
     diag[D_MAX_DELTA_T] = t
@@ -238,10 +242,10 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 @njit(cache=True, nogil=True, inline="always")
 def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
-    observers = (TensionWork, ContactWork, the tension peaks at t), ends = (jmax at t, jmax and F
+    observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork), ends = (jmax at t, jmax and F
     at t + h, the stage rows of the step that reached new). Returns (contacts at t + h, records, a
     free body left the ice)."""
-    tw, cw, peaks0 = observers
+    tw, cw, peaks0, zw = observers
     jmax, jm5, F5, rows = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
     peaks0[:, :] = tw.track[PEAKS:PEAKS + 2]
@@ -254,6 +258,8 @@ def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
                                                        (rec_c, n_c))
     if largest > diag[D_MAX_CONTACTS]:
         diag[D_MAX_CONTACTS] = largest
+    observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5, tw.track[STEP_BEST:STEP_BEST + 2]),
+                 diag)
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
     return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c), left
 
@@ -268,11 +274,11 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     both surfaces (rows R_T..R_JOIN, first n valid) and the contact record (rows (t, count))."""
     N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
     start_diagnostics(diag, control.t_start)
-    ws = _workspace(method, model, N, J)
+    ws = _workspace(method, model, N, J, control.zone_margin)
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
-    observers, fixed = (ws.tension, ws.contact, ws.peaks0), ws.fixed
+    observers, fixed = (ws.tension, ws.contact, ws.peaks0, ws.zone), ws.fixed
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))

@@ -45,6 +45,8 @@ SETTING_INFO = {
                       "(pressure K / bottoming_gap); smaller: a deeper but less robust criterion", "1"),
     "error_estimate": ("estimate the strain error of each run (etd34: a companion run at 10x the "
                        "tolerance, about +70% cost)", ""),
+    "impact_zone_margin": ("how far the impact zone reaches beyond the farthest point the contact has reached "
+                           "(docs/model.md, \"Maxima of the impact zone\")", "m"),
 }
 
 INTEGRATORS = ("etd34", "rk4", "dop853")
@@ -483,6 +485,10 @@ class Settings:
         ``solver.core.error_estimates``); for etd34 this runs a companion at 10x the tolerance.
     bottoming_gap : the layer bottoms out when its gap he (1 - delta) first closes to this
         fraction of he anywhere on the plate (docs/model.md, "Bottoming out") [1].
+    impact_zone_margin : the impact zone, whose tension maxima are reported apart from the
+        plate-wide ones, reaches this far beyond the farthest point from the body's centre that
+        the contact has reached so far (docs/model.md, "Maxima of the impact zone") [m]. An
+        observer's setting: the run's state does not depend on it.
     """
 
     integrator: str = "etd34"
@@ -495,6 +501,7 @@ class Settings:
     max_steps: int = 500_000
     error_estimate: bool = True
     bottoming_gap: float = 1e-3
+    impact_zone_margin: float = 1.0
 
     def __post_init__(self):
         if self.integrator not in INTEGRATORS:
@@ -520,9 +527,14 @@ class Settings:
         _check_positive("bottoming_gap", self.bottoming_gap)
         if not 1e-12 <= float(self.bottoming_gap) <= 0.5:
             raise ParameterError(f"bottoming_gap must be between 1e-12 and 0.5, got {self.bottoming_gap!r}")
+        if isinstance(self.impact_zone_margin, bool) or not isinstance(
+                self.impact_zone_margin, (int, float, np.integer, np.floating)) \
+                or not math.isfinite(float(self.impact_zone_margin)) or float(self.impact_zone_margin) < 0.0:
+            raise ParameterError(f"impact_zone_margin must be finite and >= 0 [m], got {self.impact_zone_margin!r}")
         if not isinstance(self.error_estimate, bool):
             raise ParameterError(f"error_estimate must be true or false, got {self.error_estimate!r}")
-        for name in ("tolerance", "rk4_step_fraction", "fixed_step", "bottoming_gap", "quadrature_density"):
+        for name in ("tolerance", "rk4_step_fraction", "fixed_step", "bottoming_gap", "quadrature_density",
+                     "impact_zone_margin"):
             object.__setattr__(self, name, float(getattr(self, name)))
         for name in ("subintervals", "max_steps"):
             object.__setattr__(self, name, int(getattr(self, name)))

@@ -28,6 +28,7 @@ from .model.basis import field_sum, global_peak, node_strain
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
+from .observe.zone import observe_zone, zone_work
 
 
 class _StageDeltaOne(Exception):
@@ -76,11 +77,13 @@ class _Observer:
     """The in-loop diagnostics of the kernels, observed on DOP853's dense output at SAMPLES
     points a step (not located inside steps as the kernels locate them): the largest tensions
     with their places and times and their running-maximum records (so crack onset for any
-    eps_Y, solver.fracture), contacts, force, compression, and a free body's stop, separation
-    and energy balance."""
+    eps_Y, solver.fracture), contacts, force, compression, a free body's stop, separation and
+    energy balance, and the impact zone's maxima (solver.observe.zone) between samples."""
 
-    def __init__(self, p, tab):
+    def __init__(self, p, tab, zone_margin):
         self.p, self.tab = p, tab
+        self.zone, self.zone_diag, self.zone_t = zone_work(float(zone_margin)), np.full(kn.N_DIAG, np.nan), None
+        self.no_best = np.full((2, 4), -np.inf)     # (the kernels' plate-wide step maxima: not here)
         self.records = ([], [])
         self.running = [-np.inf, -np.inf]
         self.last = [None, None]               # each surface's previous sample row
@@ -91,7 +94,7 @@ class _Observer:
         self.body_residual = 0.0
         self.peak_work = 0.0
 
-    def sample(self, t, a, v, work, contacts, force, delta_max, s, U):
+    def sample(self, t, a, v, work, contacts, force, delta_max, s, U, delta, jmax):
         tab, p = self.tab, self.p
         if tab.floe is None:
             coef = a * tab.strain_coef
@@ -118,6 +121,11 @@ class _Observer:
                 rec.append(row)
                 self.running[k] = value
             self.last[k] = row
+        h = 0.0 if self.zone_t is None else t - self.zone_t
+        observe_zone(self.tab.model, self.zone, t - h, h, (np.ascontiguousarray(eps), delta, np.ascontiguousarray(a),
+                                                           np.ascontiguousarray(v), jmax, self.no_best),
+                     self.zone_diag)
+        self.zone_t = t
         self.max_contacts = max(self.max_contacts, contacts)
         if force > self.max_force:
             self.max_force, self.max_force_t = force, t
@@ -150,6 +158,7 @@ class _Observer:
         if not np.isinf(diag[kn.D_MAX_FORCE]):        # +inf: bottomed out, set by the caller
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = self.max_force, self.max_force_t
         diag[kn.D_MAX_DELTA], diag[kn.D_MAX_DELTA_T] = self.max_delta, self.max_delta_t
+        diag[kn.D_ZONE_UPPER:kn.D_CONTACT_EXTENT + 1] = self.zone_diag[kn.D_ZONE_UPPER:kn.D_CONTACT_EXTENT + 1]
         diag[kn.D_ENERGY_JUMPS] = 0.0                 # DOP853 has no energy guard
         if self.p.free_body:
             diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION] = self.stop_t, self.depth
@@ -159,7 +168,7 @@ class _Observer:
 
 
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
-                     bottom_gap=BOTTOM_GAP, until_separation=False):
+                     bottom_gap=BOTTOM_GAP, until_separation=False, zone_margin=1.0):
     """Returns (status, n_out, out_a, out_adot, out_series, diag, failure, records) with the meaning of
     :func:`solver.loop.integrate` (the error column all NaN: DOP853 gives no local error
     estimates back); failure names what stopped it, or "". A free body's run that asks to end
@@ -239,13 +248,13 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
         series[k, kn.S_DISSIPATED] = y[2 * N + n_extra] if damped else 0.0
         k += 1
 
-    observer = _Observer(p, tab)
+    observer = _Observer(p, tab, zone_margin)
 
     def observe(t, y):
         st, F, jmax, _ = forcing(t, y)
         contacts = count_contacts(delta, jmax, model.basis.mirror)
-        observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, largest_delta(t, y), position(t, y),
-                        speed(y))
+        dmax = largest_delta(t, y)                   # (it recomputes delta: the same values)
+        observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, dmax, position(t, y), speed(y), delta, jmax)
 
     observe(t_start, y0)
     while k < T and times[k] <= t_start:

@@ -91,7 +91,8 @@ def _run(p, **settings):
 def test_floe_energy_identity_and_dop853():
     """The energy identity with the floe's rigid-body kinetic and hydrostatic energy (the wet
     modes' plate energy), and DOP853 on the same right-hand side within 1e-6 of the largest
-    strain, its max_strain within 1e-7."""
+    strain, its max_strain within 1e-6 (DOP853 samples the peak at 8 points a step: 7e-8 and
+    3.9e-7 on two machines)."""
     p = Parameters(Nmod=10, edges="free", duration=0.05)
     r = _run(p, tolerance=1e-11)
     d = _run(p, integrator="dop853", tolerance=1e-12)
@@ -100,7 +101,7 @@ def test_floe_energy_identity_and_dop853():
     assert np.allclose(r.plate_energy + r.layer_energy, r.work, rtol=0, atol=1e-5 * r.work[-1])
     top = np.max(np.abs(r.fields["strain"]))
     assert np.max(np.abs(r.fields["strain"] - d.fields["strain"])) < 1e-6 * top
-    assert r.diagnostics["max_strain"] == pytest.approx(d.diagnostics["max_strain"], rel=1e-7)
+    assert r.diagnostics["max_strain"] == pytest.approx(d.diagnostics["max_strain"], rel=1e-6)
 
 
 def test_a_centred_floe_on_its_half_equals_the_full_floe():

@@ -40,16 +40,17 @@ SWITCH_SAMPLES = 32
 #: a peak that moves more than SWITCH_DISTANCE nodes within one step is taken for a switch
 SWITCH_DISTANCE = 10
 
-#: the tension observer's state and scratch: track (7, 4), rows PEAKS + s each surface's (value,
+#: the tension observer's state and scratch: track (9, 4), rows PEAKS + s each surface's (value,
 #: rate, x, node) at the current time, P0, P1 a step's start and end, PIECE one piece's and BEST
-#: the step's (max, time, x), BACK a backward track's (value, rate, x); samples (TENSION_SAMPLES
+#: the step's (max, time, x), BACK a backward track's (value, rate, x), STEP_BEST + s each
+#: surface's (max, time, x) over the last step (the impact zone's observer reads them); samples (TENSION_SAMPLES
 #: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
 #: switch of peaks (SWITCH_SAMPLES); marks (5,): RUN_MAX + s the running maximum of surface s,
 #: JOINABLE + s 1 when its last step was stored, DENSE 1 when the step's dense states are
 #: computed. (Few arrays: numba counts a reference to each array of a tuple at every binding.)
 TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 marks")
 #: rows of TensionWork.track
-PEAKS, P0, P1, PIECE, BEST, BACK = 0, 2, 3, 4, 5, 6
+PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
 #: entries of TensionWork.marks
 RUN_MAX, JOINABLE, DENSE = 0, 2, 4
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
@@ -59,7 +60,7 @@ Dense = namedtuple("Dense", "z0 N1 Nm N5")
 @njit(cache=True, nogil=True)
 def tension_work(N, J):
     """A TensionWork for N modes and J nodes (allocated once per run)."""
-    return TensionWork(np.empty((7, 4)), np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
+    return TensionWork(np.empty((9, 4)), np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
                        np.empty((TENSION_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)),
                        np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J), np.empty((SWITCH_SAMPLES + 1, 3)),
                        np.zeros(5))
@@ -243,6 +244,7 @@ def observe_tensions(model, tw, t, h, ends, dz, records, diag):
         else:
             rec_lo, n_lo = observe_tension(model, tw, s, t, h, ends, dz, rec_lo, n_lo)
         _largest(tw.track[BEST], s, diag)
+        tw.track[STEP_BEST + s, :3] = tw.track[BEST, :3]
     return rec_up, n_up, rec_lo, n_lo
 
 

@@ -1,0 +1,84 @@
+"""The impact zone's tension maxima (docs/model.md, "Maxima of the impact zone";
+solver.observe.zone): the contact's extent against its rigid-plate geometry, the zone's
+maxima against the plate-wide ones, against DOP853, and under mirroring."""
+import math
+
+import numpy as np
+import pytest
+
+from solver import Parameters, ParameterError, Settings, solve
+
+ZONE = ("impact_zone_max_strain", "impact_zone_max_strain_lower")
+FLOE = dict(quadrature="paper", subintervals=500, tolerance=1e-10, error_estimate=False)
+
+
+def test_contact_extent_of_a_rigid_plate_is_the_bodys_geometry():
+    """Ice 1e6 times stiffer barely moves (walls: no heave): delta > 0 where x^2 < 2 R V t, so
+    the contact reaches sqrt(2 R V t) at the end of the run."""
+    p = Parameters(Nmod=20, E=4.2e15)
+    t_end = 0.002
+    r = solve(p, Settings(error_estimate=False), times=[0.0, t_end], fields=(), t_end=t_end)
+    assert r.status == "ok"
+    assert r.diagnostics["contact_extent"] == pytest.approx(math.sqrt(2 * p.R * p.V * t_end), rel=2e-4)
+
+
+def test_the_zone_keeps_the_plate_wide_maximum_when_it_is_an_inner_peak_of_the_zone():
+    """On a free floe the largest tension is a peak inside the plate: with a margin covering the
+    floe the zone's maxima are the plate-wide ones, bit for bit; with the default margin the
+    zone's upper maximum is smaller and lies within the contact's reach plus the margin."""
+    p = Parameters(Nmod=20, edges="free", duration=0.12)
+    wide = solve(p, Settings(**FLOE, impact_zone_margin=100.0), fields=())
+    for zone, plate in zip(ZONE, ("max_strain", "max_strain_lower")):
+        for end in ("", "_x", "_time"):
+            assert wide.diagnostics[zone + end] == wide.diagnostics[plate + end]
+    near = solve(p, Settings(**FLOE), fields=())
+    d = near.diagnostics
+    assert 0 < d["impact_zone_max_strain"] < 0.6 * d["max_strain"]
+    assert abs(d["impact_zone_max_strain_x"]) <= d["contact_extent"] + 1.0
+    assert near.diagnostics["max_strain"] == wide.diagnostics["max_strain"]      # an observer only
+
+
+def test_a_walled_plates_zone_leaves_out_the_wall():
+    """On the paper's plate the plate-wide upper maximum sits at the wall at the end of the
+    stage; the zone stops a margin short of the wall, and its maximum is smaller."""
+    for margin in (1.0, 2.0):
+        r = solve(Parameters(Nmod=20), Settings(error_estimate=False, impact_zone_margin=margin), fields=())
+        d = r.diagnostics
+        assert d["max_strain_x"] == 6.0
+        assert d["impact_zone_max_strain"] < 0.5 * d["max_strain"]
+        assert abs(d["impact_zone_max_strain_x"]) <= 6.0 - margin
+        assert d["contact_extent"] > 5.0                    # the contact nearly reaches the walls
+
+
+@pytest.mark.parametrize("changes", [dict(), dict(edges="free", duration=0.06)])
+def test_zone_maxima_agree_with_dop853(changes):
+    """DOP853 observes the zone on its own dense output (8 samples a step, Hermite between);
+    the kernels at their step ends, with the tension observer's samples inside the step."""
+    p = Parameters(Nmod=10, **changes)
+    runs = [solve(p, Settings(**dict(FLOE, integrator=integrator, tolerance=1e-10)), fields=())
+            for integrator in ("etd34", "dop853")]
+    for name in ZONE:
+        a, b = (r.diagnostics[name] for r in runs)
+        assert a == pytest.approx(b, rel=2e-4)
+        a, b = (r.diagnostics[name + "_time"] for r in runs)
+        # (a maximum's time is ill-conditioned, and on the floe the steps that hold it are longer
+        # than the modes' periods, sampled at their ends: 2.5e-5 s apart over 60 ms there)
+        assert a == pytest.approx(b, abs=1e-3 * runs[0].time_reached)
+    assert runs[0].diagnostics["contact_extent"] == pytest.approx(runs[1].diagnostics["contact_extent"], rel=1e-5)
+
+
+def test_mirroring_the_body_mirrors_the_zone():
+    """x0 -> -x0 at a fixed step: the same zone maxima at mirrored places."""
+    runs = [solve(Parameters(Nmod=10, x0=x0), Settings(**FLOE, fixed_step=0.002), fields=()) for x0 in (1.5, -1.5)]
+    a, b = runs[0].diagnostics, runs[1].diagnostics
+    for name in ZONE:
+        assert a[name] == pytest.approx(b[name], rel=1e-10)
+        assert a[name + "_x"] == pytest.approx(-b[name + "_x"], abs=1e-9)
+        assert a[name + "_time"] == pytest.approx(b[name + "_time"], rel=1e-9)
+    assert a["contact_extent"] == pytest.approx(b["contact_extent"], rel=1e-10)
+
+
+@pytest.mark.parametrize("value", [-1.0, math.inf, math.nan, "wide", True])
+def test_impact_zone_margin_is_checked(value):
+    with pytest.raises(ParameterError, match="impact_zone_margin"):
+        Settings(impact_zone_margin=value)
