@@ -257,9 +257,6 @@ class Parameters:
         if not self.duration > 0.0:
             raise ParameterError("a free floe (edges = 'free') needs duration > 0 [s]: its run has no end of its "
                                  "own (the walls' impact stage follows from int w dx = 0, which a floe lacks)")
-        if self.tau > 0.0:
-            raise ParameterError("a free floe (edges = 'free') is elastic for now: tau must be 0 (Kelvin-Voigt "
-                                 "damping is not diagonal in its wet modes)")
         if math.isfinite(self.H):
             raise ParameterError("a free floe (edges = 'free') floats on deep water: H must be inf")
 

@@ -168,10 +168,12 @@ class _Observer:
 
 
 def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
-                     bottom_gap=BOTTOM_GAP, until_separation=False, zone_margin=1.0):
+                     bottom_gap=BOTTOM_GAP, until_separation=False, zone_margin=1.0, coupled_damping=False):
     """Returns (status, n_out, out_a, out_adot, out_series, diag, failure, records) with the meaning of
     :func:`solver.loop.integrate` (the error column all NaN: DOP853 gives no local error
-    estimates back); failure names what stopped it, or "". A free body's run that asks to end
+    estimates back); failure names what stopped it, or "". coupled_damping: a viscoelastic floe's
+    whole Kelvin-Voigt damping matrix in its wet modes, where the kernels keep its diagonal (to
+    measure what that leaves out; docs/model.md, "A free floe"). A free body's run that asks to end
     at separation ends at the first step after which it is off the ice, moving up."""
     try:
         from scipy.integrate import DOP853
@@ -189,6 +191,9 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     nfev = [0]
     level = 1.0 - bottom_gap
 
+    coupling = None
+    if coupled_damping and tab.floe is not None and p.tau > 0:
+        coupling = tab.floe["damping_matrix"] - np.diag(np.diag(tab.floe["damping_matrix"]))
     free = p.free_body
     damped = p.tau > 0 or p.layer_tau > 0             # D: the plate's and the layer's dissipation
     n_extra = 3 if free else 1
@@ -210,6 +215,10 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
             raise _StageDeltaOne(t)
         v = np.ascontiguousarray(y[N:2 * N])
         power = mode_acceleration(model.plate, np.ascontiguousarray(y[:N]), v, P, accel)
+        if coupling is not None:                     # the off-diagonal damping, and its power
+            extra = coupling @ v
+            np.subtract(accel, extra, out=accel)
+            power += float(np.sum(tab.LM * v * extra))
         tail = [power + layer_power] if damped else []
         if free:
             U = y[2 * N + 2]

@@ -80,12 +80,13 @@ class Tables:
         fl = self.floe = floe_tables(p, self.xq, full)
         self.floe_length = float(p.L)
         N = fl["omega"].size
-        self.omega, self.damping = fl["omega"], np.zeros(N)
+        self.omega, self.damping = fl["omega"], fl["damping"]
         self.lam = np.full(N, np.nan)                 # no wavenumbers: the wet modes are not cosines
         self.cosq, self.wq = fl["cosq"], np.zeros(N)
         mass = fl["mass"]
-        plate = make_plate(self.omega, (-1.0 if full else -2.0) / mass, fl["strain_scale"], mass, np.zeros(N),
-                           self.omega, np.zeros(N), mass[0])
+        half_c, wd, over = self._damped()
+        plate = make_plate(self.omega, (-1.0 if full else -2.0) / mass, fl["strain_scale"], mass, half_c, wd, over,
+                           mass[0])
         self.coef, self.LM, self.strain_coef = plate.modes[COEF], plate.modes[MASS], plate.modes[STRAIN]
         gauss_x, gauss_w = legendre_rule(PANEL_POINTS)
         basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
@@ -108,8 +109,8 @@ class Tables:
                                           ax + self.origin, order)).T
         return values if field == "deflection" else -0.5 * self.hi * values
 
-    def _plate(self, p, M, full):
-        """The Plate table: the modes' constants and the Kelvin-Voigt damping."""
+    def _damped(self):
+        """(c/2, omega_d, overdamped) of each mode from omega and the Kelvin-Voigt damping c."""
         half_c = 0.5 * self.damping                  # Kelvin-Voigt: 0 for the paper's elastic ice
         over = half_c > self.omega                   # overdamped modes: two real decay rates
         wd = np.sqrt(np.abs(self.omega - half_c) * (self.omega + half_c))
@@ -118,9 +119,14 @@ class Tables:
         near = (half_c > 0) & (wd < CRITICAL_GAP * self.omega)
         over = over & ~near
         wd = np.where(half_c == 0.0, self.omega, np.where(near, CRITICAL_GAP * self.omega, wd))
+        return half_c, wd, over.astype(float)
+
+    def _plate(self, p, M, full):
+        """The Plate table: the modes' constants and the Kelvin-Voigt damping."""
+        half_c, wd, over = self._damped()
         LM = p.L * M
         return make_plate(self.omega, (-1.0 if full else -2.0) / (p.L * M), 0.5 * p.hi * self.lam**2, LM, half_c, wd,
-                          over.astype(float), LM[1] if full else LM[0])
+                          over, LM[1] if full else LM[0])
 
     def _body(self, p, full):
         """The Body: its motion, its shape, and its profile at the nodes."""

@@ -276,7 +276,9 @@ def floe_tables(p, xq, full: bool):
     """Everything the kernels need of the floe of parameters p on the nodes xq (kernel
     coordinates: 0..2L on the full floe, 0..L on the half floe of a centred impact, whose wet
     modes are the symmetric ones): a dict with omega (N,), mass (N,) the generalised masses 1 / s_k^2
-    [kg m-1], cosq (N, J) the wet modes at the nodes, tables (4, N, J) (TABLE_*), shapes (4 + N,
+    [kg m-1], damping (N,) each wet mode's Kelvin-Voigt c_k [s-1] and damping_matrix (N, N) the
+    whole of it in the kernel's amplitudes (solver.scipy_reference's coupled check), cosq (N, J)
+    the wet modes at the nodes, tables (4, N, J) (TABLE_*), shapes (4 + N,
     N) (floe_sums), strain_scale (N,) the largest strain of each mode per unit amplitude, and
     the dry modes' kinds, betas and norms."""
     omega, Q, kinds, betas, norms = wet_modes(p, p.Nmod, full)
@@ -296,7 +298,13 @@ def floe_tables(p, xq, full: bool):
     shapes[KINDS], shapes[BETAS], shapes[NORMS] = kinds, betas, norms
     shapes[FACTOR, 0], shapes[FACTOR, 1], shapes[FACTOR, 2] = -0.5 * p.hi, L, origin
     shapes[4:] = Qs
+    # Kelvin-Voigt ice, D -> D (1 + tau d/dt): the damping tau Q^T K_b Q of the bending stiffness
+    # K_b = diag(D beta_m^4 2L) in the wet modes; mass-normalised (Q^T M Q = I) its diagonal is each
+    # wet mode's c_k, and in the kernel's amplitudes a_k = b_k scale_k the whole matrix S C S^-1
+    bending = Q.T @ (Q * (p.rigidity * betas**4 * 2.0 * L)[:, None])
+    coupling = p.tau * bending * scale[:, None] / scale[None, :]
     return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
+            "damping": p.tau * np.diag(bending).copy(), "damping_matrix": coupling,
             "packed": pack_floe(tables, shapes), "shapes": shapes,
             "strain_scale": np.max(np.abs(tables[TABLE_STRAIN]), axis=1), "kinds": kinds, "betas": betas,
             "norms": norms, "Q": Qs}
