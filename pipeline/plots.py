@@ -339,7 +339,8 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         elif name in PLACED_MAXIMA:
             title = f"{title}\nfree floe: no walls"
         elif name in STRAINS:
-            title = f"{title}\ncontact's reach + {_margin(ds):g} m, not within it of a wall"
+            title = f"{title}\ncontact's reach + {_margin(ds):g} m" + (
+                ", not within it of a wall" if bool(np.any(walled(ds).values)) else "")
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
                       "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")
