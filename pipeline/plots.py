@@ -316,6 +316,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
             if name in PLACED_MAXIMA:                    # ringed: the maximum is at a wall
                 wall = np.asarray(at_wall(ds, name).sel(where).values, dtype=bool) & on_axis
                 ax.plot(all_x[wall], shown[wall], "o", mfc="none", mec="black", mew=1.0, ms=11)
+            elif f"{name}_at_edge" in ds:                # diamond: at the impact zone's edge
+                edge = (np.asarray(ds[f"{name}_at_edge"].sel(where).values) == 1.0) & on_axis
+                ax.plot(all_x[edge], shown[edge], "D", mfc="none", mec="black", mew=1.0, ms=11)
         if any(x.size for _, x in unbounded):           # drawn just inside the top edge
             for i, (color, x) in enumerate(unbounded):   # one row per line, so none hides another
                 ax.plot(x, np.full(x.size, 0.95 - 0.05 * i), "^", color=color, ms=7,
@@ -341,6 +344,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         elif name in STRAINS:
             title = f"{title}\ncontact's reach + {_margin(ds):g} m" + (
                 ", not within it of a wall" if bool(np.any(walled(ds).values)) else "")
+            if f"{name}_at_edge" in ds:
+                edges = int(np.sum(ds[f"{name}_at_edge"].values == 1.0))
+                title += f"; ◇: at its edge, {edges} of {ds[name].size}"
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
                       "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")

@@ -74,6 +74,11 @@ DIAGNOSTIC_INFO = {
     "impact_zone_max_strain_lower_x": ("position of impact_zone_max_strain_lower (centred impact: x >= 0; off "
                                        "centre: signed)", "m", kn.D_ZONE_LOWER_X),
     "impact_zone_max_strain_lower_time": ("time of impact_zone_max_strain_lower", "s", kn.D_ZONE_LOWER_T),
+    "impact_zone_max_strain_at_edge": ("1 where impact_zone_max_strain sits at the impact zone's edge (the tension "
+                                       "still rose outward), 0 where it is a peak inside the zone", "1",
+                                       kn.D_ZONE_UPPER_EDGE),
+    "impact_zone_max_strain_lower_at_edge": ("1 where impact_zone_max_strain_lower sits at the impact zone's edge, 0 "
+                                             "where it is a peak inside the zone", "1", kn.D_ZONE_LOWER_EDGE),
     "contact_extent": ("farthest distance from the body's centre that a point in contact (delta > 0) reached "
                        "over the run", "m", kn.D_CONTACT_EXTENT),
     "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L, intervals that "
@@ -532,9 +537,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
               kn.D_ZONE_LOWER_X):
         diag[i] += tab.origin
     level_x += tab.origin
-    for i in (kn.D_ZONE_UPPER, kn.D_ZONE_LOWER):
-        if not np.isfinite(diag[i]):                 # the zone never held a peak of that surface
+    for s_, i in enumerate((kn.D_ZONE_UPPER, kn.D_ZONE_LOWER)):
+        if not np.isfinite(diag[i]):                 # the zone was empty (the walls' margins cover the plate)
             diag[i:i + 3] = np.nan
+            diag[kn.D_ZONE_UPPER_EDGE + s_] = np.nan
     field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan

@@ -50,7 +50,8 @@ D_DISSIPATED = 33          # energy dissipated in the viscoelastic ice up to the
 D_ZONE_UPPER, D_ZONE_UPPER_X, D_ZONE_UPPER_T = 34, 35, 36
 D_ZONE_LOWER, D_ZONE_LOWER_X, D_ZONE_LOWER_T = 37, 38, 39
 D_CONTACT_EXTENT = 40      # largest distance from the body's centre of a point in contact [m]
-N_DIAG = 41
+D_ZONE_UPPER_EDGE, D_ZONE_LOWER_EDGE = 41, 42   # 1: that maximum sits at the zone's edge, 0: a peak inside
+N_DIAG = 43
 
 FAIL_NONE = 0
 FAIL_MAX_STEPS = 1         # max_steps attempted

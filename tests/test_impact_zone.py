@@ -31,10 +31,12 @@ def test_the_zone_keeps_the_plate_wide_maximum_when_it_is_an_inner_peak_of_the_z
     for zone, plate in zip(ZONE, ("max_strain", "max_strain_lower")):
         for end in ("", "_x", "_time"):
             assert wide.diagnostics[zone + end] == wide.diagnostics[plate + end]
+        assert wide.diagnostics[zone + "_at_edge"] == 0.0
     near = solve(p, Settings(**FLOE), fields=())
     d = near.diagnostics
     assert 0 < d["impact_zone_max_strain"] < 0.6 * d["max_strain"]
-    assert abs(d["impact_zone_max_strain_x"]) <= d["contact_extent"] + 1.0
+    assert d["impact_zone_max_strain_x"] == pytest.approx(d["contact_extent"] + 1.0, rel=1e-12)
+    assert d["impact_zone_max_strain_at_edge"] == 1.0           # the tension still rose outward
     assert near.diagnostics["max_strain"] == wide.diagnostics["max_strain"]      # an observer only
 
 
@@ -46,7 +48,9 @@ def test_a_walled_plates_zone_leaves_out_the_wall():
         d = r.diagnostics
         assert d["max_strain_x"] == 6.0
         assert d["impact_zone_max_strain"] < 0.5 * d["max_strain"]
-        assert abs(d["impact_zone_max_strain_x"]) <= 6.0 - margin
+        assert d["impact_zone_max_strain_x"] == 6.0 - margin and d["impact_zone_max_strain_at_edge"] == 1.0
+        assert d["impact_zone_max_strain_lower_x"] == d["max_strain_lower_x"] == 0.0   # under the body
+        assert d["impact_zone_max_strain_lower_at_edge"] == 0.0
         assert d["contact_extent"] > 5.0                    # the contact nearly reaches the walls
 
 

@@ -19,8 +19,9 @@ peak or end; otherwise the larger end (a Hermite across modes that oscillate wit
 overshoots: 5e-3 on a 0.5 m floe). Where the plate-wide
 maximum of the step (the tension observer's, sampled inside the step on the dense output) lies
 in the zone, it is the zone's maximum too (the zone at the step's end). Each surface's largest
-value, its place and time go to the diagnostics (D_ZONE_*; -inf for an empty zone), with the
-contact's largest extent c (D_CONTACT_EXTENT).
+value, its place and time go to the diagnostics (D_ZONE_*; -inf for an empty zone), and whether
+it sits at the zone's edge (D_ZONE_*_EDGE), with the contact's largest extent c
+(D_CONTACT_EXTENT).
 
 Benchmark (tests/test_impact_zone.py): with a margin that covers a floe the zone's maxima are
 the plate-wide ones; the contact's extent on rigid ice is the body's geometry; against
@@ -34,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from ..cubic import cubic_max, hermite
-from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_T, D_ZONE_UPPER_X
+from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import NEWTON_STOP, _newton_move, field_sum, field_sums
 from ..model.plate import OMEGA, STRAIN
 
@@ -107,17 +108,19 @@ def _newton_peak(x, lo, hi, sign, field, a, lam1, floe):
 def zone_peak(eps, sign, basis, strain, a, lo, hi):
     """The largest sign * eps over continuous x in the zone [lo, hi] (kernel coordinates, inside
     the plate): the zone's two ends, and each local peak of the nodes refined on the modes within
-    its two neighbours. Returns (value, x, node; the node -1: an end of the zone), value -inf
-    for an empty zone."""
+    its two neighbours. Returns (value, x, node; the node -1: an end of the zone inside the
+    plate), value -inf for an empty zone."""
     dx, J, field = basis.dx, eps.shape[0], (strain, 1)
     lam1, floe = basis.lam1, basis.floe
     bv, bx, bj = -np.inf, lo, -1
     if not lo <= hi:
         return bv, bx, bj
+    length = dx * (J - 1)
     for x in (lo, hi):
         v = sign * field_sum(lam1, floe, field, a, x)
-        if v > bv:
-            bv, bx = v, x
+        if v > bv:                                  # an end on the plate's end (the symmetry line of
+            bv, bx = v, x                           # the half plate, a free edge) is not the zone's edge
+            bj = -1 if 0.0 < x < length else (0 if x <= 0.0 else J - 1)
     j0 = max(0, int(math.ceil(lo / dx - 1e-9)))
     j1 = min(J - 1, int(math.floor(hi / dx + 1e-9)))
     for j in range(j0, j1 + 1):
@@ -162,9 +165,9 @@ def observe_zone(model, zw, t0, h, ends, diag):
         v1, x1, j1 = zone_peak(eps1, sign, basis, strain, a1, lo, hi)
         r1 = sign * field_sum(basis.lam1, basis.floe, (strain, 1), adot1, x1)
         p0 = zw.peaks[s]
-        best, tb, xb = v1, t0 + h, x1
+        best, tb, xb, edge = v1, t0 + h, x1, j1 < 0
         if p0[0] > best and h > 0.0:
-            best, tb, xb = p0[0], t0, p0[2]
+            best, tb, xb, edge = p0[0], t0, p0[2], p0[3] < 0
         # the Hermite of the peak's values and rates: both ends on the same peak of the field, or
         # on the same end of a zone that did not move (eps_t is then the rate of either)
         same_end = j1 < 0 and p0[3] < 0 and (x1 == p0[2]) and lo == zw.reach[2] and hi == zw.reach[3]
@@ -173,14 +176,15 @@ def observe_zone(model, zw, t0, h, ends, diag):
             c0, c1, c2, c3 = hermite(p0[0], v1, p0[1], r1, h)
             vmax, th = cubic_max(c0, c1, c2, c3)
             if vmax > best:
-                best, tb, xb = vmax, t0 + th * h, p0[2] + th * (x1 - p0[2])
+                best, tb, xb, edge = vmax, t0 + th * h, p0[2] + th * (x1 - p0[2]), j1 < 0
         pb = plate_best[s]
         if pb[0] > best and lo <= pb[2] <= hi:
-            best, tb, xb = pb[0], pb[1], pb[2]
+            best, tb, xb, edge = pb[0], pb[1], pb[2], False
         if not best <= diag[D_ZONE_UPPER + 3 * s]:  # (NaN before the first value)
             diag[D_ZONE_UPPER + 3 * s] = best
             diag[D_ZONE_UPPER_T + 3 * s] = tb
             diag[D_ZONE_UPPER_X + 3 * s] = xb
+            diag[D_ZONE_UPPER_EDGE + s] = 1.0 if edge else 0.0
         p0[0], p0[1], p0[2], p0[3] = v1, r1, x1, j1
     zw.reach[2] = lo
     zw.reach[3] = hi
