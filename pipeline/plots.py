@@ -346,7 +346,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
                 ", not within it of a wall" if bool(np.any(walled(ds).values)) else "")
             if f"{name}_at_edge" in ds:
                 edges = int(np.sum(ds[f"{name}_at_edge"].values == 1.0))
-                title += f"; ◇: at its edge, {edges} of {ds[name].size}"
+                title += f"\n◇: at the zone's edge, {edges} of {ds[name].size} cases"
         ax.set_title(title if "crack onset" not in title else f"{title} at εY = {eps_y:g}", fontsize=10)
         ax.set_xlabel(f"{first} [{ds[first].attrs.get('units', '1')}]" if first != "case" else
                       "case (" + ", ".join(_case_keys(ds) or ["[[cases]]"]) + ")")

@@ -16,9 +16,9 @@ within their neighbours) compete. Between the ends of a step that resolves every
 (omega_N h <= 0.4) the maximum is the cubic Hermite of its values and rates (eps_t, the
 envelope theorem at a peak, the rate at an end that did not move) when both ends hold the same
 peak or end; otherwise the larger end (a Hermite across modes that oscillate within the step
-overshoots: 5e-3 on a 0.5 m floe). Where the plate-wide
-maximum of the step (the tension observer's, sampled inside the step on the dense output) lies
-in the zone, it is the zone's maximum too (the zone at the step's end). Each surface's largest
+overshoots: 5e-3 on a 0.5 m floe). Where the plate-wide maximum of the step (the tension
+observer's, sampled inside the step on the dense output) lies in the zone, it is the zone's
+maximum too (the zone at the step's end). Each surface's largest
 value, its place and time go to the diagnostics (D_ZONE_*; -inf for an empty zone), and whether
 it sits at the zone's edge (D_ZONE_*_EDGE), with the contact's largest extent c
 (D_CONTACT_EXTENT).
