@@ -251,7 +251,6 @@ def _margin(ds: xr.Dataset) -> float:
     """The study's impact_zone_margin [m] (a grid key, a setting, or the default)."""
     if "impact_zone_margin" in ds.coords:
         return float(np.max(ds["impact_zone_margin"].values))
-    import json
     try:
         return float(json.loads(ds.attrs.get("solver_settings", "{}")).get("impact_zone_margin", 1.0))
     except (TypeError, ValueError):

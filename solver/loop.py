@@ -5,7 +5,8 @@ Each pass of :func:`integrate` records the outputs due at the current time, trie
 error, the energy identity), locates bottoming inside it on true sub-steps, and then calls the
 observers at one fixed point, on the step's two end states and its dense output: the tension
 records, the impact zone's maxima, levels of tension located for verification, the contact
-intervals, a free body's stop and separation (solver.observe). The two states swap roles at the end of a step.
+intervals, a free body's stop and separation (solver.observe). The two states swap roles at the
+end of a step.
 
 What crosses: the Model (solver.model.assemble), the run's Control, the output times, the
 initial modal state, tension levels to locate, and the Outputs to fill (solver.diagnostics).
@@ -40,8 +41,8 @@ from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_co
 
 #: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
 #: their stepper (its own coefficients and scratch: a search inside a step leaves the step's
-#: buffers as they were), the observers' work (tension, contacts, impact zone), the gap (largest delta, its rate and place) at the
-#: step's two ends, an event's value (3,), the tension peaks at the step's start (2, 4), and the
+#: buffers as they were), the observers' work (tension, contacts, impact zone), the gap (largest
+#: delta, its rate and place) at the step's two ends, an event's value (3,), the tension peaks at the step's start (2, 4), and the
 #: fixed step's [target, step]
 Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed")
 
@@ -66,8 +67,7 @@ def _workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J), zone_work(margin),
-                     np.empty(3),
-                     np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
+                     np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
 
 
 @njit(cache=True, nogil=True)

@@ -364,6 +364,18 @@ def field_sum(lam1, floe, field, c, x):
     return floe_sums(floe, c, x, code)[0]
 
 
+@njit(cache=True, nogil=True)
+def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
+    """The position of the peak of sign * a modal field (field_sums) near x: safeguarded Newton,
+    kept in [xlo, xhi], stopping at NEWTON_STOP of the bracket (at most 8 steps)."""
+    for _ in range(8):
+        s0, s1, s2 = field_sums(lam1, floe, field, c, x)
+        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
+        if done:
+            break
+    return x
+
+
 @njit(cache=True, nogil=True, inline="always")
 def node_strain(cosq, floe, strain, a, eps):
     """The upper-surface strain at every node into eps, from a Basis's cosq and floe (see

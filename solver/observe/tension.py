@@ -22,7 +22,7 @@ from numba import njit
 
 from ..cubic import cubic_max, hermite
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
-from ..model.basis import NEWTON_STOP, _newton_move, climb, field_sum, field_sums, global_peak, node_strain
+from ..model.basis import climb, field_sum, field_sums, global_peak, newton_peak, node_strain
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
 from .record import append_row
@@ -32,6 +32,9 @@ from .record import append_row
 #: the peak a 3e-4 wobble inside the step that the step ends alone cannot see (a step with
 #: omega_N h <= 0.4, such as rk4's, resolves every mode and is not sampled)
 TENSION_SAMPLES = 8
+#: a step with omega_N h at most this resolves every mode: between its ends the peak is their
+#: cubic Hermite (the impact zone's observer uses the same criterion)
+RESOLVED = 0.4
 #: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
 #: it (the wobble inside a step is ~3e-4): it is not sampled
 RIPPLE = 1e-2
@@ -71,11 +74,7 @@ def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
     near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
     track[:3] = (value, rate, x)."""
-    for _ in range(8):
-        s0, s1, s2 = field_sums(lam1, floe, field, a, x)
-        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
-        if done:
-            break
+    x = newton_peak(x, xlo, xhi, sign, field, a, lam1, floe)
     s0, s1, s2 = field_sums(lam1, floe, field, a, x)
     track[0] = sign * s0
     track[1] = sign * field_sum(lam1, floe, field, adot, x)
@@ -136,7 +135,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
         return rec, n, False
     omega = model.plate.modes[OMEGA]
-    if omega[omega.shape[0] - 1] * h <= 0.4:     # every mode resolved by the step: its ends suffice
+    if omega[omega.shape[0] - 1] * h <= RESOLVED:    # every mode resolved by the step: its ends suffice
         if not vmax > run_max:
             return rec, n, False
         if not joinable:

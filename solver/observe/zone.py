@@ -36,8 +36,9 @@ from numba import njit
 
 from ..cubic import cubic_max, hermite
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
-from ..model.basis import NEWTON_STOP, _newton_move, field_sum, field_sums
+from ..model.basis import field_sum, newton_peak
 from ..model.plate import OMEGA, STRAIN
+from .tension import RESOLVED
 
 #: the observer's state: peaks (2, 4) each surface's (value, rate, x, node) of the zone's peak at
 #: the current time (node -1: an end of the zone); reach (4,) the contact's largest extent c [m] so
@@ -94,17 +95,6 @@ def contact_extent(delta, jmax, dx, xc):
 
 
 @njit(cache=True, nogil=True)
-def _newton_peak(x, lo, hi, sign, field, a, lam1, floe):
-    """Newton on sign * the modal field from x, kept in [lo, hi]: (value, x)."""
-    for _ in range(8):
-        s0, s1, s2 = field_sums(lam1, floe, field, a, x)
-        x, done = _newton_move(x, sign * s1, sign * s2, lo, hi, NEWTON_STOP * max(hi - lo, 1e-300))
-        if done:
-            break
-    return sign * field_sum(lam1, floe, field, a, x), x
-
-
-@njit(cache=True, nogil=True)
 def zone_peak(eps, sign, basis, strain, a, lo, hi):
     """The largest sign * eps over continuous x in the zone [lo, hi] (kernel coordinates, inside
     the plate): the zone's two ends, and each local peak of the nodes refined on the modes within
@@ -129,7 +119,8 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
             continue                                # not a local peak of the nodes
         if v + 0.02 * abs(v) < bv:                  # (a refinement gains ~0.4% at most)
             continue
-        cv, cx = _newton_peak(j * dx, max(lo, (j - 1) * dx), min(hi, (j + 1) * dx), sign, field, a, lam1, floe)
+        cx = newton_peak(j * dx, max(lo, (j - 1) * dx), min(hi, (j + 1) * dx), sign, field, a, lam1, floe)
+        cv = sign * field_sum(lam1, floe, field, a, cx)
         if cv > bv:
             bv, bx, bj = cv, cx, j
     return bv, bx, bj
@@ -159,7 +150,7 @@ def observe_zone(model, zw, t0, h, ends, diag):
     # a step that resolves every mode (as the tension observer's criterion): the Hermite of the
     # ends holds between them; in a longer one the modes oscillate within the step and the
     # Hermite could overshoot, so the ends and the plate-wide samples inside it stand
-    resolved = 0.0 < h and omega[omega.shape[0] - 1] * h <= 0.4
+    resolved = 0.0 < h and omega[omega.shape[0] - 1] * h <= RESOLVED
     for s in range(2):
         sign = 1.0 - 2.0 * s
         v1, x1, j1 = zone_peak(eps1, sign, basis, strain, a1, lo, hi)
