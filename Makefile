@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs study status test test-slow test-portable bench bench-quadrature bench-scale bench-revisions bit-for-bit regenerate-reference variables-table clean
+.PHONY: help setup docs study status test test-slow test-portable bench bench-quadrature bench-scale bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -81,6 +81,9 @@ bench-quadrature: setup  ## error against wall time of both forcing quadratures,
 
 bench-scale: setup  ## 100 000 small cases end to end, a killed runner, status (about 12 min) -> results/bench/scale.md
 	$(PY) benchmarks/bench_scale.py
+
+fingerprint: setup  ## record this machine's fingerprint of the solver's results (after a bump of solver/revision.py) -> tests/data/results_fingerprint.json
+	$(PY) tests/results_fingerprint.py --record
 
 regenerate-reference: setup  ## rebuild tests/data/regression_small.nc and its spread over tolerances (only after a deliberate change)
 	$(PY) tests/regenerate_reference.py

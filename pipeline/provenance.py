@@ -55,12 +55,23 @@ def attributes(action: str = "written") -> dict:
         "created": created,
     }
     attrs.update(cpu_attributes())
+    attrs.update(solver_attributes())
     for lib in LIBRARIES:
         try:
             attrs[f"version_{lib}"] = importlib.metadata.version(lib)
         except importlib.metadata.PackageNotFoundError:
             attrs[f"version_{lib}"] = "not installed"
     return attrs
+
+
+@lru_cache(maxsize=1)
+def solver_attributes() -> dict:
+    """The solver's source as it ran (the hash its compiled kernels are keyed by) and the revision
+    of its results per quadrature (solver.revision: cases of another revision are recomputed)."""
+    from solver.kernel_cache import source_digest
+    from solver.revision import RESULTS_REVISION
+    return {"solver_source_sha256": source_digest(),
+            "results_revision": ", ".join(f"{rule} {rev}" for rule, rev in sorted(RESULTS_REVISION.items()))}
 
 
 @lru_cache(maxsize=1)

@@ -37,6 +37,7 @@ import numpy as np
 from solver import (FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings,
                     default_eps_Y)
 from solver.parameters import CHOICES, NAMED_SETTINGS, check_combination
+from solver.revision import RESULTS_REVISION
 from solver.axes import linear_axis, log_axis, round_significant
 
 from .errors import StudyError
@@ -45,10 +46,6 @@ from .errors import StudyError
 #: (9, 2026-11-25: the parameters edges and duration, the diagnostic gravity_time_ratio; 10: the
 #: impact zone's maxima and contact_extent, the setting impact_zone_margin)
 SCHEMA_VERSION = 10
-#: bump when the Gauss rule's results change at the same settings: its cases stored under an
-#: older one are recomputed, the paper rule's keep their ids. 2 (2026-11-25): the energy guard
-#: allows a step's work only from first touch; contact changes placed on the continuous plate
-GAUSS_REVISION = 2
 
 SECTIONS = {"description", "base", "grid", "cases", "design", "analysis", "search", "output", "solver", "plots",
             "reference",
@@ -718,14 +715,17 @@ def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
 
 
 def _used_settings(settings: Settings) -> dict:
-    """The settings the run reads. The quadrature enters only when it is not the paper's, so that
-    the ids of the cases run before it was a setting stay what they were; with it the revision of
-    its results (GAUSS_REVISION)."""
+    """The settings the run reads, and the revision of its rule's results (solver.revision). The
+    quadrature enters only when it is not the paper's, so that the ids of the cases run before it
+    was a setting stay what they were; with it the revision of its results. The paper rule's
+    revision enters once it is above 0 (its ids carried none before)."""
     used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
     if settings.quadrature != "paper":
         used["quadrature"] = settings.quadrature
         used["quadrature_density"] = settings.quadrature_density
-        used["quadrature_revision"] = GAUSS_REVISION
+        used["quadrature_revision"] = RESULTS_REVISION[settings.quadrature]
+    elif RESULTS_REVISION["paper"] > 0:
+        used["results_revision"] = RESULTS_REVISION["paper"]
     return used
 
 

@@ -8,6 +8,12 @@ Pure numerics (no files, no xarray, no dask, no plots). Three lines run one case
 """
 from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version
 
+from . import kernel_cache as _kernel_cache
+
+# before any kernel is defined: the compiled kernels are cached under a key of every solver source
+# file (solver.kernel_cache), so that an edit anywhere in the solver compiles afresh
+_kernel_cache.install()
+
 from .core import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, STATUS_INFO, Result, compile_kernels, solve
 from .fracture import EPS_Y_INFO, PAPER_EPS_Y, crack_onset, default_eps_Y
 from .parameters import (INTEGRATORS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters,

@@ -2,7 +2,14 @@
 import numpy as np
 import pytest
 
-from solver import Parameters, Settings, solve
+from solver import Parameters, Settings, compile_kernels, solve
+
+
+def pytest_configure(config):
+    """Compile (or load) the solver's kernels once, in the controller, before pytest-xdist starts its
+    workers: each worker would otherwise compile the same kernels with an empty cache."""
+    if not hasattr(config, "workerinput"):
+        compile_kernels()
 
 
 def relative_l2(a, b):

@@ -151,6 +151,7 @@ def _compliance(path) -> list:
     return failed if failed or report["scored_points"] == report["possible_points"] else [report]
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_result_files_pass_the_cf_checker(tiny_run, tmp_path):
     """study.nc, a batch file and a case's Dataset written to netCDF declare CF-1.11 and a
     history, and pass compliance-checker --test=cf:1.11 with no error or warning."""

@@ -265,6 +265,7 @@ def test_an_energy_violation_names_the_balance_that_failed():
     assert f"{r.diagnostics['body_energy_residual']:.2e}" in r.message
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_the_rebound_is_not_monotone_in_mass_and_dop853_agrees():
     """The rebound speed over V falls and rises again with the body's mass (docs/model.md, "The
     rebound against the mass"): the model's, not the integrator's. With no gravity (body_g = 0,

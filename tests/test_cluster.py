@@ -61,6 +61,7 @@ def cluster(tmp_path):
             log.close()
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_study_on_a_real_dask_cluster_matches_local(cluster, tmp_path):
     out = tmp_path / "on_cluster"
     code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--scheduler", cluster,

@@ -175,6 +175,7 @@ def test_a_floe_needs_a_duration_the_paper_rule_and_deep_water():
         Parameters(edges="open")
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_a_viscoelastic_floe():
     """Kelvin-Voigt ice on a floe: the wet modes' damping tau Q^T K_b Q keeps its diagonal in the
     kernels (one exact damped oscillator per wet mode). Energy identity with the dissipation;

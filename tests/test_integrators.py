@@ -182,7 +182,7 @@ def test_round_off_spread_near_bottoming_is_within_the_regression_bound():
 
 @pytest.mark.parametrize("changes", [pytest.param({}, marks=pytest.mark.slow, id="paper"),
                                      pytest.param({"body_mass": 2000.0}, marks=pytest.mark.slow, id="free_body"),
-                                     pytest.param({"x0": 1.0}, id="off_centre")])
+                                     pytest.param({"x0": 1.0}, marks=pytest.mark.slow, id="off_centre")])
 def test_dop853_reports_the_diagnostics(changes):
     """The outside reference observes the kernels' diagnostics on its dense output (8 points a
     step, the largest tensions at the maxima of the Hermite pieces between them): every one etd34

@@ -56,7 +56,7 @@ def _flip(path: Path, rng, keep_time: bool) -> None:
         os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
 
 
-@pytest.mark.parametrize("trial", [0, 1, 2, *(pytest.param(i, marks=pytest.mark.slow) for i in (3, 4, 5))])
+@pytest.mark.parametrize("trial", [0, *(pytest.param(i, marks=pytest.mark.slow) for i in (1, 2, 3, 4, 5))])
 def test_a_flipped_bit_anywhere_hangs_nothing_and_changes_no_result(study_file, finished, tmp_path, trial):
     """One random bit flipped in a batch file, the ledger or study.nc, with or without its time
     kept: status and run end within their time bound, and the study comes out the same."""

@@ -284,20 +284,21 @@ def test_case_ids_are_stable_and_change_with_settings(tmp_path):
     assert [(c.parameters.V, c.parameters.hi) for c in study.cases] == [(3, .3), (3, .5), (5, .3), (5, .5)]
 
 
-def test_a_gauss_revision_recomputes_only_the_gauss_rules_cases(monkeypatch):
-    """GAUSS_REVISION enters the id of a case at the Gauss rule only: when that rule's results
-    change at the same settings its stored cases are recomputed, the paper rule's are kept."""
+@pytest.mark.parametrize("rule", ["gauss", "paper"])
+def test_a_results_revision_recomputes_only_its_rules_cases(monkeypatch, rule):
+    """solver.revision.RESULTS_REVISION enters the id of a case by its rule: when one rule's
+    results change at the same settings its stored cases are recomputed, the other's are kept."""
     import pipeline.study as study_module
     text = (ROOT / "studies" / "regression_small.toml").read_text()
-    gauss_text = text.replace("[solver]", '[solver]\nquadrature = "gauss"', 1)
-    paper_text = text.replace("[solver]", '[solver]\nquadrature = "paper"', 1)
-    assert gauss_text != text and paper_text != text
-    before = [study_module.load_study_text(t, "s").case_ids for t in (gauss_text, paper_text)]
-    monkeypatch.setattr(study_module, "GAUSS_REVISION", study_module.GAUSS_REVISION + 1)
-    after = [study_module.load_study_text(t, "s").case_ids for t in (gauss_text, paper_text)]
-    assert not set(after[0]) & set(before[0])
-    assert after[1] == before[1]
-    assert after[0] == [c.case_id for c in study_module.load_study_text(gauss_text, "s").cases]
+    texts = {r: text.replace("[solver]", f'[solver]\nquadrature = "{r}"', 1) for r in ("gauss", "paper")}
+    assert all(t != text for t in texts.values())
+    before = {r: study_module.load_study_text(t, "s").case_ids for r, t in texts.items()}
+    monkeypatch.setitem(study_module.RESULTS_REVISION, rule, study_module.RESULTS_REVISION[rule] + 1)
+    after = {r: study_module.load_study_text(t, "s").case_ids for r, t in texts.items()}
+    other = "paper" if rule == "gauss" else "gauss"
+    assert not set(after[rule]) & set(before[rule])
+    assert after[other] == before[other]
+    assert after[rule] == [c.case_id for c in study_module.load_study_text(texts[rule], "s").cases]
 
 
 def test_shipped_studies_are_valid():

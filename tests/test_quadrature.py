@@ -173,7 +173,8 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("name", list(CASES))
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n.startswith("off-centre") else n
+                                  for n in CASES])    # (issue 35: the off-centre case in make test-slow)
 def test_gauss_against_dop853_on_the_same_rhs(name):
     p = Parameters(Nmod=20, **CASES[name])
     times = np.linspace(0.06, 0.6, 10) * p.stage_duration        # before the off-centre body bottoms out

@@ -5,6 +5,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from test_pipeline import ROOT, pipeline
 
 
@@ -69,6 +71,7 @@ def _limit_file_size():
     resource.setrlimit(resource.RLIMIT_FSIZE, (20_000, 20_000))
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_disk_full_while_writing_stops_the_study(tmp_path):
     """Files may not grow past 20 kB (a batch file is ~100 kB): the write fails inside netCDF as
     on a full disk. Exit 74 with what happened; finished batch files are intact."""

@@ -78,8 +78,9 @@ def test_end_last_output_integrates_only_the_window(finished):
         assert (ds["status"] == "ok").all()
 
 
-@pytest.mark.parametrize("damage", ["missing_file", "damaged_same_size_and_time", "stale_entries",
-                                    "damaged_ledger_line", "no_ledger"])
+@pytest.mark.parametrize("damage", [pytest.param("missing_file", marks=pytest.mark.slow),
+                                    pytest.param("damaged_same_size_and_time", marks=pytest.mark.slow),
+                                    "stale_entries", "damaged_ledger_line", "no_ledger"])
 def test_a_ledger_that_disagrees_with_the_files_is_repaired(study_file, finished, tmp_path, damage):
     """Nothing finished is lost, nothing is counted twice, and study.nc comes out the same."""
     out = tmp_path / damage
@@ -203,6 +204,7 @@ def _fake_study(tmp_path, n_V: int) -> tuple:
     return study, out, ledger
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_combine_memory_does_not_grow_with_the_study(tmp_path, monkeypatch):
     """Peak memory of the combine (numpy and Python allocations, tracemalloc) for 220 and 2000
     cases: the larger study holds 9x the data and needs less than 1.5x the memory. (The write
@@ -276,7 +278,7 @@ def _kill_and_resume(study_file, finished, out, delay):
     assert_same_study(out, finished)
 
 
-@pytest.mark.parametrize("trial", [0, pytest.param(1, marks=pytest.mark.slow), pytest.param(2, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("trial", [pytest.param(i, marks=pytest.mark.slow) for i in (0, 1, 2)])
 def test_killed_runner_on_a_batched_study_loses_nothing(study_file, finished, tmp_path, trial):
     _kill_and_resume(study_file, finished, tmp_path / f"kill{trial}", random.Random(trial).uniform(3.0, 8.0))
 
@@ -296,6 +298,7 @@ def test_error_estimate_sample_runs_the_companion_on_about_one_case_in_ten(tmp_p
     assert sampled.any(axis=0).all() and sampled.any(axis=(1, 2)).sum() > 10   # spread over keys
 
 
+@pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_a_grid_over_solver_settings_runs_and_plots(tmp_path):
     """[grid] error_estimate = [true, false] is a dimension (error_estimate_on: the name
     error_estimate is the result's), and a setting as first key draws the diagnostics."""

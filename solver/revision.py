@@ -1,0 +1,21 @@
+"""The revision of the solver's results, per forcing quadrature: the promise "same case id, same data".
+
+A study reuses a finished case when its id matches, and the id hashes the case's parameters,
+settings and output request, not the code. So whenever a change of the code changes any result
+of a run at the same parameters and settings (not a refactoring that keeps them bit for bit),
+the revision of the rule whose runs changed is bumped here: cases stored under an older
+revision get new ids and are recomputed, never reused.
+
+A bump is not left to memory: tests/test_results_revision.py runs a fixed set of cases (both
+rules; adaptive, fixed-step, RK4, DOP853, bottoming, crack onsets, finite depth, a free body,
+off-centre, viscoelastic, a wedge, a free floe) and compares a hash of every output array with
+the fingerprint recorded on the same machine (tests/data/results_fingerprint.json; results are
+bit for bit reproducible on one machine with one set of libraries). A change of results at an
+unchanged revision fails it; after a bump, ``make fingerprint`` records the new fingerprint.
+
+History: paper 0 (its case ids carry no revision); gauss 2 (2026-11-25: the energy guard allows a
+step's work only from first touch; contact changes placed on the continuous plate).
+"""
+
+#: quadrature -> revision of the results of runs under it
+RESULTS_REVISION = {"paper": 0, "gauss": 2}
