@@ -14,7 +14,6 @@ and as dx^2 with the quadrature.
 import math
 from collections import namedtuple
 
-import numpy as np
 from numba import njit
 
 from .layout import B_D, B_U
@@ -96,7 +95,7 @@ def error_ratio(model, control, z, znew, err, errb, gap, scratch):
         # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
         for n in range(z.shape[0]):
             scratch[n] = mode_a(err[n], n, model.plate)
-        e_delta = abs(field_sum(model.basis.lam1, model.basis.floe, (model.plate.modes[ONES], np.int64(0)), scratch, gap[2]) - errb[B_D]) / he
+        e_delta = abs(field_sum(model.basis.lam1, model.basis.floe, (model.plate.modes[ONES], 0), scratch, gap[2]) - errb[B_D]) / he
         ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap[0])))
     if not math.isfinite(ratio):
         ratio = 1e10

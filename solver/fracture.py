@@ -126,7 +126,7 @@ def thin_record(rec):
     as few in between as keep the piecewise Hermite within THIN_TIME / THIN_VALUE of itself."""
     n = rec.shape[0]
     keep = np.zeros(n, np.bool_)
-    i = np.int64(0)
+    i = 0
     while i < n:
         end = i + 1
         while end < n and rec[end, R_JOIN] == 1.0:

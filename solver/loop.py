@@ -87,7 +87,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
     contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
     cur.acc[2] = layer_energy(model, cur.a, s, cur.delta, jmax) if model.basis.rule == 1 else math.nan
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
-    rec_c, n_c = append_row(rec_c, n_c, t, float(contacts), 0.0, 0.0, 0.0)
+    rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
     node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], cur.a, cur.eps)
     tw = ws.tension
@@ -296,8 +296,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     body_resid0 = body_residual(model.body, t, cur.yb, work)
     if free_body:
         diag[D_BODY_RESIDUAL] = 0.0
-    # (counters start as np.int64, not literals: numba would compile their callees once per type)
-    k, status, steps, rejected, rhs_count = np.int64(0), OK, np.int64(0), np.int64(0), np.int64(1)
+    k, status, steps, rejected, rhs_count = 0, OK, 0, 0, 1
     h, h_coeffs, prev_ratio = min(control.h_init, control.h_max), -1.0, 1.0
     bottomed = separated = False
     adaptive = method == ETD34 and control.fixed_step <= 0.0

@@ -95,7 +95,7 @@ def modal_sum(a, cosq, out, jmax):
     Four modes per pass over ``out``: the table rows stream from cache once per four modes,
     which is what bounds this loop (it reads N jmax doubles for 2 flops each).
     """
-    modal_sum_range(a, cosq, out, np.int64(0), jmax)
+    modal_sum_range(a, cosq, out, 0, jmax)
 
 
 @njit(cache=True, nogil=True)
@@ -327,7 +327,7 @@ def global_peak(eps, sign, basis, w, a):
     jtop = argmax_node(eps, sign, J)
     top = sign * eps[jtop]
     floor = top - PEAK_MARGIN * abs(top)
-    field = (w, np.int64(1))
+    field = (w, 1)
     bv, bx = continuous_peak(eps, sign, jtop, J, basis, field, a, 1.0, 0.0, 0.0)
     bj = jtop
     for j in range(J):
@@ -384,4 +384,4 @@ def node_strain(cosq, floe, strain, a, eps):
     if floe.shape[0] == 0:
         strain_nodes(a, strain, cosq, eps)
     else:
-        modal_sum(a, floe_plane(floe, cosq.shape[0], cosq.shape[1], np.int64(TABLE_STRAIN)), eps, eps.shape[0])
+        modal_sum(a, floe_plane(floe, cosq.shape[0], cosq.shape[1], TABLE_STRAIN), eps, eps.shape[0])

@@ -251,8 +251,8 @@ def floe_segment(P, cosq, floe, dx, j, segment, sign):
         return
     c = 0.5 * (alpha + beta)
     N, J = cosq.shape
-    slope = floe_plane(floe, N, J, np.int64(TABLE_SLOPE))
-    curv = floe_plane(floe, N, J, np.int64(TABLE_CURVATURE))
+    slope = floe_plane(floe, N, J, TABLE_SLOPE)
+    curv = floe_plane(floe, N, J, TABLE_CURVATURE)
     for q in range(4):
         x = c + r * GAUSS4_X[q]
         g = ga + (gb - ga) * (x - alpha) / (beta - alpha)

@@ -81,7 +81,7 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
     modal_sum(a, model.basis.cosq, delta, jmax)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
-                                  np.bool_(False)), P)
+                                  False), P)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -103,7 +103,7 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
         node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], a, eps)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
-                                  np.bool_(True)), P)
+                                  True), P)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -140,7 +140,7 @@ def node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals):
     law = layer.law
     profile = body.profile
     total = 0.0
-    jc = np.int64(0)                 # nodes j >= jc are not compressed (not a literal: one compile)
+    jc = 0                           # nodes j >= jc are not compressed
     for j in range(jmax):
         d = (delta[j] + s - profile[j]) / he
         delta[j] = d
@@ -217,7 +217,7 @@ def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     if st != 0:
         return 1, 0.0, jmax, 0.0
     if jc > 0 and basis.kind != 0.0:         # a floe's wet modes: their own hat weights
-        modal_projection(fvals, floe_plane(basis.floe, N, J, np.int64(TABLE_HAT)), P, jc)
+        modal_projection(fvals, floe_plane(basis.floe, N, J, TABLE_HAT), P, jc)
         force -= 0.5 * fvals[0] + (0.5 * fvals[J - 1] if jc == J else 0.0)
     elif jc > 0:
         modal_projection(fvals, cosq, P, jc)

@@ -326,7 +326,7 @@ def _deltas(body, s, he, a, lam1, nodes, table):
     row DELTA."""
     xk, dk = nodes[X], nodes[DELTA]
     cosine_table(lam1, xk, nodes[C2], table)
-    modal_sum_range(a, table, dk, np.int64(0), xk.shape[0])
+    modal_sum_range(a, table, dk, 0, xk.shape[0])
     for k in range(xk.shape[0]):
         dk[k] = (dk[k] + s - body_profile(xk[k], body)) / he
 
@@ -375,7 +375,7 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
     _deltas(body, s, he, a, basis.lam1, nodes, table)
     wk, dk, rate, g = nodes[W], nodes[DELTA], nodes[RATE], nodes[G]
     if layer.tau > 0.0:
-        modal_sum_range(adot, table, rate, np.int64(0), K)
+        modal_sum_range(adot, table, rate, 0, K)
     pieces = np.ones(lo.shape[0], np.int64)
     g[:] = 0.0
     for i in range(lo.shape[0]):
@@ -438,7 +438,7 @@ def gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, P, energy):
     leaves it), given delta at the nodes j < jmax and modes = (a, adot): (status, int f dx, the viscoelastic layer's
     power without its factor mirror K, he int G dx if energy else 0). status 1: delta >= 1 at a
     node of the rule."""
-    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, (np.bool_(True), energy))
+    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, (True, energy))
 
 
 @njit(cache=True, nogil=True)
@@ -446,7 +446,7 @@ def gauss_energy(layer, body, basis, s, a, delta, jmax):
     """he int G(delta) dx over the contact intervals on the rule's nodes (the caller's factor
     mirror K), delta at the nodes j < jmax."""
     P = np.empty(a.shape[0])
-    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, (np.bool_(False), np.bool_(True)))
+    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, (False, True))
     return energy if st == 0 else np.inf
 
 

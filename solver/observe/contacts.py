@@ -56,7 +56,7 @@ def _extremum(near, rates, he, h, j, th):
     if (d[0] > 0.0) != (d[2] > 0.0) or curv == 0.0:
         return d[1], r[1], False
     sign = 1.0 if curv < 0.0 else -1.0                 # a peak, or a dip
-    value, x = refine(d, sign, np.int64(1), np.int64(3), 1.0)
+    value, x = refine(d, sign, 1, 3, 1.0)
     off = x - 1.0
     rate = r[1] + 0.5 * off * (r[2] - r[0]) + 0.5 * off * off * (r[0] - 2.0 * r[1] + r[2])
     return sign * value, rate, True
@@ -211,13 +211,13 @@ def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
                 t_ev = _between_nodes(model, cw.near, t0, h, end0, end1, j, cw.ev_th[i])
                 if n > 0:
                     t_ev = max(t_ev, rec[n - 1, 0])      # the record stays in time order
-            rec, n = append_row(rec, n, t_ev, float(c), 0.0, 0.0, 0.0)
+            rec, n = append_row(rec, n, t_ev, c, 0.0, 0.0, 0.0)
             contacts = c
             if c > largest:
                 largest = c
     final = count_contacts(delta1, jm, mirror)
     if final != contacts:               # the end pattern is exact: it wins
-        rec, n = append_row(rec, n, t0 + h, float(final), 0.0, 0.0, 0.0)
+        rec, n = append_row(rec, n, t0 + h, final, 0.0, 0.0, 0.0)
         contacts = final
         if final > largest:
             largest = final

@@ -88,7 +88,7 @@ def global_state(model, eps, sign, a, adot, track):
     strain = model.plate.modes[STRAIN]
     v, x, j = global_peak(eps, sign, model.basis, strain, a)
     track[0] = v
-    track[1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, np.int64(1)), adot, x)
+    track[1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, 1), adot, x)
     track[2] = x
     track[3] = j
 
@@ -147,7 +147,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
         tw.marks[DENSE] = 1.0
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
-    field, dx, L = (model.plate.modes[STRAIN], np.int64(1)), model.basis.dx, model.basis.length
+    field, dx, L = (model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length
     xf = p0[2]
     for k in range(1, K):
         peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, field, tw.A[k - 1], tw.AD[k - 1],
@@ -175,7 +175,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     p0, p1, best, samples = tw.track[P0], tw.track[P1], tw.track[PIECE], tw.samples2
     joinable, run_max = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s]
     sign = 1.0 - 2.0 * s
-    K = np.int64(SWITCH_SAMPLES)       # (not a literal: numba would compile _store_samples twice)
+    K = SWITCH_SAMPLES
     if max(p0[0], p1[0]) < run_max - RIPPLE * abs(run_max):   # far below the record: not needed
         best[0] = max(p0[0], p1[0])
         best[1] = t0 if p0[0] >= p1[0] else t0 + h
@@ -189,7 +189,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
         node_strain(model.basis.cosq, model.basis.floe, strain, tw.A2[k - 1], tw.eps)
         v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1])
         samples[k, 0] = v
-        samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, np.int64(1)), tw.AD2[k - 1], x)
+        samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, 1), tw.AD2[k - 1], x)
         samples[k, 2] = x
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 

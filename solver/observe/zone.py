@@ -100,7 +100,7 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
     the plate): the zone's two ends, and each local peak of the nodes refined on the modes within
     its two neighbours. Returns (value, x, node; the node -1: an end of the zone inside the
     plate), value -inf for an empty zone."""
-    dx, J, field = basis.dx, eps.shape[0], (strain, np.int64(1))
+    dx, J, field = basis.dx, eps.shape[0], (strain, 1)
     lam1, floe = basis.lam1, basis.floe
     bv, bx, bj = -np.inf, lo, -1
     if not lo <= hi:
@@ -154,7 +154,7 @@ def observe_zone(model, zw, t0, h, ends, diag):
     for s in range(2):
         sign = 1.0 - 2.0 * s
         v1, x1, j1 = zone_peak(eps1, sign, basis, strain, a1, lo, hi)
-        r1 = sign * field_sum(basis.lam1, basis.floe, (strain, np.int64(1)), adot1, x1)
+        r1 = sign * field_sum(basis.lam1, basis.floe, (strain, 1), adot1, x1)
         p0 = zw.peaks[s]
         best, tb, xb, edge = v1, t0 + h, x1, j1 < 0
         if p0[0] > best and h > 0.0:
