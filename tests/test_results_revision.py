@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import results_fingerprint as fp
@@ -36,8 +37,8 @@ def test_the_fingerprint_sees_a_change_of_one_bit(monkeypatch):
     from solver import Parameters, Settings, solve
     r = solve(Parameters(Nmod=4), Settings(fixed_step=0.05, error_estimate=False), fields=("strain",))
     before = fp._digest(r)
-    i = __import__("numpy").flatnonzero(__import__("numpy").isfinite(r.force))[-1]
-    r.force[i] = __import__("numpy").nextafter(r.force[i], __import__("numpy").inf)
+    i = np.flatnonzero(np.isfinite(r.force))[-1]
+    r.force[i] = np.nextafter(r.force[i], np.inf)
     assert fp._digest(r) != before
 
 
