@@ -94,8 +94,9 @@ def test_the_cache_key_follows_every_source_file_and_the_target(tmp_path):
     assert edited != key
     (copy / "observe" / "new_piece.py").write_text("X = 1\n")
     assert kernel_cache.cache_key(copy) not in (key, edited)
+    # (its own cache root: importing solver makes the key's directory and prunes the root)
     generic = _run(ROOT, "from solver import kernel_cache; print(kernel_cache.cache_key())",
-                   {"NUMBA_CPU_NAME": "generic"})
+                   {"NUMBA_CPU_NAME": "generic", "FLOE_IMPACT_KERNEL_CACHE": str(tmp_path / "cache")})
     assert generic.startswith("generic-") and generic != key
 
 
