@@ -67,14 +67,26 @@ def check_analysis(table, design: dict, output: dict) -> dict:
     for name in outputs:
         if name not in known:
             raise StudyError(f"[analysis] outputs: unknown output {name!r}; known: {', '.join(known)}")
+    if len(set(outputs)) != len(outputs):
+        raise StudyError(f"[analysis] outputs: {_repeated(outputs)!r} is listed twice")
     eps = table.get("eps_Y", [8e-5])
+    if (not isinstance(eps, list) or not eps
+            or not all(isinstance(e, (int, float)) and not isinstance(e, bool) and 0 < e < 1 for e in eps)):
+        raise StudyError(f"[analysis] eps_Y must be a list of yield strains in (0, 1), got {eps!r}")
+    if len({float(e) for e in eps}) != len(eps):
+        raise StudyError(f"[analysis] eps_Y: {_repeated([float(e) for e in eps])!r} is listed twice")
+    if "eps_Y" in table and not any(o in CRACK_OUTPUTS for o in outputs):
+        raise StudyError(f"[analysis] eps_Y is the yield strain of {' and '.join(CRACK_OUTPUTS)}, and no "
+                         f"output asked for takes it: remove it, or add one of those outputs")
     if any(o in CRACK_OUTPUTS for o in outputs):
-        if (not isinstance(eps, list) or not eps
-                or not all(isinstance(e, (int, float)) and not isinstance(e, bool) and 0 < e < 1 for e in eps)):
-            raise StudyError(f"[analysis] eps_Y must be a list of yield strains in (0, 1), got {eps!r}")
         if not output.get("records", True) and not all(any(abs(e / v - 1) < 1e-12 for v in output["eps_Y"])
                                                        for e in eps):
             raise StudyError("[analysis] eps_Y must be among [output] eps_Y when records = false")
+    smallest = MIN_SAMPLES[method]
+    if design["samples"] < smallest:
+        raise StudyError(f"[analysis] method = \"{method}\" needs [design] samples >= {smallest}, got "
+                         f"{design['samples']}: fewer give indices and intervals that mean nothing (Sobol' "
+                         f"indices outside [0, 1] with intervals of width 0)")
     conf = table.get("conf_level", 0.95)
     if isinstance(conf, bool) or not isinstance(conf, float) or not 0.5 <= conf < 1:
         raise StudyError(f"[analysis] conf_level must be in [0.5, 1), got {conf!r}")
@@ -88,5 +100,12 @@ def check_analysis(table, design: dict, output: dict) -> dict:
             "conf_level": conf, "resamples": resamples, "seed": seed}
 
 
+def _repeated(values: list):
+    return next(v for i, v in enumerate(values) if v in values[:i])
+
+
+#: the fewest base samples (Sobol') or trajectories (Morris) an analysis takes: its bootstrap
+#: resamples them, and with fewer the intervals are not estimates of anything
+MIN_SAMPLES = {"sobol": 16, "morris": 4}
 #: levels of the Morris grid (SALib's default)
 MORRIS_LEVELS = 4

@@ -334,7 +334,7 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
         return
     import xarray as xr
 
-    from .sensitivity import analyze
+    from .sensitivity import analyze, doubtful_outputs
     from .casefile import temporary_path
     try:
         with xr.open_dataset(out_dir / "study.nc") as ds:
@@ -351,6 +351,11 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
     finally:
         tmp.unlink(missing_ok=True)
     print(f"wrote {target}", file=sys.stderr)
+    doubtful = doubtful_outputs(indices)
+    if doubtful:
+        print(f"warning: the Sobol' indices of {', '.join(doubtful)} lie outside [0, 1] beyond their intervals: "
+              f"too few samples for these outputs (flagged in {target.name}: outside_unit_interval); "
+              f"raise [design] samples", file=sys.stderr)
 
 
 def _plots(options, study, out_dir: Path, fresh: bool) -> None:

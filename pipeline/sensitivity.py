@@ -61,6 +61,21 @@ def analyze(ds, design: dict, analysis: dict):
     return _dataset(xr, rows, labels, censored, keys, design, analysis, ds)
 
 
+def outside_unit_interval(row: dict) -> bool:
+    """Whether a Sobol' index lies outside [0, 1] by more than its interval's half-width: an
+    estimate the samples cannot support (too few of them for this output)."""
+    return any(np.any((row[k] - row[f"{k}_conf"] > 1.0) | (row[k] + row[f"{k}_conf"] < 0.0))
+               for k in ("S1", "ST") if k in row)
+
+
+def doubtful_outputs(indices) -> list:
+    """The outputs whose indices are flagged outside [0, 1] (the ``outside_unit_interval`` variable)."""
+    if "outside_unit_interval" not in indices:
+        return []
+    flags = np.asarray(indices["outside_unit_interval"].values, dtype=bool)
+    return [str(o) for o, f in zip(indices["output"].values, flags) if f]
+
+
 def _unit(values: np.ndarray, lo: float, hi: float, log: bool) -> np.ndarray:
     """A key's values back on [0, 1] (Morris reads its trajectories' steps from them)."""
     return (np.log(values / lo) / np.log(hi / lo)) if log else (values - lo) / (hi - lo)
@@ -68,6 +83,9 @@ def _unit(values: np.ndarray, lo: float, hi: float, log: bool) -> np.ndarray:
 
 def _indices(analysis: dict, design: dict, X: np.ndarray, Y: np.ndarray) -> dict:
     prob = problem(design)
+    # a Generator, not the seed: SALib seeds its bootstrap only from a truthy seed, so seed = 0
+    # drew other intervals each run (a Generator from the same seed draws what the int did)
+    rng = np.random.default_rng(analysis["seed"])
     if np.ptp(Y) == 0:                                     # a constant output depends on nothing
         zero = np.zeros(prob["num_vars"])
         if analysis["method"] == "sobol":
@@ -76,11 +94,11 @@ def _indices(analysis: dict, design: dict, X: np.ndarray, Y: np.ndarray) -> dict
     if analysis["method"] == "sobol":
         from SALib.analyze import sobol
         r = sobol.analyze(prob, Y, calc_second_order=False, num_resamples=analysis["resamples"],
-                          conf_level=analysis["conf_level"], seed=analysis["seed"])
+                          conf_level=analysis["conf_level"], seed=rng)
         return {k: np.asarray(r[k], dtype=float) for k in ("S1", "S1_conf", "ST", "ST_conf")}
     from SALib.analyze import morris
     r = morris.analyze(prob, X, Y, num_resamples=analysis["resamples"], conf_level=analysis["conf_level"],
-                       num_levels=MORRIS_LEVELS, seed=analysis["seed"])
+                       num_levels=MORRIS_LEVELS, seed=rng)
     return {k: np.asarray(r[k], dtype=float) for k in ("mu_star", "mu_star_conf", "sigma")}
 
 
@@ -106,6 +124,12 @@ def _dataset(xr, rows, labels, censored, keys, design, analysis, ds):
     for name in ("mu_star", "mu_star_conf", "sigma"):
         if name in data:
             data[name][2].pop("units")
+    if "S1" in data:
+        data["outside_unit_interval"] = (("output",), np.array([outside_unit_interval(r) for r in rows], dtype=np.int8),
+                                         {"long_name": "1 where an index of the output lies outside [0, 1] by more than "
+                                                       "its interval's half-width (too few samples: not an estimate)",
+                                          "units": "1", "flag_values": np.array([0, 1], dtype=np.int8),
+                                          "flag_meanings": "within_interval outside_unit_interval"})
     data["censored"] = (("output",), np.array(censored),
                         {"long_name": "fraction of samples whose output was not finite and entered censored "
                                       "(see the analysis attribute)", "units": "1"})

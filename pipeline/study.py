@@ -977,7 +977,9 @@ def expand(study: Study) -> None:
     # the same run may serve in several sweeps when its references differ (one file, several
     # rows); a grid's cases differ by construction (its values are distinct), so a large grid
     # is counted, not expanded, here
-    if study._listed or study.references:
+    # a design's samples may repeat a point (Morris's trajectories share points of their grid):
+    # a repeated point is one run, computed once and stored at each of its samples
+    if (study._listed or study.references) and not study.design:
         keyed = [(cid, study.references[i].case_id if i in study.references else None)
                  for i, cid in enumerate(study.case_ids)]
         if len(set(keyed)) != len(keyed):

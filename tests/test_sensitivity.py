@@ -78,13 +78,48 @@ def test_an_output_that_did_not_happen_enters_censored_and_says_so():
         analyze(failed, design, analysis)
 
 
+def test_a_seed_of_0_gives_the_same_intervals_every_run():
+    """SALib seeds its bootstrap only from a truthy seed: seed = 0 (the default) drew other
+    intervals each run before."""
+    design = {"method": "saltelli", "samples": 64, "seed": 0,
+              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}}
+    ds = _fake_study(design, {"max_strain": ishigami})
+    runs = [analyze(ds, design, {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5],
+                                 "conf_level": 0.95, "resamples": 200, "seed": 0}) for _ in range(3)]
+    for other in runs[1:]:
+        np.testing.assert_array_equal(other["S1_conf"].values, runs[0]["S1_conf"].values)
+        np.testing.assert_array_equal(other["ST_conf"].values, runs[0]["ST_conf"].values)
+    design_m = {"method": "morris", "samples": 10, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}}
+    ds_m = _fake_study(design_m, {"max_strain": lambda X: X[:, 0] ** 3 + X[:, 0] * X[:, 1]})
+    runs = [analyze(ds_m, design_m, {"method": "morris", "outputs": ["max_strain"], "eps_Y": [],
+                                     "conf_level": 0.95, "resamples": 200, "seed": 0}) for _ in range(2)]
+    np.testing.assert_array_equal(runs[1]["mu_star_conf"].values, runs[0]["mu_star_conf"].values)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_indices_outside_the_unit_interval_are_flagged(seed):
+    """One base sample gives S1 = -3.04 or 5.42 with intervals of width 0 (the issue's S1 = 1.34):
+    flagged, and the runner warns; Ishigami's indices at 1024 samples are not."""
+    from pipeline.sensitivity import doubtful_outputs
+    analysis = {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
+                "resamples": 100, "seed": seed}
+    keys = {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}
+    few = {"method": "saltelli", "samples": 1, "seed": seed, "keys": keys}
+    idx = analyze(_fake_study(few, {"max_strain": ishigami}), few, analysis)
+    assert int(idx["outside_unit_interval"].sel(output="max_strain")) == 1
+    assert doubtful_outputs(idx) == ["max_strain"]
+    many = {**few, "samples": 1024}
+    idx = analyze(_fake_study(many, {"max_strain": ishigami}), many, analysis)
+    assert int(idx["outside_unit_interval"].sel(output="max_strain")) == 0 and doubtful_outputs(idx) == []
+
+
 STUDY = """
 description = "sensitivity of a small design"
 [base]
-Nmod = 6
+Nmod = 4
 [design]
 method = "saltelli"
-samples = 4
+samples = 16
 seed = 1
 [design.keys]
 V = { min = 1.0, max = 5.0, log = true }
@@ -94,6 +129,8 @@ method = "sobol"
 outputs = ["max_strain", "crack_onset_time", "bottoming_time"]
 eps_Y = [8e-5, 1e-3]
 resamples = 100
+[solver]
+tolerance = 1e-5          # loose: the test is of the analysis, not of the solver
 [output]
 fields = []
 times = { unit = "stage", count = 3 }
@@ -103,12 +140,12 @@ times = { unit = "stage", count = 3 }
 def test_a_study_with_an_analysis_writes_its_indices_and_figure(tmp_path):
     out = tmp_path / "sens"
     ds = pipeline.run_study(STUDY, out=out, name="sens", workers=1, quiet=True)
-    assert ds.sizes["sample"] == 4 * (2 + 2)
+    assert ds.sizes["sample"] == 16 * (2 + 2)
     with xr.open_dataset(out / "sensitivity.nc") as idx:
         assert list(idx["output"].values) == ["max_strain", "crack_onset_time@8e-05", "crack_onset_time@0.001",
                                               "bottoming_time"]
         assert idx["S1"].dims == ("output", "key") and list(idx["key"].values) == ["V", "hi"]
-        assert idx.attrs["samples"] == 16 and idx.attrs["Conventions"].startswith("CF-")
+        assert idx.attrs["samples"] == 64 and idx.attrs["Conventions"].startswith("CF-")
         assert np.all(np.isfinite(idx["ST"].values))
     assert (out / "sensitivity.png").is_file() and (out / "design.png").is_file()
 
@@ -120,6 +157,13 @@ BAD = [
     (STUDY.replace("eps_Y = [8e-5, 1e-3]", "eps_Y = [2.0]"), "eps_Y must be a list of yield strains in (0, 1)"),
     (STUDY.replace("hi = { min = 0.3, max = 1.0 }\n", ""), "at least two sampled keys"),
     (STUDY.split("[design]")[0] + "[analysis]" + STUDY.split("[analysis]")[1], "needs a [design]"),
+    (STUDY.replace('"bottoming_time"]', '"bottoming_time", "max_strain"]'), "outputs: 'max_strain' is listed twice"),
+    (STUDY.replace("eps_Y = [8e-5, 1e-3]", "eps_Y = [8e-5, 8.0e-5]"), "eps_Y: 8e-05 is listed twice"),
+    (STUDY.replace("eps_Y = [8e-5, 1e-3]", 'eps_Y = "abc"'), "eps_Y must be a list of yield strains in (0, 1), got 'abc'"),
+    (STUDY.replace("eps_Y = [8e-5, 1e-3]", "eps_Y = 5"), "eps_Y must be a list of yield strains in (0, 1), got 5"),
+    (STUDY.replace('"max_strain", "crack_onset_time", ', '"max_strain", '), "no output asked for takes it"),
+    (STUDY.replace("samples = 16", "samples = 8"), "needs [design] samples >= 16, got 8"),
+    (STUDY.replace("samples = 16", "samples = 1"), "needs [design] samples >= 16, got 1"),
 ]
 
 
@@ -128,3 +172,41 @@ def test_a_bad_analysis_is_refused_in_one_line(text, words):
     with pytest.raises(pipeline.StudyError) as err:
         load_study_text(text, "sens")
     assert words in str(err.value) and "\n" not in str(err.value)
+
+
+MORRIS = """
+description = "Morris at the size the issue found refused: 4 trajectories of 2 keys share grid points"
+[base]
+Nmod = 4
+[design]
+method = "morris"
+samples = 4
+seed = 5
+[design.keys]
+V = { min = 1.0, max = 5.0, log = true }
+hi = { min = 0.3, max = 1.0 }
+[analysis]
+method = "morris"
+outputs = ["max_strain"]
+resamples = 50
+[output]
+fields = []
+times = { unit = "stage", count = 3 }
+[plots]
+kinds = []
+"""
+
+
+def test_a_morris_design_with_repeated_points_runs_each_point_once(tmp_path):
+    """Morris trajectories lie on a 4-level grid and share points: a repeated point is one run,
+    stored at each of its samples (refused as "two cases are identical" before)."""
+    study = load_study_text(MORRIS, "morris")
+    assert study.n_cases == 12 and len(study.run_ids) < 12            # repeats, for this seed
+    ds = pipeline.run_study(MORRIS, out=tmp_path / "m", name="morris", workers=1, quiet=True)
+    assert ds.sizes["sample"] == 12
+    ids, strain = ds["case_id"].values, ds["max_strain"].values
+    assert np.all(np.isfinite(strain))
+    for cid in set(ids):
+        assert len(set(strain[ids == cid])) == 1
+    with xr.open_dataset(tmp_path / "m" / "sensitivity.nc") as idx:
+        assert np.all(np.isfinite(idx["mu_star"].values)) and float(idx["mu_star"].sel(output="max_strain", key="V")) > 0
