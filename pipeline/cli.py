@@ -73,7 +73,7 @@ def command_run(args) -> int:
     from .run import RunOptions, run_study
     from .study import find_study, load_study
     check()                                           # a Ctrl-C during the imports
-    study = load_study(find_study(args.study))
+    study = load_study(find_study(args.study), max_cases=None if args.yes else LARGE_STUDY)
     check()
     if study.n_cases > LARGE_STUDY and not args.yes:
         raise StudyError(f"the study has {study.n_cases} cases (more than {LARGE_STUDY}); "

@@ -74,6 +74,29 @@ def cluster_client(workers: int, scheduler: str | None):
         finally:
             client.close()
         return
+    with _main_script_hidden():
+        yield from _local_cluster_client(workers)
+
+
+@contextmanager
+def _main_script_hidden():
+    """While the local cluster lives, its worker processes do not import the runner's main
+    script: multiprocessing's spawn runs ``__main__``'s file again in every child, so a script
+    that calls run_study without ``if __name__ == "__main__":`` started a cluster in each
+    worker ("Nanny failed to start"). The workers run only this package's functions."""
+    main = sys.modules.get("__main__")
+    saved = {k: getattr(main, k) for k in ("__file__", "__spec__") if main is not None and hasattr(main, k)}
+    if main is not None and saved.get("__file__"):
+        main.__spec__ = None
+        del main.__file__
+    try:
+        yield
+    finally:
+        for key, value in saved.items():
+            setattr(main, key, value)
+
+
+def _local_cluster_client(workers: int):
     environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environ.update(SINGLE_THREAD_ENV)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,

@@ -47,6 +47,10 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
     if options.scheduler:                              # unreachable: bad input, refused before writing
         from .engine import probe_scheduler
         probe_scheduler(options.scheduler)
+    if session is None:                                # not a search's round: said once, by the search
+        from .study import validity_warnings
+        for line in validity_warnings(study):
+            print(line, file=sys.stderr)
     if options.dry_run:
         if study.search:
             from .search_runner import search_summary

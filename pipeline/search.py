@@ -44,6 +44,12 @@ SEARCH_KEYS = {"key", "bracket", "log", "event", "eps_Y", "tolerance", "scan"}
 SCAN = 9
 #: rounds at most (2^60 halvings: any tolerance a double can hold)
 MAX_ROUNDS = 62
+#: the finest tolerance, relative to the bracket's values: they are rounded to 12 significant
+#: digits (the same case id on every CPU), so a narrower bracket could not be halved
+RESOLUTION = 1e-10
+#: at most this many (point, scanned value) runs are checked one by one before a run; beyond,
+#: the bracket's two ends at every point
+MAX_CHECKS = 20_000
 
 
 def check_search(table, taken: set) -> dict:
@@ -78,6 +84,11 @@ def check_search(table, taken: set) -> dict:
     if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not tol > 0:
         raise StudyError(f"[search] tolerance must be a number > 0, got {tol!r}")
     width = hi / lo - 1 if log else hi - lo
+    finest = RESOLUTION * (1.0 if log else max(abs(lo), abs(hi)))
+    if tol < finest:
+        raise StudyError(f"[search] tolerance {tol:g} is below what the search's values resolve (they are "
+                         f"rounded to 12 significant digits): at least {finest:g}"
+                         f"{' (relative, on a log scale)' if log else ' on this bracket'}")
     if tol >= width:
         raise StudyError(f"[search] tolerance {tol:g} is not below the bracket's width {width:g}")
     scan = table.get("scan", SCAN)
@@ -85,6 +96,49 @@ def check_search(table, taken: set) -> dict:
         raise StudyError(f"[search] scan must be an integer from 2 to 1000 (points over the bracket), got {scan!r}")
     return {"key": key, "bracket": [lo, hi], "log": log, "event": event, "eps_Y": [float(e) for e in eps],
             "tolerance": float(tol), "scan": scan}
+
+
+def check_bracket(search: dict, values: dict, points: list, extreme: bool) -> None:
+    """Every run the search's first round makes (each point at each scanned value, the bracket's
+    ends included) gives valid parameters and settings, within the physical ranges unless
+    ``extreme``: a bracket that breaks the model is refused before anything is written, naming
+    the bracket. ``values``: [base] and [solver]; ``points``: each point's own values (a grid's
+    combinations, a design's samples, or [{}] for [base] alone)."""
+    from solver import PARAMETER_INFO, SETTING_INFO, Parameters, Settings
+    from solver.parameters import ParameterError, check_combination, outside_physical_range
+    key, scanned = search["key"], scan_values(search)
+    if len(points) * len(scanned) > MAX_CHECKS:
+        scanned = [scanned[0], scanned[-1]]
+    for point in points:
+        at = (" at " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in point.items())
+              if point else "")
+        merged = {**values, **point}
+        settings = {k: (True if k == "error_estimate" and v == "sample" else v)
+                    for k, v in merged.items() if k in SETTING_INFO}
+        for value in scanned:
+            params = {**{k: v for k, v in merged.items() if k in PARAMETER_INFO}, key: value}
+            try:
+                check_combination(Parameters(**params), Settings(**settings))
+            except ParameterError as err:
+                raise StudyError(f"[search] bracket: {key} = {value:g}{at}: {err}") from None
+            reason = None if extreme else outside_physical_range(params)
+            if reason:
+                raise StudyError(f"[search] bracket: {key} = {value:g}{at}: {reason} (accept_extreme_values = "
+                                 f"true runs it anyway)")
+
+
+def search_points(grid: dict, case_list: list) -> list:
+    """The points a search runs at, as the values that place each: a grid's combinations (at
+    most MAX_CHECKS; beyond, each key's lowest and highest value, every value of the keys
+    the checks are not monotone in), a design's samples, or [{}] for [base] alone."""
+    import itertools
+    if not grid:
+        return [dict(c) for c in case_list] or [{}]
+    choices = list(grid.values())
+    if math.prod(len(c) for c in choices) > MAX_CHECKS:
+        choices = [c if k in ("body_p", "x0") or not all(isinstance(v, (int, float)) for v in c)
+                   else sorted({min(c), max(c)}) for k, c in grid.items()]
+    return [dict(zip(grid, combo)) for combo in itertools.product(*choices)]
 
 
 def scan_values(search: dict) -> list:

@@ -517,8 +517,9 @@ def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
     return path
 
 
-def load_study(path: Path) -> Study:
-    """Read and validate a study file; expand its cases."""
+def load_study(path: Path, max_cases: int | None = None) -> Study:
+    """Read and validate a study file; expand its cases. ``max_cases``: refuse a design of
+    more cases before building them (the command line's --yes limit)."""
     path = Path(path)
     try:
         text = path.read_bytes().decode("utf-8")
@@ -526,7 +527,7 @@ def load_study(path: Path) -> Study:
         raise StudyError(f"cannot read {path}: {err.strerror}") from None
     except UnicodeDecodeError as err:
         raise StudyError(f"{path}: not UTF-8 text (byte {err.start}); a study file is TOML") from None
-    return load_study_text(text, path.stem, path)
+    return load_study_text(text, path.stem, path, max_cases)
 
 
 #: the copy of its study a run keeps in the results directory (status and show read it)
@@ -580,7 +581,7 @@ def load_study_copy(out_dir: Path) -> Study:
     return load_study_text(text, name, path)
 
 
-def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
+def load_study_text(text: str, name: str, path: Path | None = None, max_cases: int | None = None) -> Study:
     """Validate a study from its text (what a worker receives); expand its cases."""
     path = Path(path) if path is not None else Path(f"{name}.toml")
     try:
@@ -648,8 +649,11 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
             seen.add(key)
     output = _check_output(data.get("output", {}))
     if "design" in data:                           # its samples may repeat a point (Morris's grid)
-        from .design import check_design, design_cases
+        from .design import check_design, design_cases, design_size
         design = check_design(data["design"], base)
+        n = design_size(design)
+        if max_cases is not None and n > max_cases:
+            raise StudyError(f"the study has {n} cases (more than {max_cases}); add --yes to run it")
         case_list = design_cases(design)
     if "analysis" in data:
         from .analysis import check_analysis
@@ -660,6 +664,18 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
         if case_list and not design and case_list != [{}]:
             raise StudyError("[search] runs over a [grid], a [design] or [base] alone, not [[cases]]")
         search = check_search(data["search"], {*base, *grid, *(design.get("keys", {}))})
+        if analysis:
+            raise StudyError("[analysis] is computed over a [design]'s samples, not a [search]'s runs: a study has "
+                             "one of them")
+        if "reference" in data:
+            raise StudyError("[reference] is not run by a [search] (its runs are the bisection's): remove it")
+        from .search import check_bracket, search_points
+        extreme = data.get("accept_extreme_values", False)
+        check_bracket(search, {**base, **_check_solver(data.get("solver", {}))}, search_points(grid, case_list),
+                      extreme is True)
+        # the study's own cases are the points searched, at the bracket's low end (the key may
+        # have no default: a free floe's duration)
+        base = {**base, search["key"]: search["bracket"][0]}
     solver = _check_solver(data.get("solver", {}))
     reference = _check_reference("[reference]", data["reference"]) if "reference" in data else {}
     plots_table = data.get("plots", {})
@@ -685,12 +701,6 @@ def load_study_text(text: str, name: str, path: Path | None = None) -> Study:
                          'finite value in [base], or finite values in [grid] or in every [[cases]] entry')
     if not extreme:
         _check_ranges(study)
-        if search:
-            from solver.parameters import outside_physical_range
-            for end in search["bracket"]:
-                reason = outside_physical_range({search["key"]: end})
-                if reason:
-                    raise StudyError(f"[search] bracket: {reason} (accept_extreme_values = true runs it anyway)")
     expand(study)
     return study
 
@@ -746,7 +756,7 @@ def _make_case(index, values: dict, output: dict, label: str) -> Case:
         s = Settings(**settings)
         check_combination(p, s)
     except ParameterError as err:
-        raise StudyError(f"case {label}: {err}") from None
+        raise StudyError(f"{label if label.startswith('[') else 'case ' + label}: {err}") from None
     return Case(case_id(p, s, output), tuple(index), p, s, output["times"], tuple(output["fields"]),
                 output["x_points"], output["end"], output.get("body", False))
 
@@ -817,7 +827,9 @@ def _check_ranges(study: Study) -> None:
                     for k in ("hi", "L")}
         tables.append(("[grid]", extremes))
     for i, entry in enumerate(study.case_list):
-        tables.append((f"[[cases]] #{i + 1}", {**base, **{k: v for k, v in entry.items() if k in PARAMETER_INFO}}))
+        where = (f"[design] sample {i} ({', '.join(f'{k}={v:g}' for k, v in entry.items())}, within [design.keys])"
+                 if study.design else f"[[cases]] #{i + 1}")
+        tables.append((where, {**base, **{k: v for k, v in entry.items() if k in PARAMETER_INFO}}))
     for where, table in tables:
         # what is not a finite positive number is expand()'s to refuse, with its own message
         valid = {k: v for k, v in table.items() if k in PARAMETER_INFO and isinstance(v, (int, float))
@@ -850,7 +862,7 @@ def _check_grid_values(study: Study) -> None:
             except ParameterError as err:
                 raise StudyError(f"[grid] {key} = {v!r}: {err}") from None
     _check_grid_combinations(study, params)
-    _check_integrator_combinations(study, params, settings)
+    _check_setting_combinations(study, params, settings)
 
 
 #: the keys that are checked together (Parameters._check_scales: the time scale, the impact
@@ -862,21 +874,29 @@ COUPLED_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H", "R", "V", "bod
 #: body_p, and against |x0|) with the lowest and highest of each other key
 MAX_COMBINATIONS = 20_000
 NOT_MONOTONE = ("body_p", "x0")
+#: the keys solver.parameters.check_combination reads
+COMBINED_KEYS = ("edges", "quadrature", "integrator", "tau", "layer_tau", "duration")
 
 
-def _check_integrator_combinations(study: Study, params: dict, settings: dict) -> None:
-    """Every integrator the grid's cases take goes with every ice and layer they take
-    (solver.parameters.check_combination)."""
-    integrators = study.grid.get("integrator", [settings.get("integrator", "etd34")])
-    damped = [("tau", v) for v in study.grid.get("tau", [params.get("tau", 0.0)])] + \
-             [("layer_tau", v) for v in study.grid.get("layer_tau", [params.get("layer_tau", 0.0)])]
-    for integrator in integrators:
-        for key, value in damped:
-            try:
-                check_combination(Parameters(**{**params, key: value}),
-                                  Settings(**{**settings, "integrator": integrator}))
-            except ParameterError as err:
-                raise StudyError(f"{key} = {value!r} with integrator = {integrator!r}: {err}") from None
+def _check_setting_combinations(study: Study, params: dict, settings: dict) -> None:
+    """Every combination of the grid's values of the keys solver.parameters.check_combination
+    reads (the integrator and the quadrature against the ice, the layer, the edges and L) goes
+    together, so that no case is refused only when a worker runs it."""
+    keys = [k for k in study.grid if k in COMBINED_KEYS]
+    choices = [study.grid[k] for k in keys]
+    if math.prod(len(c) for c in choices) > MAX_COMBINATIONS:
+        choices = [c if k in CHOICES or k in NAMED_SETTINGS else sorted({min(c), max(c)})
+                   for k, c in zip(keys, choices)]
+    for combo in itertools.product(*choices):
+        values = dict(zip(keys, combo))
+        try:
+            check_combination(Parameters(**{**params, **{k: v for k, v in values.items() if k in PARAMETER_INFO}}),
+                              Settings(**{**settings, **{k: v for k, v in values.items() if k in SETTING_INFO}}))
+        except ParameterError as err:
+            named = [f"[{table}] {k} = {v!r}" for table, given in (("base", study.base), ("solver", study.solver))
+                     for k, v in given.items() if k in COMBINED_KEYS]
+            where = ", ".join([*named, *(f"[grid] {k} = {v!r}" for k, v in values.items())]) or "[base]"
+            raise StudyError(f"{where}: {err}") from None
 
 
 def _check_grid_combinations(study: Study, params: dict) -> None:
@@ -926,6 +946,52 @@ def _longest_stage_in_t_sc(study: Study) -> float:
     return float(np.max(_stage_in_t_sc(study)))
 
 
+#: a free floe's run longer than this fraction of its gravity-wave time sqrt(L/g) is said to be
+#: outside the short-time model (phi = 0 on the open water holds for ratios well below 1)
+GRAVITY_TIME_WARNING = 0.5
+#: the keys validity_warnings reads
+VALIDITY_KEYS = ("edges", "L", "g", "duration", "impact_zone_margin")
+
+
+def validity_warnings(study: Study) -> list:
+    """What the study asks that the model answers only in part: a walled plate whose impact
+    zone its margin leaves empty (its impact_zone_* are NaN), a free floe run past the
+    short-time approximation (docs/model.md, "a free floe"). One line each."""
+    defaults = {**Parameters().as_dict(), **Settings().as_dict()}
+    fixed = {k: v for k, v in {**defaults, **study.base, **study.solver}.items() if k in VALIDITY_KEYS}
+    if study._listed:
+        combos = [{**{k: c.value(k) for k in VALIDITY_KEYS if k in PARAMETER_INFO},
+                   "impact_zone_margin": c.settings.impact_zone_margin} for c in study._listed]
+    else:
+        keys = [k for k in study.grid if k in VALIDITY_KEYS]
+        choices = [study.grid[k] if k == "edges" else sorted({min(study.grid[k]), max(study.grid[k])}) for k in keys]
+        combos = [{**fixed, **dict(zip(keys, combo))} for combo in itertools.product(*choices)]
+    lines = []
+    empty = [c for c in combos if c["edges"] == "walls" and c["impact_zone_margin"] >= c["L"]]
+    if empty:
+        c = empty[0]
+        lines.append(f"warning: impact_zone_margin = {c['impact_zone_margin']:g} m leaves no impact zone on a walled "
+                     f"plate of L = {c['L']:g} m (the zone stops the margin short of each wall): impact_zone_* are "
+                     f"NaN there; set [solver] impact_zone_margin below L")
+    ratios = [c["duration"] / math.sqrt(c["L"] / c["g"]) for c in combos if c["edges"] == "free"]
+    if ratios and max(ratios) > GRAVITY_TIME_WARNING:
+        lines.append(f"warning: a free floe's duration is {max(ratios):.3g} times its gravity-wave time sqrt(L/g): phi = 0 on the open water, the model's short-time approximation, holds only well "
+                     f"below 1 (docs/model.md, \"a free floe\"); gravity_time_ratio in study.nc says it per case")
+    largest = max([Settings(**{k: v for k, v in {**study.base, **study.solver}.items() if k == "subintervals"}).subintervals,
+                   *study.grid.get("subintervals", []), *(c.get("subintervals", 0) for c in study.case_list)])
+    if largest > SLOW_SUBINTERVALS:
+        lines.append(f"warning: subintervals = {largest}: every step sums the quadrature over them, about "
+                     f"{SECONDS_PER_SUBINTERVAL * largest:.0f} s a case at 8 modes (measured: "
+                     f"{SECONDS_PER_SUBINTERVAL:.0e} s per subinterval), more with more modes; the default is 250")
+    return lines
+
+
+#: subintervals above which a run is said to be slow, and the cost of one (etd34 at 8 modes over
+#: the reference case's stage, either rule: 1.9-2.2 s at 25 000, linear from 2 500)
+SLOW_SUBINTERVALS = 20_000
+SECONDS_PER_SUBINTERVAL = 8e-5
+
+
 def cases_past_their_stage(study: Study) -> int:
     """How many cases have output times past their impact stage (those are not integrated)."""
     if study.output["times"]["unit"] != "t_sc":
@@ -944,12 +1010,14 @@ def expand(study: Study) -> None:
         listed = []
         for i, overrides in enumerate(study.case_list):
             overrides = {k: v for k, v in overrides.items() if k not in ("reference", "group")}
-            label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "base"
+            label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "[base]"
+            if study.design:
+                label = f"[design] sample {i} ({label}, within [design.keys])"
             values = {**study.base, **study.solver, **overrides}
             try:
                 values = _resolve_sample(values)
             except ParameterError as err:
-                raise StudyError(f"case {label}: {err}") from None
+                raise StudyError(f"{label if label.startswith('[') else 'case ' + label}: {err}") from None
             listed.append(_make_case((i,), values, study.output, label))
         study._listed = listed
     if study.n_cases == 0:

@@ -309,8 +309,11 @@ def _energy_bound_message(p: Parameters, diagnostics: dict, quadrature: str) -> 
             text += (f"; at body_mass = {p.body_mass:g} kg/m its round-off alone, M V^2 x 1e-16, is {floor:.1e} of "
                      f"the work: a body this heavy is the paper's body (body_mass = inf)")
         return text
-    mend = ("more subintervals, quadrature = \"gauss\" or a tighter tolerance" if quadrature == "paper"
-            else "a tighter tolerance or a larger quadrature_density")
+    if quadrature == "paper":                 # a free floe runs the paper's rule only (check_combination)
+        mend = ("more subintervals or a tighter tolerance" if p.edges == "free"
+                else "more subintervals, quadrature = \"gauss\" or a tighter tolerance")
+    else:
+        mend = "a tighter tolerance or a larger quadrature_density"
     return (f"energy identity broken: the residual |E_plate + E_layer + D - W| reached {plate:.2e} of the work "
             f"(bound {ENERGY_BOUND:g}; {mend} may mend it)")
 
