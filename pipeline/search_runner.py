@@ -111,7 +111,11 @@ class Runs:
                 self.order.append(item)
         key = self.study.search["key"]
         cases = [{**self.points[p], key: v} for p, v in self.order]
-        sub = load_study_text(_evaluation_text(self.study, cases), f"{self.study.name}_evaluations")
+        try:
+            sub = load_study_text(_evaluation_text(self.study, cases), f"{self.study.name}_evaluations")
+        except StudyError as err:                   # a value inside the checked scan (non-monotone checks)
+            raise StudyError(f"[search] bracket: a value the bisection reached in round {round_ + 1} is "
+                             f"refused: {err} (the runs made are kept)") from None
         started, log = time.monotonic(), io.StringIO()
         with contextlib.redirect_stderr(log):       # the round's own lines; errors are raised
             self.run_study(sub, self.out_dir, self.options, session)

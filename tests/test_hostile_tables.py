@@ -159,3 +159,23 @@ def test_a_floe_whose_energy_identity_breaks_is_not_told_to_use_the_gauss_rule()
     r = solve(p, Settings(quadrature="paper"), times=[0.0, 0.001], fields=())
     assert r.status == "energy_violation", r.status
     assert "more subintervals or a tighter tolerance may mend it" in r.message and "gauss" not in r.message
+
+
+def test_a_bisection_value_the_model_refuses_names_the_search(tmp_path, monkeypatch):
+    """The dry run checks the scanned values; a value between two of them can still break a
+    check that is not monotone (the stage against body_p or x0). Its refusal names the search's
+    bracket and says the runs made are kept, not "[[cases]] #3" of a study the user never wrote."""
+    import pipeline.study
+    from pipeline.run import RunOptions, run_study
+    study = load_study_text(SEARCH, "s")
+    real = pipeline.study.load_study_text
+
+    def refusing(text, name, *args, **kwargs):
+        if name.endswith("_evaluations"):
+            raise pipeline.StudyError("[[cases]] #3: the impact stage is shorter than ...")
+        return real(text, name, *args, **kwargs)
+    monkeypatch.setattr(pipeline.study, "load_study_text", refusing)
+    with pytest.raises(pipeline.StudyError) as err:
+        run_study(study, tmp_path / "out", RunOptions(workers=1))
+    assert str(err.value).startswith("[search] bracket: a value the bisection reached in round 1 is refused: "
+                                     "[[cases]] #3") and str(err.value).endswith("(the runs made are kept)")
