@@ -26,8 +26,8 @@ __all__ = ["run_study", "open_study", "open_sensitivity", "study_text", "load"]
 
 def study_text(study: dict) -> str:
     """The TOML text of a study given as a dict of the study file's tables (see
-    :func:`pipeline.study.study_text`)."""
-    from .study import study_text as text   # deferred: import pipeline stays light (the CLI's fast refusals)
+    :func:`pipeline.study_files.study_text`)."""
+    from .study_files import study_text as text   # deferred: import pipeline stays light (the CLI's fast refusals)
     return text(study)
 
 
@@ -36,7 +36,8 @@ def load(study, name: str | None = None):
     ``studies/speed_sweep.toml``), a path to a study file, the TOML text of one (a string of
     several lines), a dict of sections (see :func:`study_text`) or a Study (returned as it is);
     ``name`` names a study given as text or a dict (default ``"study"``)."""
-    from .study import Study, find_study, load_study, load_study_text
+    from .study import Study, load_study_text
+    from .study_files import find_study, load_study
     if isinstance(study, Study):
         return study
     if isinstance(study, dict):

@@ -31,7 +31,8 @@ from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO
 from solver.parameters import CHOICES
 
 from . import provenance
-from .study import SCHEMA_VERSION, Case, x_fractions
+from .case import Case, x_fractions
+from .identity import SCHEMA_VERSION
 from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
                      TEXT_INFO)
 

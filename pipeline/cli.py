@@ -71,7 +71,7 @@ def _parser():
 def command_run(args) -> int:
     from .interrupts import check
     from .run import RunOptions, run_study
-    from .study import find_study, load_study
+    from .study_files import find_study, load_study
     check()                                           # a Ctrl-C during the imports
     study = load_study(find_study(args.study), max_cases=None if args.yes else LARGE_STUDY)
     check()
@@ -123,7 +123,7 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
     """The study and its results directory, from a study name or file (results/<name> unless
     --out), or from a results directory alone (through the copy of the study a run keeps
     there); a name whose studies/<name>.toml is gone falls back on results/<name>."""
-    from .study import STUDY_COPY, find_study, load_study, load_study_copy
+    from .study_files import STUDY_COPY, find_study, load_study, load_study_copy
     given = Path(name_or_path)
     if given.is_dir():
         if not (given / STUDY_COPY).is_file():

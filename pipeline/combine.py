@@ -31,7 +31,9 @@ from . import provenance
 from .casefile import DamagedFile, read_batch_arrays, tension_records, time_coordinate_attrs
 from .fracture import CRACK_INFO, onset_from_records
 from .ledger import BATCHES, write_sidecar
-from .study import SCHEMA_VERSION, Study, x_fractions, x_positions
+from .case import x_fractions, x_positions
+from .identity import SCHEMA_VERSION
+from .study import Study
 from .tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES,
                      TENSION_RECORD_INFO, TEXT_INFO)
 

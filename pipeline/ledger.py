@@ -225,7 +225,7 @@ def inputs_fingerprint(study, index: dict) -> str:
     """A hash of what study.nc is made from: the study file, the schema, the code (version,
     commit, dirty) and the checksum of the batch file that holds each run."""
     from . import provenance
-    from .study import SCHEMA_VERSION
+    from .identity import SCHEMA_VERSION
     commit, dirty = provenance.git_state()
     h = hashlib.sha256(json.dumps({"study": study.text, "schema": SCHEMA_VERSION,
                                    "code": [provenance.package_version(), commit, dirty]}).encode())

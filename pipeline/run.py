@@ -48,7 +48,7 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
         from .engine import probe_scheduler
         probe_scheduler(options.scheduler)
     if session is None:                                # not a search's round: said once, by the search
-        from .study import validity_warnings
+        from .consistency import validity_warnings
         for line in validity_warnings(study):
             print(line, file=sys.stderr)
     if options.dry_run:
@@ -69,7 +69,7 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
     try:
         if study.search:                               # rounds of runs in out_dir/evaluations
             from .search_runner import run_search
-            from .study import keep_study_copy
+            from .study_files import keep_study_copy
             keep_study_copy(study, out_dir)
             return run_search(study, out_dir, options, run_study)
         return _run_locked(options, study, out_dir, session)
@@ -212,7 +212,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
     from .interrupts import check
     from .ledger import reconcile
     batches = _prepare_dirs(out_dir)
-    from .study import keep_study_copy
+    from .study_files import keep_study_copy
     keep_study_copy(study, out_dir)
     notes = []
     ledger = reconcile(out_dir, notes)
@@ -220,7 +220,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
         print(f"note: {note}", file=sys.stderr)
     states = ledger_states(study, out_dir, ledger)
     items, signature = _todo(study, states, options.rerun_failed)
-    from .study import cases_past_their_stage
+    from .consistency import cases_past_their_stage
     past = cases_past_their_stage(study)
     if past:
         print(f"note: {past} of {study.n_cases} cases have output times past their impact stage "

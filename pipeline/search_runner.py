@@ -31,7 +31,7 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
 def _evaluation_text(study, cases: list) -> str:
     """The evaluations' study: the search study's [base], [solver] and [output] (its eps_Y with
     the search's), and one [[cases]] entry a run."""
-    from .study import study_text
+    from .study_files import study_text
     data = tomllib.loads(study.text)
     output = dict(data.get("output", {}))
     eps = study.search["eps_Y"]

@@ -84,7 +84,7 @@ def _off_grid(study, wanted: dict, spec: str) -> str:
     of the study that matches the keys whose values it has, with the others set as asked. It is
     added to the study's runs for this call only; show solves it and stores nothing."""
     from solver import PARAMETER_INFO, SETTING_INFO
-    from .study import _make_case
+    from .identity import make_case
     unknown = [k for k in wanted if k not in PARAMETER_INFO and k not in SETTING_INFO]
     if unknown:
         raise ShowError(f"--case: {unknown[0]} is not a parameter or solver setting")
@@ -111,7 +111,7 @@ def _off_grid(study, wanted: dict, spec: str) -> str:
             except ValueError:
                 raise ShowError(f"--case {key}={text}: not a number") from None
     try:
-        extra = _make_case((), values, study.output, spec)
+        extra = make_case((), values, study.output, spec)
     except StudyError as err:
         raise ShowError(str(err)) from None
     study._extra_runs[extra.case_id] = extra

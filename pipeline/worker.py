@@ -10,7 +10,7 @@ import numpy as np
 
 from .casefile import batch_dataset, case_arrays, write_batch
 from .combine import reduce_arrays
-from .study import Case, x_positions
+from .case import Case, x_positions
 from .tables import WRITE_FAILED
 
 

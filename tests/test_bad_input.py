@@ -44,7 +44,7 @@ BAD_FILES = [
     (GOOD + "\n[solver]\nquadrature = \"simpson\"", "[solver]: quadrature must be one of paper, gauss, got 'simpson'"),
     (GOOD + "\n[solver]\nquadrature = 2", "[solver]: quadrature must be one of paper, gauss, got 2"),
     (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\nquadrature = [\"gauss\", \"trapezoid\"]"),
-     "[grid] quadrature must be one of paper, gauss, got 'trapezoid'"),
+     "[grid] quadrature value must be one of paper, gauss, got 'trapezoid'"),
     (GOOD + "\n[solver]\nsteps = 3", "unknown setting 'steps'"),
     (GOOD.replace("step = 0.5, stop = 1.0", "step = 50.0, stop = 400.0"), "past every case's impact stage"),
     (GOOD.replace("times = { unit = \"t_sc\", step = 0.5, stop = 1.0 }", "times = { unit = \"hours\", step = 1 }"), "times must be"),
@@ -55,7 +55,7 @@ BAD_FILES = [
     (GOOD + "\n[plots]\nkinds = [\"movie\"]", "[plots] kinds must be a list from"),
     (GOOD.replace("Nmod = 4", "Nmod = 10000000"), "Nmod must be at most 4096"),
     (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\nintegrator = [\"etd34\", \"euler\"]"),
-     "integrator must be one of"),
+     "[grid] integrator value must be one of"),
     (GOOD.replace("V = [3.0, 5.0]", "V = [3.0, 5.0]\ntolerance = [1e-8, 0.0]"), "tolerance must be finite and > 0"),
     (GOOD + "\n[reference]\nV = 3.0", "cannot be overridden in a reference"),
     (GOOD.replace("V = [3.0, 5.0]", "V = [" + ", ".join(str(1.0 + i / 1000) for i in range(101)) + "]\n"
@@ -153,8 +153,8 @@ def test_a_large_grid_is_checked_where_the_checks_are_not_monotone(tmp_path, cap
     body_p: a body's mean height (so its stage) is least at an inner body_p (4.5 here, with
     L/R = 1.5). The combination V = 6000, body_p = 4.5 is refused at load, not by a worker (where
     the case would stay pending); each value alone with the base is fine."""
-    from pipeline import study as study_module
-    monkeypatch.setattr(study_module, "MAX_COMBINATIONS", 2)
+    from pipeline import consistency
+    monkeypatch.setattr(consistency, "MAX_COMBINATIONS", 2)
     text = "accept_extreme_values = true\n" + GOOD.replace("V = [3.0, 5.0]", "V = [5.0, 6000.0]\nbody_p = [1.0, 4.5, 10.0]") \
         .replace("Nmod = 4", "Nmod = 4\nK = 1e3\nhe = 1.0\nhi = 5.0\nR = 4.0")
     path = tmp_path / "grid.toml"

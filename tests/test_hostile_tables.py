@@ -9,7 +9,8 @@ import pytest
 
 import pipeline
 from pipeline.cli import main
-from pipeline.study import load_study_text, validity_warnings
+from pipeline.consistency import validity_warnings
+from pipeline.study import load_study_text
 
 from test_pipeline import ROOT
 from test_search import STUDY as SEARCH_STUDY

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.study import find_study, load_study
+from pipeline.study_files import find_study, load_study
 from reference import REFERENCE, SPREAD, SPREAD_FACTOR, assert_matches_reference, within_spread
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -58,7 +58,7 @@ def test_run_study_from_python_is_the_command_line_run(regression_run, tmp_path)
     (every variable but the wall times bit for bit), and returns the exit status."""
     out = tmp_path / "from_python"
     code = ("from pipeline.run import RunOptions, run_study\n"
-            "from pipeline.study import find_study, load_study\n"
+            "from pipeline.study_files import find_study, load_study\n"
             "import sys\n"
             f"sys.exit(run_study(load_study(find_study('regression_small')), {str(out)!r}, "
             "RunOptions(workers=2, no_plots=True)))")
@@ -288,12 +288,13 @@ def test_case_ids_are_stable_and_change_with_settings(tmp_path):
 def test_a_results_revision_recomputes_only_its_rules_cases(monkeypatch, rule):
     """solver.revision.RESULTS_REVISION enters the id of a case by its rule: when one rule's
     results change at the same settings its stored cases are recomputed, the other's are kept."""
+    import pipeline.identity as identity
     import pipeline.study as study_module
     text = (ROOT / "studies" / "regression_small.toml").read_text()
     texts = {r: text.replace("[solver]", f'[solver]\nquadrature = "{r}"', 1) for r in ("gauss", "paper")}
     assert all(t != text for t in texts.values())
     before = {r: study_module.load_study_text(t, "s").case_ids for r, t in texts.items()}
-    monkeypatch.setitem(study_module.RESULTS_REVISION, rule, study_module.RESULTS_REVISION[rule] + 1)
+    monkeypatch.setitem(identity.RESULTS_REVISION, rule, identity.RESULTS_REVISION[rule] + 1)
     after = {r: study_module.load_study_text(t, "s").case_ids for r, t in texts.items()}
     other = "paper" if rule == "gauss" else "gauss"
     assert not set(after[rule]) & set(before[rule])

@@ -18,7 +18,7 @@ import xarray as xr
 
 from pipeline.casefile import batch_dataset, case_arrays, read_batch, write_batch
 from pipeline.ledger import LEDGER, Ledger
-from pipeline.study import load_study
+from pipeline.study_files import load_study
 from test_pipeline import ROOT, assert_same_study, batch_files, pipeline
 
 #: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.05
