@@ -71,7 +71,6 @@ class Case:
                     d.get("end", "stage"), d.get("body", False))
 
 
-
 def coordinate_times(spec: dict) -> np.ndarray:
     """The output times in the unit of the request, rounded to 12 significant digits (the same
     on every CPU, and 0.6 rather than 0.6000000000000001: solver.axes)."""
@@ -81,12 +80,10 @@ def coordinate_times(spec: dict) -> np.ndarray:
     return linear_axis(0.0, 1.0, spec["count"])
 
 
-
 def x_fractions(x_points: int) -> np.ndarray:
     """The positions of the fields as fractions of L, -1..1 (the study's x coordinate where L
     varies between cases)."""
     return linear_axis(-1.0, 1.0, x_points)
-
 
 
 def x_positions(x_points: int, L: float) -> np.ndarray:

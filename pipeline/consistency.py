@@ -27,7 +27,6 @@ def body_masses(study) -> list:
     return [base]
 
 
-
 def check_ranges(study) -> None:
     """Every parameter value within solver.parameters.PHYSICAL_RANGES (each grid value once;
     hi <= L at the grid's extremes; each [[cases]] entry), before anything is computed from
@@ -57,7 +56,6 @@ def check_ranges(study) -> None:
                              f"file to run it anyway")
 
 
-
 def check_grid_values(study) -> None:
     """Each grid value, validated once against the base and solver tables (every check on a
     parameter or setting involves that key alone, so this covers every case)."""
@@ -83,12 +81,10 @@ def check_grid_values(study) -> None:
     _check_setting_combinations(study, params, settings)
 
 
-
 #: the keys that are checked together (Parameters._check_scales: the time scale, the impact
 #: stage against the layer's response time, flat_width against L + |x0|, x0 against L)
 COUPLED_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H", "R", "V", "body_p", "flat_width",
                 "deadrise", "x0", "K", "he")
-
 
 
 #: at most this many combinations of the grid's coupled keys are checked one by one; beyond,
@@ -97,14 +93,11 @@ COUPLED_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H", "R", "V", "bod
 MAX_COMBINATIONS = 20_000
 
 
-
 NOT_MONOTONE = ("body_p", "x0")
-
 
 
 #: the keys solver.parameters.check_combination reads
 COMBINED_KEYS = ("edges", "quadrature", "integrator", "tau", "layer_tau", "duration")
-
 
 
 def _check_setting_combinations(study, params: dict, settings: dict) -> None:
@@ -128,7 +121,6 @@ def _check_setting_combinations(study, params: dict, settings: dict) -> None:
             raise StudyError(f"{where}: {err}") from None
 
 
-
 def _check_grid_combinations(study, params: dict) -> None:
     """Every combination of the grid's values of COUPLED_KEYS gives valid Parameters, so that
     no case is refused only when a worker builds it."""
@@ -145,7 +137,6 @@ def _check_grid_combinations(study, params: dict) -> None:
         except ParameterError as err:
             where = ", ".join(f"{k} = {v!r}" for k, v in values.items())
             raise StudyError(f"[grid] {where}: {err}") from None
-
 
 
 def stage_in_t_sc(study) -> np.ndarray:
@@ -173,10 +164,8 @@ def stage_in_t_sc(study) -> np.ndarray:
     return profile / arrays["V"] / time_scale_of(**{k: arrays[k] for k in TIME_SCALE_KEYS})
 
 
-
 def longest_stage_in_t_sc(study) -> float:
     return float(np.max(stage_in_t_sc(study)))
-
 
 
 #: a free floe's run longer than this fraction of its gravity-wave time sqrt(L/g) is said to be
@@ -184,10 +173,8 @@ def longest_stage_in_t_sc(study) -> float:
 GRAVITY_TIME_WARNING = 0.5
 
 
-
 #: the keys validity_warnings reads
 VALIDITY_KEYS = ("edges", "L", "g", "duration", "impact_zone_margin")
-
 
 
 def validity_warnings(study) -> list:
@@ -223,15 +210,12 @@ def validity_warnings(study) -> list:
     return lines
 
 
-
 #: subintervals above which a run is said to be slow, and the cost of one (etd34 at 8 modes over
 #: the reference case's stage, either rule: 1.9-2.2 s at 25 000, linear from 2 500)
 SLOW_SUBINTERVALS = 20_000
 
 
-
 SECONDS_PER_SUBINTERVAL = 8e-5
-
 
 
 def cases_past_their_stage(study) -> int:

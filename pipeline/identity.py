@@ -26,16 +26,13 @@ from .errors import StudyError
 SCHEMA_VERSION = 10
 
 
-
 #: [solver] error_estimate = "sample": the companion run of the error estimate (0.79x the
 #: integration, measured on benchmarks/scale_1000.toml) on about one case in SAMPLE_EVERY,
 #: chosen by a hash of the case's parameters (spread over the grid, the same in every study)
 SAMPLE = "sample"
 
 
-
 SAMPLE_EVERY = 10
-
 
 
 def id_parameters(parameters: dict) -> dict:
@@ -45,16 +42,13 @@ def id_parameters(parameters: dict) -> dict:
     return {k: v for k, v in parameters.items() if not (k in PAPER_DEFAULTS and v == PAPER_DEFAULTS[k])}
 
 
-
 def _parameter_text(parameters: dict) -> str:
     """'"name":value,...' in sorted order: the parameters part of a case id's JSON."""
     return ",".join(f'"{n}":' + json.dumps(parameters[n]) for n in sorted(parameters))
 
 
-
 def _sampled(parameter_text: str) -> bool:
     return int(hashlib.sha256(parameter_text.encode()).hexdigest()[:8], 16) % SAMPLE_EVERY == 0
-
 
 
 def resolve_sample(values: dict) -> dict:
@@ -63,7 +57,6 @@ def resolve_sample(values: dict) -> dict:
         return values
     params = id_parameters(Parameters(**{k: v for k, v in values.items() if k in PARAMETER_INFO}).as_dict())
     return {**values, "error_estimate": _sampled(_parameter_text(params))}
-
 
 
 #: the settings each integrator reads; the others do not change its result
@@ -77,14 +70,12 @@ RELEVANT_SETTINGS = {
 }
 
 
-
 def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
     """The canonical JSON a case id hashes (sorted keys, no spaces)."""
     payload = {"schema": SCHEMA_VERSION, "parameters": parameters, "settings": settings,
                "output": {"times": output["times"], "fields": sorted(output["fields"]),
                           "x_points": output["x_points"], "end": output["end"]}}
     return json.dumps(payload, sort_keys=True, separators=(",", ":"))
-
 
 
 def used_settings(settings: Settings) -> dict:
@@ -102,14 +93,12 @@ def used_settings(settings: Settings) -> dict:
     return used
 
 
-
 def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
     """Stable id: hash of the normalised parameters, the settings the integrator reads, the
     output request (not eps_Y, not records) and the schema version (two runs with the same id
     give the same data)."""
     text = _payload_text(id_parameters(parameters.as_dict()), used_settings(settings), output)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
-
 
 
 def make_case(index, values: dict, output: dict, label: str) -> Case:
@@ -126,10 +115,8 @@ def make_case(index, values: dict, output: dict, label: str) -> Case:
                 output["x_points"], output["end"], output.get("body", False))
 
 
-
 def grid_label(grid: dict, idx: tuple) -> str:
     return ", ".join(f"{k}={v[j]}" for (k, v), j in zip(grid.items(), idx)) or "base"
-
 
 
 def grid_case_ids(study) -> list:

@@ -363,15 +363,15 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
 
 
 def _plots(options, study, out_dir: Path, fresh: bool) -> None:
-    from .study import PLOT_FILES
-    figures = [out_dir / f for kind in study.plots for f in PLOT_FILES[kind]]
+    from .figures import KINDS
+    figures = [out_dir / f for kind in study.plots for f in KINDS[kind].files]
     if options.no_plots or not (fresh or not all(f.exists() for f in figures)):
         return
     import xarray as xr
 
     from .casefile import file_sha256
     from .ledger import sidecar
-    from .plots import make_plots
+    from .figures import make_plots
     path = out_dir / "study.nc"
     record = sidecar(out_dir)
     if not record or record.get("sha256") != file_sha256(path):

@@ -211,7 +211,7 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     finally:
         tmp.unlink(missing_ok=True)
     print(f"wrote {target} ({runs} runs for {len(targets)} searches)", file=sys.stderr)
-    from .plots import search_figure
+    from .figures.design import search_figure
     search_figure(ds, study.dims, search, Path(out_dir) / "search.png")
     return target
 

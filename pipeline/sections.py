@@ -18,14 +18,11 @@ SECTIONS = {"description", "base", "grid", "cases", "design", "analysis", "searc
             "accept_extreme_values"}
 
 
-
 #: keys a [reference] may override: the same physical case, computed more accurately
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
 
 
-
 OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
-
 
 
 #: [output] end: "stage" integrates every case over its impact stage (diagnostics cover the
@@ -35,11 +32,9 @@ OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
 ENDS = ("stage", "last_output", "separation")
 
 
-
 #: the one-line answer to eps_Y given as a parameter (it was one before schema 5)
 EPS_Y_AS_PARAMETER = ("eps_Y is not a solver input: crack onset is computed after the run for any "
                       "yield strain; give the values as [output] eps_Y = [...] or {min, max, count}")
-
 
 
 DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
@@ -47,11 +42,9 @@ DEFAULT_OUTPUT = {"times": {"unit": "t_sc", "step": 0.2, "stop": 4.6},
                   "end": "stage", "records": True}
 
 
-
 #: the keys that take one of a few names: parameters (layer_law) and settings (integrator,
 #: quadrature)
 NAMES = {**CHOICES, **NAMED_SETTINGS}
-
 
 
 def check_choice(where: str, key: str, value):
@@ -59,7 +52,6 @@ def check_choice(where: str, key: str, value):
     if not isinstance(value, str) or value not in NAMES[key]:
         raise StudyError(f"{where} must be one of {', '.join(NAMES[key])}, got {value!r}")
     return value
-
 
 
 def check_number(where: str, value, integer=False):
@@ -104,7 +96,6 @@ def check_parameters(where: str, table: dict, settings=False, reference=False) -
     return dict(table)
 
 
-
 def check_reference(where: str, table) -> dict:
     if not isinstance(table, dict) or not table:
         raise StudyError(f"{where} must be a non-empty table of Nmod and solver settings")
@@ -113,7 +104,6 @@ def check_reference(where: str, table) -> dict:
             raise StudyError(f"{where}: {key!r} cannot be overridden in a reference (it must be the same "
                              f"physical case); allowed: {', '.join(sorted(REFERENCE_KEYS))}")
     return check_parameters(where, table, settings=True)
-
 
 
 def check_output(out) -> dict:
@@ -165,7 +155,6 @@ def check_output(out) -> dict:
     return result
 
 
-
 def check_eps_Y(spec) -> list:
     """[output] eps_Y: a list of yield strains, or a log range {min, max, count}; default: 10 a
     decade from 1e-5 to 1e-1 and the paper's 8e-5. Returned sorted, as floats."""
@@ -191,7 +180,6 @@ def check_eps_Y(spec) -> list:
     if len(values) > 10_000:
         raise StudyError("[output] eps_Y: more than 10000 values")
     return sorted(float(v) for v in values)
-
 
 
 def check_solver(table) -> dict:

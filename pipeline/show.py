@@ -170,7 +170,7 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
 
     from solver import solve
     from .casefile import tension_records
-    from .plots import _save
+    from .figures.common import save
 
     case = study.run(case_id)
     p = case.parameters
@@ -312,7 +312,7 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
     figure = Path(figure) if figure is not None else Path(out_dir) / f"case_{case_id}.png"
     if not figure.parent.is_dir():
         raise ShowError(f"cannot write {figure}: no directory {figure.parent}")
-    _save(fig, figure, dpi=130)
+    save(fig, figure, dpi=130)
     plt.close(fig)
     lines.append(f"wrote {figure}")
     return figure, "\n".join(lines)

@@ -37,26 +37,13 @@ from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
 from .case import Case, coordinate_times
 from .consistency import body_masses, check_grid_values, check_ranges, longest_stage_in_t_sc
 from .errors import StudyError
+from .figures import KINDS
 from .identity import grid_case_ids, grid_label, make_case, resolve_sample
 from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, check_output, check_parameters, check_reference,
                        check_solver, check_value)
 
 #: grid keys whose study.nc dimension has another name (the key is also a result's name)
 DIM_NAMES = {"error_estimate": "error_estimate_on"}
-
-
-
-PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop", "design",
-              "sensitivity")
-
-
-
-#: the files each plot kind writes
-PLOT_FILES = {"diagnostics": ("diagnostics.png",), "crack_onset": ("crack_onset.png",),
-              "paper_fig2": ("paper_fig2.png",), "work_precision": ("work_precision.png", "work_precision.md"),
-              "extremes": ("extremes.md",), "drop": ("drop.png",), "design": ("design.png",),
-              "sensitivity": ("sensitivity.png",)}
-
 
 
 @dataclass
@@ -172,7 +159,6 @@ class Study:
         return [self.run(cid) for cid in self.run_ids]
 
 
-
 def load_study_text(text: str, name: str, path: Path | None = None, max_cases: int | None = None) -> Study:
     """Validate a study from its text (what a worker receives); expand its cases."""
     path = Path(path) if path is not None else Path(f"{name}.toml")
@@ -266,8 +252,8 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
     if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
         raise StudyError("[plots] takes one key: kinds = [...]")
     plots = plots_table.get("kinds", ["diagnostics", "crack_onset"])
-    if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
-        raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
+    if not isinstance(plots, list) or any(k not in KINDS for k in plots):
+        raise StudyError(f"[plots] kinds must be a list from {', '.join(KINDS)}")
     if design and "kinds" not in plots_table:
         plots = ["design"] + (["sensitivity"] if analysis else [])
     if search and "kinds" not in plots_table:
@@ -287,7 +273,6 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         check_ranges(study)
     expand(study)
     return study
-
 
 
 def expand(study: Study) -> None:

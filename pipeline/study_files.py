@@ -32,7 +32,6 @@ def _toml_value(value, where: str) -> str:
     raise StudyError(f"{where}: cannot write a {type(value).__name__} into a study file")
 
 
-
 def study_text(study: dict) -> str:
     """The TOML text of a study given as a dict with the study file's sections, e.g.
     ``{"base": {"Nmod": 20}, "grid": {"V": [2.0, 5.0]}, "output": {"fields": []}}``
@@ -55,7 +54,6 @@ def study_text(study: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-
 def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
     """studies/<name>.toml from a name, or the path itself."""
     path = Path(name_or_path)
@@ -68,7 +66,6 @@ def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
         known = sorted(p.stem for p in studies_dir.glob("*.toml"))
         raise StudyError(f"unknown study {name_or_path!r}: no {path}; known: {', '.join(known) or 'none'}")
     return path
-
 
 
 def load_study(path: Path, max_cases: int | None = None) -> Study:
@@ -84,14 +81,11 @@ def load_study(path: Path, max_cases: int | None = None) -> Study:
     return load_study_text(text, path.stem, path, max_cases)
 
 
-
 #: the copy of its study a run keeps in the results directory (status and show read it)
 STUDY_COPY = "study.toml"
 
 
-
 _COPY_HEADER = "# floe-impact keeps this copy of the study it ran here: name = "
-
 
 
 def keep_study_copy(study: Study, out_dir: Path) -> None:
@@ -120,7 +114,6 @@ def keep_study_copy(study: Study, out_dir: Path) -> None:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-
 
 
 def load_study_copy(out_dir: Path) -> Study:

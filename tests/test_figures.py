@@ -8,7 +8,7 @@ import xarray as xr
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
-from pipeline import plots  # noqa: E402
+from pipeline.figures import common, paper, sweeps  # noqa: E402
 from test_integrity import STUDY  # noqa: E402
 from test_pipeline import pipeline  # noqa: E402
 
@@ -27,17 +27,19 @@ def log_study(tmp_path_factory):
 
 
 def _figure_axes(monkeypatch, draw):
-    """Draw with _save replaced, and return the figure's axes."""
+    """Draw with save replaced (in each figure module, which imports it by name), and return
+    the figure's axes."""
     captured = {}
-    monkeypatch.setattr(plots, "_save", lambda fig, path, dpi: captured.setdefault("fig", fig))
-    monkeypatch.setattr(plots.plt, "close", lambda fig: None)
+    for module in (sweeps, paper):
+        monkeypatch.setattr(module, "save", lambda fig, path, dpi: captured.setdefault("fig", fig))
+    monkeypatch.setattr(common.plt, "close", lambda fig: None)
     draw()
     return captured["fig"].axes
 
 
 def test_diagnostics_log_key_on_a_log_axis_and_no_empty_decades(log_study, monkeypatch, tmp_path):
     ds, _ = log_study
-    axes = _figure_axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
+    axes = _figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
     panels = axes[:9]
     assert all(ax.get_xscale() == "log" for ax in panels)              # K spans three decades
     assert [float(t) for t in panels[0].get_xticks()] == [1e6, 1e7, 1e8, 1e9]
@@ -53,7 +55,7 @@ def test_diagnostics_log_key_on_a_log_axis_and_no_empty_decades(log_study, monke
 
 def test_linear_key_keeps_plain_ticks_without_offset(log_study, monkeypatch, tmp_path):
     ds, _ = log_study
-    axes = _figure_axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["hi", "K"], tmp_path / "d.png"))
+    axes = _figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["hi", "K"], tmp_path / "d.png"))
     assert axes[0].get_xscale() == "linear"
     assert axes[0].xaxis.get_major_formatter().get_offset() == ""
     plt.close("all")
@@ -64,7 +66,7 @@ def test_paper_fig2_states_units_and_time_scale(monkeypatch, tmp_path):
     assert code == 0, err
     with xr.open_dataset(tmp_path / "fig2" / "study.nc") as ds:
         ds = ds.load()
-    axes = _figure_axes(monkeypatch, lambda: plots.paper_fig2(ds, list(ds["status"].dims), tmp_path / "f.png"))
+    axes = _figure_axes(monkeypatch, lambda: paper.paper_fig2(ds, list(ds["status"].dims), tmp_path / "f.png"))
     fig = axes[0].figure
     title = fig._suptitle.get_text()
     for text in ("K = 8 MPa", "he = 2 cm", "R = 10 m", "V = 5 m/s", "hi = 0.5 m", "t_sc = 1/ω₁ = "):
@@ -76,7 +78,7 @@ def test_paper_fig2_states_units_and_time_scale(monkeypatch, tmp_path):
 
 
 def test_crowded_log_ticks_leave_a_label_out():
-    labels = plots._spaced_labels([0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 1000.0])
+    labels = common.spaced_labels([0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 1000.0])
     assert labels == ["0.25", "", "1", "", "4", "", "1000"]         # every other octave, and the deep end
 
 
@@ -103,12 +105,12 @@ def test_plate_wide_maxima_at_a_wall_are_ringed_and_counted(log_study, monkeypat
     x = ds["max_strain_x"].values.copy()
     x.flat[0], x.flat[1] = float(ds["L"]), 0.5 * float(ds["L"])        # one case at a wall, one not
     ds["max_strain_x"].values = x
-    axes = _figure_axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
+    axes = _figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
     upper = axes[0]
-    walls = int(plots.at_wall(ds, "max_strain").sum())
+    walls = int(common.at_wall(ds, "max_strain").sum())
     assert "plate-wide" in upper.get_title()
     assert f"at a wall (x = ±L), {walls} of {ds['max_strain'].size} cases" in upper.get_title()
     rings = [line for line in upper.lines if line.get_marker() == "o" and line.get_markerfacecolor() == "none"
              and line.get_markeredgecolor() == "black"]
     assert sum(len(line.get_xdata()) for line in rings) == walls >= 1
-    assert bool(plots.at_wall(ds, "max_strain").values.flat[0]) and not plots.at_wall(ds, "max_strain").values.flat[1]
+    assert bool(common.at_wall(ds, "max_strain").values.flat[0]) and not common.at_wall(ds, "max_strain").values.flat[1]

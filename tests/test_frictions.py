@@ -13,7 +13,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import pipeline  # noqa: E402
-from pipeline import plots  # noqa: E402
+from pipeline import figures  # noqa: E402
+from pipeline.figures import common, sweeps  # noqa: E402
 from pipeline.show import choose_case, show  # noqa: E402
 from pipeline.study import load_study_text  # noqa: E402
 from test_figures import _figure_axes as _axes  # noqa: E402
@@ -64,14 +65,14 @@ def test_status_names_the_results_directory(tmp_path):
 
 
 def test_a_case_list_gets_figures_that_name_its_keys(listed, monkeypatch, tmp_path):
-    labels = plots._case_labels(listed)
+    labels = common.case_labels(listed)
     assert labels == ["V = 2 m s-1, tau = 0 s", "V = 3 m s-1, tau = 0 s", "V = 3 m s-1, tau = 0.001 s"]
-    written, notes = plots.make_plots(listed, ["case"], ["diagnostics", "crack_onset"], tmp_path)
+    written, notes = figures.make_plots(listed, ["case"], ["diagnostics", "crack_onset"], tmp_path)
     assert notes == [] and [p.name for p in written] == ["diagnostics.png", "crack_onset.png"]
-    axes = _axes(monkeypatch, lambda: plots.diagnostics_figure(listed, ["case"], tmp_path / "d.png"))
+    axes = _axes(monkeypatch, lambda: sweeps.diagnostics_figure(listed, ["case"], tmp_path / "d.png"))
     assert [t.get_text() for t in axes[0].get_xticklabels()] == labels
     assert axes[0].get_xlabel() == "case (V, tau)"
-    axes = _axes(monkeypatch, lambda: plots.crack_onset_figure(listed, ["case"], tmp_path / "c.png"))
+    axes = _axes(monkeypatch, lambda: sweeps.crack_onset_figure(listed, ["case"], tmp_path / "c.png"))
     assert [line.get_label() for line in axes[0].get_lines() if not line.get_label().startswith("_")] == labels
     plt.close("all")
 
@@ -79,7 +80,7 @@ def test_a_case_list_gets_figures_that_name_its_keys(listed, monkeypatch, tmp_pa
 def test_a_sweep_over_decades_with_its_zero_is_drawn_on_a_log_axis(tmp_path, monkeypatch):
     ds = pipeline.run_study({"base": {"Nmod": 6, "V": 2.0}, "grid": {"tau": [0.0, 1e-4, 1e-2]}, "output": OUTPUT},
                             out=tmp_path / "tau", name="tau", workers=1, plots=False, quiet=True).load()
-    axes = _axes(monkeypatch, lambda: plots.diagnostics_figure(ds, ["tau"], tmp_path / "d.png"))
+    axes = _axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["tau"], tmp_path / "d.png"))
     assert axes[0].get_xscale() == "log"
     assert [float(t) for t in axes[0].get_xticks()] == [1e-4, 1e-2]
     assert "dashed: tau = 0" in axes[0].figure._suptitle.get_text()        # tau = 0 as a dashed line
