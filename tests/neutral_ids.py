@@ -42,11 +42,11 @@ def run_swept_study(tmp_path, key, values, units):
     path of its study.nc."""
     import numpy as np
     import xarray as xr
-    from test_pipeline import pipeline
+    from helpers import run_cli
     path = tmp_path / f"{key}.toml"
     text = "[" + ", ".join("inf" if np.isinf(v) else repr(float(v)) for v in values) + "]"
     path.write_text(study().replace("V = [3.0, 5.0]", f"{key} = {text}"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o", "--no-plots")
     assert code == 0, err
     out = tmp_path / "o" / "study.nc"
     with xr.open_dataset(out) as ds:

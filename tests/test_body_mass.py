@@ -15,7 +15,7 @@ from solver.diagnostics import Outputs
 from solver.loop import integrate
 from solver.model.assemble import Tables
 from dop853_check import against_dop853
-from test_pipeline import pipeline
+from helpers import run_cli
 
 TIGHT = Settings(tolerance=1e-10, error_estimate=False)
 
@@ -197,7 +197,7 @@ def test_case_ids_hold_for_the_papers_body():
 def test_separation_end_needs_a_free_body(tmp_path):
     path = tmp_path / "no_mass.toml"
     path.write_text(STUDY.format(base="", masses="[1000.0, inf]", end="separation"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o")
     assert code == 2 and err.count("\n") == 1 and 'end = "separation" needs a free body' in err, err
 
 
@@ -205,7 +205,7 @@ def test_drop_study_stores_the_body_and_its_ends(tmp_path):
     import xarray as xr
     path = tmp_path / "drops.toml"
     path.write_text(STUDY.format(base="", masses="[200.0, 2000.0]", end="separation"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o", "--no-plots")
     assert code == 0, err
     with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
         assert list(ds["status"].values) == ["separated", "separated"]
@@ -225,7 +225,7 @@ def test_times_in_seconds_and_a_free_body_runs_past_the_stage(tmp_path):
     path = tmp_path / "long.toml"
     path.write_text(STUDY.format(base="", masses="[2e5, inf]", end="last_output").replace(
         'times = { unit = "t_sc", step = 0.5, stop = 6.0 }', 'times = { unit = "s", step = 0.05, stop = 0.2 }'))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o", "--no-plots")
     assert code == 0, err
     with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
         assert ds["t"].attrs["units"] == "s" and list(ds["t"].values) == [0.0, 0.05, 0.1, 0.15, 0.2]

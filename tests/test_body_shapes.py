@@ -13,7 +13,7 @@ from solver.model.assemble import Tables
 from solver.model.body import body_extent, body_profile, body_slope_curvature
 from solver.model.contact import contact_bound
 from dop853_check import against_dop853
-from test_pipeline import pipeline
+from helpers import run_cli
 
 SHAPES = [{"body_p": 1.5}, {"body_p": 4.0}, {"deadrise": 10.0}, {"flat_width": 0.5},
           {"flat_width": 1.0, "deadrise": 5.0}, {"flat_width": 0.7, "body_p": 3.0, "R": 4.0}]
@@ -145,7 +145,7 @@ def test_wedge_study_runs_and_keeps_the_papers_ids(tmp_path):
     assert paper.case_ids == plain.case_ids
     path = tmp_path / "wedges.toml"
     path.write_text(STUDY.format(values="[0.0, 10.0]"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o", "--no-plots")
     assert code == 0, err
     with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
         assert ds["deadrise"].attrs["units"] == "degree"

@@ -8,8 +8,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from test_integrity import STUDY
-from test_pipeline import ROOT, batch_files, pipeline
+from helpers import SMALL_GRID_STUDY as STUDY
+from helpers import ROOT, batch_files, run_cli
 
 SMALL = STUDY.replace('description = "integrity tests"', 'description = "cli tests"') + "eps_Y = [1e-4, 1e-3]\n"
 
@@ -29,7 +29,7 @@ def small_run(tmp_path_factory):
     except OSError:
         pass                                # taken already: the condition holds anyway
     try:
-        code, outp, err = pipeline("run", study, "--out", out)
+        code, outp, err = run_cli("run", study, "--out", out)
     finally:
         holder.close()
     assert code == 0, err
@@ -42,7 +42,7 @@ def test_a_run_prints_no_warnings(small_run):
 
 
 def test_bare_command_prints_the_help_and_exits_2():
-    code, outp, err = pipeline()
+    code, outp, err = run_cli()
     assert code == 2 and "Traceback" not in err
     assert "usage: python -m pipeline" in err and "{run,status,show}" in err
     assert err.strip().splitlines()[-1] == "error: give a command (run, status, show)"
@@ -51,7 +51,7 @@ def test_bare_command_prints_the_help_and_exits_2():
 def test_version_of_both_packages():
     import pipeline as pl
     import solver
-    code, outp, _ = pipeline("--version")
+    code, outp, _ = run_cli("--version")
     assert code == 0 and outp.strip() == f"floe-impact {pl.__version__}"
     assert solver.__version__ == pl.__version__ != "unknown"
 
@@ -62,14 +62,14 @@ def test_status_of_a_results_directory_on_its_own(small_run, tmp_path):
     study, out, _ = small_run
     copy = tmp_path / "elsewhere" / "moved"
     shutil.copytree(out, copy)
-    code, outp, err = pipeline("status", copy, cwd=tmp_path)
+    code, outp, err = run_cli("status", copy, cwd=tmp_path)
     assert code == 0, err
     assert outp.splitlines()[-1] == "cli_small: 4 cases: 4 ok"
     (tmp_path / "results").mkdir()
     shutil.copytree(out, tmp_path / "results" / "cli_small")
-    code, outp, err = pipeline("status", "cli_small", cwd=tmp_path)        # no studies/cli_small.toml here
+    code, outp, err = run_cli("status", "cli_small", cwd=tmp_path)        # no studies/cli_small.toml here
     assert code == 0 and outp.splitlines()[-1] == "cli_small: 4 cases: 4 ok", err
-    code, _, err = pipeline("status", tmp_path / "elsewhere")             # not a results directory
+    code, _, err = run_cli("status", tmp_path / "elsewhere")             # not a results directory
     assert code == 2 and err.count("\n") == 1 and "study.toml" in err
 
 
@@ -77,7 +77,7 @@ def test_role_column_only_with_reference_runs_and_explained(tmp_path):
     study = tmp_path / "with_reference.toml"
     study.write_text(SMALL.replace("[grid]\nV = [3.0, 5.0]\nhi = [0.3, 0.5]",
                                    "[grid]\nV = [3.0, 5.0]\n[reference]\nNmod = 12"))
-    code, outp, err = pipeline("status", study, "--out", tmp_path / "none")
+    code, outp, err = run_cli("status", study, "--out", tmp_path / "none")
     assert code == 0, err
     lines = outp.splitlines()
     assert lines[0].split() == ["case_id", "V", "state", "role"]
@@ -87,7 +87,7 @@ def test_role_column_only_with_reference_runs_and_explained(tmp_path):
 
 def test_show_draws_one_case_and_prints_its_summary(small_run):
     study, out, _ = small_run
-    code, outp, err = pipeline("show", out, "--case", "V=5,hi=0.5")
+    code, outp, err = run_cli("show", out, "--case", "V=5,hi=0.5")
     assert code == 0, err
     lines = outp.splitlines()
     assert lines[0].startswith("case ") and lines[0].endswith("of cli_small: V=5, hi=0.5")
@@ -97,7 +97,7 @@ def test_show_draws_one_case_and_prints_its_summary(small_run):
     assert figure.parent == out and figure.name.startswith("case_") and figure.stat().st_size > 20_000
     # by a unique start of its id, from the study file, to a chosen file
     cid = figure.stem.removeprefix("case_")
-    code, outp, err = pipeline("show", study, "--out", out, "--case", cid[:6], "--figure", out / "mine.png")
+    code, outp, err = run_cli("show", study, "--out", out, "--case", cid[:6], "--figure", out / "mine.png")
     assert code == 0 and (out / "mine.png").exists(), err
 
 
@@ -110,7 +110,7 @@ def test_show_draws_one_case_and_prints_its_summary(small_run):
 ])
 def test_show_bad_choices_are_one_line(small_run, args, words):
     _, out, _ = small_run
-    code, _, err = pipeline("show", out, *args)
+    code, _, err = run_cli("show", out, *args)
     assert code == 2 and err.count("\n") == 1 and words in err, err
 
 
@@ -123,7 +123,7 @@ def test_show_a_damaged_batch_is_an_io_error_not_a_wrong_figure(small_run, tmp_p
         data[len(data) // 2] ^= 0x10
         path.write_bytes(bytes(data))
     before = sorted(copy.glob("case_*.png"))
-    code, _, err = pipeline("show", copy, "--case", "V=3,hi=0.3")
+    code, _, err = run_cli("show", copy, "--case", "V=3,hi=0.3")
     assert code == 74 and err.count("\n") == 1 and "checksum" in err, err
     assert sorted(copy.glob("case_*.png")) == before                    # no figure drawn
 
@@ -131,7 +131,7 @@ def test_show_a_damaged_batch_is_an_io_error_not_a_wrong_figure(small_run, tmp_p
 def test_show_a_case_not_run_yet_solves_it_and_says_so(tmp_path):
     study = tmp_path / "fresh.toml"
     study.write_text(SMALL)
-    code, outp, err = pipeline("show", study, "--case", "V=3,hi=0.5", "--figure", tmp_path / "f.png",
+    code, outp, err = run_cli("show", study, "--case", "V=3,hi=0.5", "--figure", tmp_path / "f.png",
                                "--out", tmp_path / "nothing_here")
     assert code == 0, err
     assert "not computed yet in this results directory: solved here, nothing stored" in outp

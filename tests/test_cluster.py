@@ -13,7 +13,7 @@ import pytest
 import xarray as xr
 
 from reference import assert_matches_reference
-from test_pipeline import ROOT, assert_same_study, pipeline
+from helpers import ROOT, assert_same_study, run_cli
 
 DASK = str(Path(sys.executable).with_name("dask"))
 
@@ -64,14 +64,14 @@ def cluster(tmp_path):
 @pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_study_on_a_real_dask_cluster_matches_local(cluster, tmp_path):
     out = tmp_path / "on_cluster"
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--scheduler", cluster,
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--scheduler", cluster,
                             "--no-plots")
     assert code == 0, err
     assert "4 cases, 4 to run" in err
     assert_matches_reference(out / "study.nc")
     # on one machine the scheduler does not matter: the LocalCluster's run is the same bit for bit
     local = tmp_path / "local"
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", local, "--workers", "2",
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", local, "--workers", "2",
                             "--no-plots")
     assert code == 0, err
     assert_same_study(out, local)

@@ -10,7 +10,7 @@ from pipeline.design import design_points, unit_points
 from pipeline.ledger import Ledger
 from pipeline.study import load_study_text
 from test_faults import _kill_runner_then_resume
-from test_pipeline import pipeline as command
+from helpers import run_cli as command
 
 BASE = """
 description = "a design"

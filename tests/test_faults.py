@@ -13,7 +13,7 @@ import pytest
 import xarray as xr
 
 from pipeline.casefile import DamagedFile, read_batch
-from test_pipeline import ROOT, batch_files, pipeline
+from helpers import ROOT, batch_files, run_cli
 
 STUDY = """
 description = "fault tests"
@@ -39,7 +39,7 @@ def study_file(tmp_path_factory):
 @pytest.fixture(scope="module")
 def undisturbed(study_file, tmp_path_factory):
     out = tmp_path_factory.mktemp("faults") / "undisturbed"
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     return out
 
@@ -106,7 +106,7 @@ def _kill_runner_then_resume(study_file, undisturbed, out, delay):
     finished = _finished(out)                           # what a resume may trust: complete files,
     stamps = {path: path.stat().st_mtime_ns for path in finished}   # in the ledger or not
     n_done = len({cid for ids in finished.values() for cid in ids})
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     assert f"{8 - n_done} to run, {n_done} already done" in err   # 0 lost, 0 computed twice
     for path, stamp in stamps.items():
@@ -138,7 +138,7 @@ def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undistur
     assert proc.returncode == 130, stderr
     assert "run the same command again to resume" in stderr and "Traceback" not in stderr
     assert len(batch_files(out)) >= 1
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     assert "already done" in err
     _assert_same_results(out, undisturbed)
@@ -157,7 +157,7 @@ def _ctrl_c_at(study_file, undisturbed, out, delay):
     assert proc.returncode == 130, (delay, stderr)
     assert "Traceback" not in stderr and "Error" not in stderr, (delay, stderr)
     assert stderr.strip().splitlines()[-1].startswith("interrupted:"), (delay, stderr)
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     _assert_same_results(out, undisturbed)
 

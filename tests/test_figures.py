@@ -9,8 +9,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 from pipeline.figures import common, paper, sweeps  # noqa: E402
-from test_integrity import STUDY  # noqa: E402
-from test_pipeline import pipeline  # noqa: E402
+from helpers import SMALL_GRID_STUDY as STUDY, figure_axes  # noqa: E402
+from helpers import run_cli  # noqa: E402
 
 LOG_GRID = STUDY.replace('description = "integrity tests"', 'description = "layer rigidity over three decades"') \
     .replace("V = [3.0, 5.0]", "K = [1e6, 1e7, 1e8, 1e9]")
@@ -20,26 +20,15 @@ LOG_GRID = STUDY.replace('description = "integrity tests"', 'description = "laye
 def log_study(tmp_path_factory):
     base = tmp_path_factory.mktemp("figures")
     (base / "log_grid.toml").write_text(LOG_GRID)
-    code, _, err = pipeline("run", base / "log_grid.toml", "--out", base / "out", "--no-plots")
+    code, _, err = run_cli("run", base / "log_grid.toml", "--out", base / "out", "--no-plots")
     assert code == 0, err
     with xr.open_dataset(base / "out" / "study.nc") as ds:
         return ds.load(), base
 
 
-def _figure_axes(monkeypatch, draw):
-    """Draw with save replaced (in each figure module, which imports it by name), and return
-    the figure's axes."""
-    captured = {}
-    for module in (sweeps, paper):
-        monkeypatch.setattr(module, "save", lambda fig, path, dpi: captured.setdefault("fig", fig))
-    monkeypatch.setattr(common.plt, "close", lambda fig: None)
-    draw()
-    return captured["fig"].axes
-
-
 def test_diagnostics_log_key_on_a_log_axis_and_no_empty_decades(log_study, monkeypatch, tmp_path):
     ds, _ = log_study
-    axes = _figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
+    axes = figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
     panels = axes[:9]
     assert all(ax.get_xscale() == "log" for ax in panels)              # K spans three decades
     assert [float(t) for t in panels[0].get_xticks()] == [1e6, 1e7, 1e8, 1e9]
@@ -55,18 +44,18 @@ def test_diagnostics_log_key_on_a_log_axis_and_no_empty_decades(log_study, monke
 
 def test_linear_key_keeps_plain_ticks_without_offset(log_study, monkeypatch, tmp_path):
     ds, _ = log_study
-    axes = _figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["hi", "K"], tmp_path / "d.png"))
+    axes = figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["hi", "K"], tmp_path / "d.png"))
     assert axes[0].get_xscale() == "linear"
     assert axes[0].xaxis.get_major_formatter().get_offset() == ""
     plt.close("all")
 
 
 def test_paper_fig2_states_units_and_time_scale(monkeypatch, tmp_path):
-    code, _, err = pipeline("run", "studies/paper_fig2.toml", "--out", tmp_path / "fig2", "--no-plots")
+    code, _, err = run_cli("run", "studies/paper_fig2.toml", "--out", tmp_path / "fig2", "--no-plots")
     assert code == 0, err
     with xr.open_dataset(tmp_path / "fig2" / "study.nc") as ds:
         ds = ds.load()
-    axes = _figure_axes(monkeypatch, lambda: paper.paper_fig2(ds, list(ds["status"].dims), tmp_path / "f.png"))
+    axes = figure_axes(monkeypatch, lambda: paper.paper_fig2(ds, list(ds["status"].dims), tmp_path / "f.png"))
     fig = axes[0].figure
     title = fig._suptitle.get_text()
     for text in ("K = 8 MPa", "he = 2 cm", "R = 10 m", "V = 5 m/s", "hi = 0.5 m", "t_sc = 1/ω₁ = "):
@@ -90,7 +79,7 @@ def test_paper_fig2_of_a_case_that_ended_early_is_skipped_with_a_note(tmp_path):
     study.write_text('[[cases]]\nNmod = 10\ntau = 10.0\n[output]\ntimes = { unit = "t_sc", step = 0.2, stop = 4.6 }\n'
                      'fields = ["deflection", "strain", "layer_pressure"]\nx_points = 41\n'
                      '[plots]\nkinds = ["paper_fig2"]\n')
-    code, _, err = pipeline("run", study, "--out", tmp_path / "out")
+    code, _, err = run_cli("run", study, "--out", tmp_path / "out")
     assert code == 0 and "Traceback" not in err, err
     assert "note: paper_fig2 shows the first case at 3.8 ... 4.6 t_sc, and it ended at 0.16 t_sc" in err, err
     assert not (tmp_path / "out" / "paper_fig2.png").exists()
@@ -105,7 +94,7 @@ def test_plate_wide_maxima_at_a_wall_are_ringed_and_counted(log_study, monkeypat
     x = ds["max_strain_x"].values.copy()
     x.flat[0], x.flat[1] = float(ds["L"]), 0.5 * float(ds["L"])        # one case at a wall, one not
     ds["max_strain_x"].values = x
-    axes = _figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
+    axes = figure_axes(monkeypatch, lambda: sweeps.diagnostics_figure(ds, ["K", "hi"], tmp_path / "d.png"))
     upper = axes[0]
     walls = int(common.at_wall(ds, "max_strain").sum())
     assert "plate-wide" in upper.get_title()

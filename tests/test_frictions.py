@@ -17,7 +17,7 @@ from pipeline import figures  # noqa: E402
 from pipeline.figures import common, sweeps  # noqa: E402
 from pipeline.show import choose_case, show  # noqa: E402
 from pipeline.study import load_study_text  # noqa: E402
-from test_figures import _figure_axes as _axes  # noqa: E402
+from helpers import figure_axes as _axes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 OUTPUT = {"fields": [], "times": {"unit": "stage", "count": 5}, "eps_Y": [8e-5, 1e-3]}

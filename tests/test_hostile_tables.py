@@ -7,12 +7,11 @@ import sys
 
 import pytest
 
-import pipeline
 from pipeline.cli import main
 from pipeline.consistency import validity_warnings
 from pipeline.study import load_study_text
 
-from test_pipeline import ROOT
+from helpers import ROOT
 from test_search import STUDY as SEARCH_STUDY
 
 OUTPUT = """

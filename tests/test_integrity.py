@@ -14,22 +14,7 @@ from pathlib import Path
 import pytest
 
 from pipeline.ledger import LEDGER
-from test_pipeline import ROOT, assert_same_study, batch_files, pipeline
-
-STUDY = """
-description = "integrity tests"
-[base]
-Nmod = 6
-[grid]
-V = [3.0, 5.0]
-hi = [0.3, 0.5]
-[output]
-times = { unit = "t_sc", step = 0.25, stop = 0.5 }
-fields = ["strain"]
-x_points = 11
-end = "last_output"
-"""
-
+from helpers import ROOT, SMALL_GRID_STUDY as STUDY, assert_same_study, batch_files, run_cli
 
 @pytest.fixture(scope="module")
 def study_file(tmp_path_factory):
@@ -41,7 +26,7 @@ def study_file(tmp_path_factory):
 @pytest.fixture(scope="module")
 def finished(study_file, tmp_path_factory):
     out = tmp_path_factory.mktemp("integrity") / "finished"
-    code, _, err = pipeline("run", study_file, "--out", out)
+    code, _, err = run_cli("run", study_file, "--out", out)
     assert code == 0, err
     return out
 
@@ -95,7 +80,7 @@ def test_planted_symlinks_are_never_followed(study_file, finished, tmp_path):
         (out / name).symlink_to(target)
     os.utime(out / LEDGER)                       # inputs changed: study.nc and the figures are rebuilt
     (out / ".study.nc.inputs").unlink()
-    code, _, err = pipeline("run", study_file, "--out", out)
+    code, _, err = run_cli("run", study_file, "--out", out)
     assert code == 0, err
     assert all(t.read_text() == "precious" for t in victims.values())
     assert not (out / "study.nc").is_symlink() and not (out / "diagnostics.png").is_symlink()
@@ -104,7 +89,7 @@ def test_planted_symlinks_are_never_followed(study_file, finished, tmp_path):
     lock_target.write_text("precious")
     (out / ".lock").unlink()
     (out / ".lock").symlink_to(lock_target)
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 74 and err.count("\n") == 1 and "symbolic link" in err, err
     assert lock_target.read_text() == "precious"
 
@@ -115,10 +100,10 @@ def test_out_on_a_foreign_directory_is_refused(study_file, tmp_path):
     (mine / "study.nc").write_text("my own file")
     (mine / ".study.nc.tmp-1-1").write_text("mine too")
     before = sorted(p.name for p in mine.iterdir())
-    code, _, err = pipeline("run", study_file, "--out", mine)
+    code, _, err = run_cli("run", study_file, "--out", mine)
     assert code == 2 and err.count("\n") == 1 and "--force" in err, err
     assert sorted(p.name for p in mine.iterdir()) == before and (mine / "study.nc").read_text() == "my own file"
-    code, _, err = pipeline("run", study_file, "--out", "/")
+    code, _, err = run_cli("run", study_file, "--out", "/")
     assert code == 2 and "non-empty" in err and not Path("/study.nc").exists()
 
 
@@ -144,7 +129,7 @@ def test_disk_full_at_study_nc_is_exit_74_and_one_line(study_file, finished, tmp
     last = proc.stderr.strip().splitlines()[-1]
     assert last.startswith(f"error: cannot write {out / 'study.nc'}") and "MiB free" in last, last
     assert not list(out.glob(".study.nc.tmp-*"))
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0 and "0 to run" in err
 
 
@@ -180,13 +165,13 @@ def test_scheduler_addresses_that_are_not_dask_fail_fast(study_file, tmp_path):
             except OSError:
                 time.sleep(0.1)
         started = time.monotonic()
-        code, _, err = pipeline("run", study_file, "--out", tmp_path / "o", "--scheduler", f"tcp://127.0.0.1:{port}")
+        code, _, err = run_cli("run", study_file, "--out", tmp_path / "o", "--scheduler", f"tcp://127.0.0.1:{port}")
         assert code == 2 and err.count("\n") == 1 and "dask scheduler" in err, err
         assert time.monotonic() - started < 30 and not (tmp_path / "o").exists()
     finally:
         http.kill()
         http.wait()
-    code, _, err = pipeline("run", study_file, "--out", tmp_path / "o", "--scheduler", "tcp://127.0.0.1:99999")
+    code, _, err = run_cli("run", study_file, "--out", tmp_path / "o", "--scheduler", "tcp://127.0.0.1:99999")
     assert code == 2 and err.count("\n") == 1 and "tcp://host:port" in err, err
 
 
@@ -194,11 +179,11 @@ def test_inputs_that_used_to_crash(tmp_path):
     study = tmp_path / "count.toml"
     study.write_text(STUDY.replace('times = { unit = "t_sc", step = 0.25, stop = 0.5 }',
                                    'times = { unit = "stage", count = 3.0 }').replace('end = "last_output"', ""))
-    code, _, err = pipeline("run", study, "--out", tmp_path / "count", "--dry-run")
+    code, _, err = run_cli("run", study, "--out", tmp_path / "count", "--dry-run")
     assert code == 0, err
     latin = tmp_path / "latin.toml"
     latin.write_bytes(STUDY.replace("integrity tests", "d\xe9j\xe0 vu").encode("latin-1"))
-    code, _, err = pipeline("run", latin, "--out", tmp_path / "latin")
+    code, _, err = run_cli("run", latin, "--out", tmp_path / "latin")
     assert code == 2 and err.count("\n") == 1 and "UTF-8" in err and not (tmp_path / "latin").exists()
 
 
@@ -217,7 +202,7 @@ def test_values_far_outside_the_physical_ranges_are_refused(tmp_path, change, wo
         text = text.replace("hi = [0.3, 0.5]\n", "")
     study.write_text(text)
     started = time.monotonic()
-    code, _, err = pipeline("run", study, "--out", tmp_path / "x")
+    code, _, err = run_cli("run", study, "--out", tmp_path / "x")
     assert code == 2 and err.count("\n") == 1 and words in err and "accept_extreme_values" in err, err
     assert time.monotonic() - started < 20 and not (tmp_path / "x").exists()
 
@@ -227,7 +212,7 @@ def test_output_that_cannot_fit_is_refused_before_anything_is_written(tmp_path):
     study.write_text(STUDY.replace('times = { unit = "t_sc", step = 0.25, stop = 0.5 }',
                                    'times = { unit = "stage", count = 100000 }')
                      .replace("x_points = 11", "x_points = 100001").replace('end = "last_output"', ""))
-    code, _, err = pipeline("run", study, "--out", tmp_path / "x")
+    code, _, err = run_cli("run", study, "--out", tmp_path / "x")
     assert code == 2 and err.count("\n") == 1 and "GiB of memory" in err, err
     assert not (tmp_path / "x").exists()
 
@@ -323,7 +308,7 @@ def test_disk_full_at_the_ledger_is_exit_74_one_line_and_no_torn_line(study_file
     for path in kept:
         with netCDF4.Dataset(path) as nc:
             done += len(nc.dimensions["case"])
-    code, _, err = pipeline("run", study_file, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     for path in kept:                                              # read back, not recomputed
         assert f"batch file {path.name} was not in the ledger" in err

@@ -10,7 +10,7 @@ import xarray as xr
 
 from pipeline.study import load_study_text
 from solver import ParameterError, Parameters, Settings, solve
-from test_pipeline import pipeline
+from helpers import run_cli
 
 #: ice that does not move: E and rho_i times 1e6 (its deflection under the layer's force is
 #: ~1e-9 of the layer's compression at these times)
@@ -58,7 +58,7 @@ def laws(tmp_path_factory):
     path = tmp_path_factory.mktemp("laws") / "laws.toml"
     path.write_text(STUDY)
     out = path.parent / "out"
-    code, _, err = pipeline("run", path, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", path, "--out", out, "--no-plots")
     assert code == 0, err
     return xr.open_dataset(out / "study.nc")
 

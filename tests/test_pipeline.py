@@ -4,49 +4,19 @@ import os
 import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 import xarray as xr
 
 from pipeline.study_files import find_study, load_study
+from helpers import ROOT, assert_same_study, batch_files, run_cli
 from reference import REFERENCE, SPREAD, SPREAD_FACTOR, assert_matches_reference, within_spread
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def batch_files(out):
-    """The batch files of a results directory (named by their checksums)."""
-    return sorted((Path(out) / "batches").glob("*.nc"))
-
-
-#: what two runs on one machine may differ in: wall times
-WALL_TIMES = ("run_time", "error_estimate_run_time")
-
-
-def assert_same_study(out, reference):
-    """study.nc of two results directories holds the same variables, statuses and numbers, bit
-    for bit but for the wall times: determinism on one machine (another CPU's round-off moves
-    an adaptive run within its error: tests/reference.py)."""
-    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
-        assert set(ds.data_vars) == set(ref.data_vars)
-        for name, var in ref.data_vars.items():
-            if name not in WALL_TIMES:
-                np.testing.assert_array_equal(ds[name].values, var.values, err_msg=name)
-
-
-def pipeline(*args, cwd=ROOT):
-    """python -m pipeline ... as a user runs it; returns (exit code, stdout, stderr)."""
-    proc = subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
-    return proc.returncode, proc.stdout, proc.stderr
-
 
 @pytest.fixture(scope="module")
 def regression_run(tmp_path_factory):
     out = tmp_path_factory.mktemp("runs") / "regression_small"
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "2")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "2")
     assert code == 0, err
     assert "4 cases, 4 to run, 0 already done" in err
     assert "loading the solver's kernels" in err and "kernels ready in" in err   # no silent compile
@@ -152,7 +122,7 @@ def test_a_study_that_differs_only_in_eps_Y_computes_nothing(regression_run, tmp
     text = (ROOT / "studies" / "regression_small.toml").read_text()
     study = tmp_path / "regression_eps.toml"
     study.write_text(text.replace("x_points = 25", "x_points = 25\neps_Y = [5e-5, 8e-5, 2e-4]"))
-    code, _, err = pipeline("run", study, "--out", out, "--no-plots")
+    code, _, err = run_cli("run", study, "--out", out, "--no-plots")
     assert code == 0, err
     assert "4 cases, 0 to run, 4 already done" in err
     with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(regression_run / "study.nc") as first:
@@ -178,25 +148,25 @@ def test_a_rerun_with_nothing_new_rewrites_nothing(regression_run, tmp_path):
     (or changing a case file) makes the next run rebuild them."""
     out = tmp_path / "noop"
     shutil.copytree(regression_run, out)
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out)
     assert code == 0, err                         # the copy's mtimes differ: rebuilt once
     products = [out / "study.nc", out / "diagnostics.png", out / "crack_onset.png", out / "study.toml",
                 out / "ledger.jsonl", *batch_files(out)]
     stamps = {p: p.stat().st_mtime_ns for p in products}
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out)
     assert code == 0, err
     assert "nothing new" in err and "wrote" not in err
     assert all(p.stat().st_mtime_ns == stamps[p] for p in products), "a no-op rerun rewrote a file"
     (out / "crack_onset.png").unlink()            # a missing figure is drawn again, study.nc kept
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out)
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out)
     assert (out / "crack_onset.png").exists() and (out / "study.nc").stat().st_mtime_ns == stamps[out / "study.nc"]
     os.utime(out / "study.nc")                    # touched by hand: no longer what the sidecar says
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--no-plots")
     assert code == 0 and f"wrote {out / 'study.nc'}" in err
 
 
 def test_second_run_computes_nothing(regression_run):
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", regression_run, "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", regression_run, "--no-plots")
     assert code == 0, err
     assert "4 cases, 0 to run, 4 already done" in err
 
@@ -209,7 +179,7 @@ def test_resume_computes_exactly_the_missing_cases(regression_run, tmp_path):
     stamps = {p: p.stat().st_mtime_ns for p in kept}
     for p in removed:
         p.unlink()
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     assert "4 cases, 2 to run, 2 already done" in err
     assert len(batch_files(out)) == 4 and "is missing" in err
@@ -233,7 +203,7 @@ def test_corrupt_case_file_is_set_aside_and_recomputed(regression_run, tmp_path,
         victim.write_bytes(data[:200] + bytes(b ^ 0xFF for b in data[200:4000]) + data[4000:])
     else:                                   # a valid netCDF file, but of another case
         shutil.copyfile(cases[1], victim)
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     assert "4 cases, 1 to run, 3 already done" in err
     aside = list((out / "batches").glob(victim.name + ".damaged-*"))
@@ -248,24 +218,24 @@ def test_stale_temporary_files_are_swept(regression_run, tmp_path):
     shutil.copytree(regression_run, out)
     stale = out / "batches" / ".batch.nc.tmp-999-1"
     stale.write_bytes(b"half a file")
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--no-plots")
     assert code == 0, err
     assert not stale.exists()
 
 
 def test_dry_run_says_what_would_run_and_status_what_is_done(regression_run, tmp_path):
-    code, outp, err = pipeline("run", "studies/regression_small.toml", "--out", regression_run, "--dry-run")
+    code, outp, err = run_cli("run", "studies/regression_small.toml", "--out", regression_run, "--dry-run")
     assert code == 0, err
     assert outp.splitlines()[0] == f"regression_small: 4 cases, 0 to run, 4 already done -> {regression_run}"
     assert "would run" not in outp and outp.strip().endswith("nothing was run (--dry-run)")
     fresh = tmp_path / "never_run"
-    code, outp, _ = pipeline("run", "studies/regression_small.toml", "--out", fresh, "--dry-run")
+    code, outp, _ = run_cli("run", "studies/regression_small.toml", "--out", fresh, "--dry-run")
     lines = outp.splitlines()
     assert code == 0 and lines[1] == "would run (4):" and not fresh.exists()
     assert lines[2].split() == ["case_id", "V", "hi", "state"]             # no role column: no references
     assert all(line.split()[-1] == "pending" for line in lines[3:7])
     assert lines[7].startswith("estimated output: ") and "of worker memory per case" in lines[7]
-    code, outp, _ = pipeline("status", "regression_small", "--out", regression_run)
+    code, outp, _ = run_cli("status", "regression_small", "--out", regression_run)
     rows = [line.split() for line in outp.splitlines()[1:-1]]
     assert code == 0 and outp.splitlines()[-1] == "regression_small: 4 cases: 4 ok"
     assert len(rows) == 4 and all(r[-1] == "ok" for r in rows) and "would run" not in outp
@@ -318,7 +288,7 @@ def test_interrupted_combine_is_rebuilt_from_case_files(regression_run, tmp_path
     (out / "study.nc").unlink()
     stale = out / ".study.nc.tmp-4242-1"
     stale.write_bytes(b"CDF\x01 half written")
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--no-plots")
     assert code == 0, err
     assert "0 to run, 4 already done" in err and not stale.exists()
     with xr.open_dataset(out / "study.nc") as ds, xr.open_dataset(regression_run / "study.nc") as ref:

@@ -2,7 +2,7 @@
 import numpy as np
 import xarray as xr
 
-from test_pipeline import pipeline
+from helpers import run_cli
 
 CASES = """
 description = "two cases"
@@ -24,7 +24,7 @@ x_points = 11
 def test_case_list_gives_a_case_dimension_and_nan_past_the_stage(tmp_path):
     study = tmp_path / "two_cases.toml"
     study.write_text(CASES)
-    code, _, err = pipeline("run", study, "--out", tmp_path / "out", "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", study, "--out", tmp_path / "out", "--workers", "1", "--no-plots")
     assert code == 0, err
     assert err.count("have output times past their impact stage") == 1
     with xr.open_dataset(tmp_path / "out" / "study.nc") as ds:
@@ -47,7 +47,7 @@ def test_failed_cases_are_recorded_skipped_and_rerun_on_request(tmp_path):
     study = tmp_path / "doomed.toml"
     study.write_text(CASES + "\n[solver]\nmax_steps = 30\n")
     out = tmp_path / "out"
-    code, _, err = pipeline("run", study, "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", study, "--out", out, "--workers", "1", "--no-plots")
     assert code == 1, err
     assert "2 of 2 cases did not end ok" in err and err.count("step_limit: stopped at t =") == 2
     with xr.open_dataset(out / "study.nc") as ds:
@@ -59,9 +59,9 @@ def test_failed_cases_are_recorded_skipped_and_rerun_on_request(tmp_path):
             strain = ds["strain"].isel(case=i).values
             assert np.all(np.isnan(strain[~(t <= reached[i])]))
         assert ds.attrs["cases_failed"] == 2
-    code, _, err = pipeline("run", study, "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", study, "--out", out, "--workers", "1", "--no-plots")
     assert code == 1 and "2 cases, 0 to run, 2 already done" in err
-    code, _, err = pipeline("run", study, "--out", out, "--workers", "1", "--no-plots", "--rerun-failed")
+    code, _, err = run_cli("run", study, "--out", out, "--workers", "1", "--no-plots", "--rerun-failed")
     assert code == 1 and "2 cases, 2 to run, 0 already done" in err
 
 
@@ -88,7 +88,7 @@ def test_groups_are_coordinates_and_the_extremes_table_is_written(tmp_path):
     study = tmp_path / "groups.toml"
     study.write_text(GROUPS)
     out = tmp_path / "out"
-    code, _, err = pipeline("run", study, "--out", out, "--workers", "1")
+    code, _, err = run_cli("run", study, "--out", out, "--workers", "1")
     assert code in (0, 1), err
     assert "extremes needs" not in err, err
     with xr.open_dataset(out / "study.nc") as ds:

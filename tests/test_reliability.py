@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from test_pipeline import ROOT, pipeline
+from helpers import ROOT, run_cli
 
 
 def _snapshot(directory):
@@ -27,14 +27,14 @@ def _hold_lock(out):
 
 def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
     out = tmp_path / "study"
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     sorted((out / "batches").glob("*.nc"))[0].unlink()   # work left to do
     holder = _hold_lock(out)
     try:
         before = _snapshot(out)
         started = time.monotonic()
-        code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--no-plots")
+        code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--no-plots")
         elapsed = time.monotonic() - started
         assert code == 75, err
         assert elapsed < 2.0, f"refused after {elapsed:.2f} s"
@@ -43,7 +43,7 @@ def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
     finally:
         holder.send_signal(signal.SIGKILL)
         holder.wait()
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err                                # no manual unlock needed
     assert "4 cases, 1 to run, 3 already done" in err
 
@@ -51,14 +51,14 @@ def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
 def test_unusable_results_directory_is_an_io_error(tmp_path):
     blocker = tmp_path / "a_file"
     blocker.write_text("not a directory")
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", blocker / "study", "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", blocker / "study", "--no-plots")
     assert code == 74, err
     assert err.startswith("error: cannot use the results directory") and err.count("\n") == 1
 
 
 def test_unreachable_scheduler_is_bad_input_and_fails_fast(tmp_path):
     started = time.monotonic()
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", tmp_path / "o",
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", tmp_path / "o",
                             "--scheduler", "tcp://127.0.0.1:9", "--no-plots")
     assert code == 2 and "cannot reach the dask scheduler" in err and err.count("\n") == 1
     assert time.monotonic() - started < 20
@@ -76,7 +76,7 @@ def test_disk_full_while_writing_stops_the_study(tmp_path):
     """Files may not grow past 20 kB (a batch file is ~100 kB): the write fails inside netCDF as
     on a full disk. Exit 74 with what happened; finished batch files are intact."""
     out = tmp_path / "study"
-    code, _, err = pipeline("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     files = sorted((out / "batches").glob("*.nc"))
     files[-1].unlink()

@@ -19,7 +19,7 @@ import xarray as xr
 from pipeline.casefile import batch_dataset, case_arrays, read_batch, write_batch
 from pipeline.ledger import LEDGER, Ledger
 from pipeline.study_files import load_study
-from test_pipeline import ROOT, assert_same_study, batch_files, pipeline
+from helpers import ROOT, assert_same_study, batch_files, run_cli
 
 #: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.05
 STUDY = """
@@ -39,7 +39,7 @@ end = "last_output"
 
 
 def run(study_file, out, *extra):
-    return pipeline("run", study_file, "--out", out, "--no-plots", "--batch-seconds", "0.05", *extra)
+    return run_cli("run", study_file, "--out", out, "--no-plots", "--batch-seconds", "0.05", *extra)
 
 
 @pytest.fixture(scope="module")
@@ -133,7 +133,7 @@ def test_a_ledger_that_disagrees_with_the_files_is_repaired(study_file, finished
     assert_same_study(out, finished)
     if damage == "damaged_same_size_and_time":
         assert "wrote" in err
-    code, outp, _ = pipeline("status", study_file, "--out", out)
+    code, outp, _ = run_cli("status", study_file, "--out", out)
     assert "24 ok" in outp
 
 
@@ -250,7 +250,7 @@ def test_a_million_case_grid_is_counted_before_it_is_expanded(tmp_path):
     path = tmp_path / "huge.toml"
     path.write_text(text)
     started = time.monotonic()
-    code, _, err = pipeline("run", path, "--out", tmp_path / "huge")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "huge")
     assert code == 2 and "1000000 cases" in err and "--yes" in err and err.count("\n") == 1
     assert time.monotonic() - started < 20 and not (tmp_path / "huge").exists()
 
@@ -318,7 +318,7 @@ x_points = 11
     path = tmp_path / "settings.toml"
     path.write_text(text)
     out = tmp_path / "settings"
-    code, _, err = pipeline("run", path, "--out", out, "--workers", "1")
+    code, _, err = run_cli("run", path, "--out", out, "--workers", "1")
     assert code == 0, err
     assert (out / "diagnostics.png").stat().st_size > 10_000 and "Traceback" not in err
     with xr.open_dataset(out / "study.nc") as ds:

@@ -15,7 +15,7 @@ import xarray as xr
 import pipeline
 from pipeline.search import runs_per_search
 from pipeline.study import load_study_text
-from test_pipeline import ROOT, pipeline as command
+from helpers import ROOT, run_cli as command
 
 STUDY = """
 description = "the speed at which the layer bottoms out, on thin and thick ice"

@@ -3,7 +3,7 @@ and every variable is labelled the CF way."""
 import xarray as xr
 
 from pipeline.variables import generate, parameter_table, table
-from test_pipeline import ROOT
+from helpers import ROOT
 
 
 def test_variables_table_is_in_step_with_the_code(tmp_path):

@@ -18,7 +18,7 @@ from solver.model.assemble import Tables
 from solver.model.plate import HALF_C, KIND, OMEGA, OMEGA_D
 from solver.parameters import PAPER_NUMERICS
 from dop853_check import against_dop853
-from test_pipeline import pipeline
+from helpers import run_cli
 
 
 def test_elastic_ice_is_the_papers_bit_for_bit():
@@ -165,7 +165,7 @@ def test_viscoelastic_study_runs_and_stores_the_dissipation(tmp_path):
     import xarray as xr
     path = tmp_path / "damped.toml"
     path.write_text(STUDY.format())
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o", "--no-plots")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o", "--no-plots")
     assert code == 0, err
     with xr.open_dataset(tmp_path / "o" / "study.nc") as ds:
         assert ds["tau"].attrs["units"] == "s" and ds["dissipated_energy"].attrs["units"] == "J m-1"

@@ -8,7 +8,7 @@ import pytest
 
 from neutral_ids import assert_ids_hold_at_neutral, run_swept_study, study
 from solver import ParameterError, Parameters, Settings, solve
-from test_pipeline import pipeline
+from helpers import run_cli
 
 
 def test_deep_water_is_the_papers_model_bit_for_bit():
@@ -72,7 +72,7 @@ def test_case_ids_hold_for_deep_water_and_change_with_depth():
 def test_depth_out_of_range_is_one_line(tmp_path):
     path = tmp_path / "too_shallow.toml"
     path.write_text(study("H = 1e-4"))
-    code, _, err = pipeline("run", path, "--out", tmp_path / "o")
+    code, _, err = run_cli("run", path, "--out", tmp_path / "o")
     assert code == 2 and err.count("\n") == 1 and "H = 0.0001 lies outside the range" in err, err
 
 

@@ -1,0 +1,64 @@
+"""Helpers the test files share: the repository's root, the command line as a user runs it, a
+results directory's batch files, determinism of study.nc on one machine, a small grid study,
+and a figure's axes drawn without writing it."""
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import xarray as xr
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: a 2 x 2 grid of 6 modes that runs in a second or two (integrity, command line, figures)
+SMALL_GRID_STUDY = """
+description = "integrity tests"
+[base]
+Nmod = 6
+[grid]
+V = [3.0, 5.0]
+hi = [0.3, 0.5]
+[output]
+times = { unit = "t_sc", step = 0.25, stop = 0.5 }
+fields = ["strain"]
+x_points = 11
+end = "last_output"
+"""
+
+#: what two runs on one machine may differ in: wall times
+WALL_TIMES = ("run_time", "error_estimate_run_time")
+
+
+def run_cli(*args, cwd=ROOT):
+    """python -m pipeline ... as a user runs it; returns (exit code, stdout, stderr)."""
+    proc = subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], cwd=cwd,
+                          capture_output=True, text=True, timeout=300)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def batch_files(out):
+    """The batch files of a results directory (named by their checksums)."""
+    return sorted((Path(out) / "batches").glob("*.nc"))
+
+
+def assert_same_study(out, reference):
+    """study.nc of two results directories holds the same variables, statuses and numbers, bit
+    for bit but for the wall times: determinism on one machine (another CPU's round-off moves
+    an adaptive run within its error: tests/reference.py)."""
+    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
+        assert set(ds.data_vars) == set(ref.data_vars)
+        for name, var in ref.data_vars.items():
+            if name not in WALL_TIMES:
+                np.testing.assert_array_equal(ds[name].values, var.values, err_msg=name)
+
+
+def figure_axes(monkeypatch, draw):
+    """Draw with save replaced (in each figure module, which imports it by name), and return
+    the figure's axes."""
+    from pipeline.figures import common, paper, sweeps
+    captured = {}
+    for module in (sweeps, paper):
+        monkeypatch.setattr(module, "save", lambda fig, path, dpi: captured.setdefault("fig", fig))
+    monkeypatch.setattr(common.plt, "close", lambda fig: None)
+    draw()
+    return captured["fig"].axes
