@@ -34,7 +34,7 @@ from . import provenance
 from .case import Case, x_fractions
 from .identity import SCHEMA_VERSION
 from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
-                     TEXT_INFO)
+                     TEXT_INFO, diagnostic_values, run_records)
 
 class CaseWriteError(OSError):
     """A batch file could not be written (disk full, permissions): the study stops (exit 74)."""
@@ -78,19 +78,9 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
     out["time"] = np.where(inside, t_sec, np.nan)
     for name in ("contact_intervals", "force", *(BODY_SERIES_INFO if case.body else ())):
         out[name] = series(None if result is None else getattr(result, name))
-    for name in DIAGNOSTIC_INFO:
-        value = np.nan if result is None else float(result.diagnostics[name])
-        if value == -np.inf:                 # nothing measured; +inf (max_force of a bottomed-out
-            value = np.nan                   # case) is kept: the model's force is unbounded there
-        out[name] = value
+    out.update(diagnostic_values(result))
+    out.update(run_records(result, _or_nan(lambda: p.time_scale), _or_nan(lambda: p.stage_duration)))
     none = result is None
-    out.update({"t_sc": _or_nan(lambda: p.time_scale), "stage_duration": _or_nan(lambda: p.stage_duration),
-                "time_reached": np.nan if none else result.time_reached,
-                "run_time": np.nan if none else result.wall_time,
-                "error_estimate_run_time": np.nan if none else result.extra.get("error_estimate_wall_time", 0.0),
-                "steps": np.nan if none else result.steps,
-                "rejected_steps": np.nan if none else result.rejected_steps,
-                "smallest_step": np.nan if none else result.smallest_step})
     out["status"] = status or result.status
     out["message"] = message if none else result.message
     for key, value in p.as_dict().items():

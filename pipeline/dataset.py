@@ -14,7 +14,7 @@ from solver.parameters import CHOICES
 from . import provenance
 from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
 from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
-                     TEXT_INFO)
+                     TEXT_INFO, diagnostic_values, run_records)
 
 #: the energy series a Result carries beside the study's series: name -> (Result attribute,
 #: long_name, units); work and dissipated_energy are the run's totals, as in study.nc
@@ -50,15 +50,10 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     data["valid"] = (("t",), np.asarray(result.valid, dtype=np.int8),
                      {**_attrs("1: the run reached this time", "1"), "flag_values": np.array([0, 1], np.int8),
                       "flag_meanings": "not_reached reached"})
-    for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
-        value = float(result.diagnostics[name])
-        data[name] = ((), np.nan if value == -np.inf else value, _attrs(long_name, units))
+    for name, value in diagnostic_values(result).items():
+        data[name] = ((), value, _attrs(*DIAGNOSTIC_INFO[name][:2]))
     p = result.parameters
-    records = {"t_sc": p.time_scale, "stage_duration": p.stage_duration, "time_reached": result.time_reached,
-               "run_time": result.wall_time,
-               "error_estimate_run_time": result.extra.get("error_estimate_wall_time", 0.0),
-               "steps": result.steps, "rejected_steps": result.rejected_steps,
-               "smallest_step": result.smallest_step}
+    records = run_records(result, p.time_scale, p.stage_duration)
     for name, (long_name, units) in RECORD_INFO.items():
         data[name] = ((), float(records[name]), _attrs(long_name, units))
     data["status"] = ((), result.status, _attrs(TEXT_INFO["status"]))

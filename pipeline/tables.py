@@ -1,8 +1,12 @@
 """The variables a case and a study store, declared once: name -> (long_name, units) of the series,
 run records and event records, the text variables, and the statuses grouped by what they mean
-to the runner. Imported by the batch files (casefile), study.nc (combine), the figures and the
-runner; it imports nothing of the pipeline."""
-from solver import STATUS_INFO
+to the runner; and the one mapping of a solver Result to the diagnostics and run records they
+store (``diagnostic_values``, ``run_records``). Imported by the batch files (casefile), a case's
+Dataset (dataset), study.nc (combine), the figures and the runner; it imports nothing of the
+pipeline."""
+import math
+
+from solver import DIAGNOSTIC_INFO, STATUS_INFO
 
 #: variable name -> (long_name, units) for the per-case series and run records
 SERIES_INFO = {
@@ -55,3 +59,27 @@ FAILED = ("layer_bottomed_out",) + NUMERICAL_FAILURES
 
 #: record status of a batch whose file could not be written (not a case status: no file exists)
 WRITE_FAILED = "write_failed"
+
+
+def diagnostic_values(result) -> dict:
+    """Each diagnostic of a Result (all NaN for a case with none) as stored: -inf, the kernels'
+    "nothing measured", is NaN; +inf is kept (max_force of a bottomed-out case: the model's
+    force is unbounded there)."""
+    values = {}
+    for name in DIAGNOSTIC_INFO:
+        value = math.nan if result is None else float(result.diagnostics[name])
+        values[name] = math.nan if value == -math.inf else value
+    return values
+
+
+def run_records(result, time_scale, stage_duration) -> dict:
+    """The run records (RECORD_INFO) of a Result, NaN but the case's own scales for a case with
+    none."""
+    none = result is None
+    return {"t_sc": time_scale, "stage_duration": stage_duration,
+            "time_reached": math.nan if none else result.time_reached,
+            "run_time": math.nan if none else result.wall_time,
+            "error_estimate_run_time": math.nan if none else result.extra.get("error_estimate_wall_time", 0.0),
+            "steps": math.nan if none else result.steps,
+            "rejected_steps": math.nan if none else result.rejected_steps,
+            "smallest_step": math.nan if none else result.smallest_step}
