@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
-from solver.parameters import CHOICES, NAMED_SETTINGS, check_combination
+from solver.parameters import CHOICES, COUPLED_KEYS, NAMED_SETTINGS, NOT_MONOTONE, check_combination
 
 from .case import coordinate_times
 from .errors import StudyError
@@ -81,19 +81,10 @@ def check_grid_values(study) -> None:
     _check_setting_combinations(study, params, settings)
 
 
-#: the keys that are checked together (Parameters._check_scales: the time scale, the impact
-#: stage against the layer's response time, flat_width against L + |x0|, x0 against L)
-COUPLED_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H", "R", "V", "body_p", "flat_width",
-                "deadrise", "x0", "K", "he")
-
-
-#: at most this many combinations of the grid's coupled keys are checked one by one; beyond,
-#: every value of the keys the checks are not monotone in (NOT_MONOTONE: the stage against
-#: body_p, and against |x0|) with the lowest and highest of each other key
+#: at most this many combinations of the grid's coupled keys (solver.parameters.COUPLED_KEYS)
+#: are checked one by one; beyond, every value of the keys the checks are not monotone in
+#: (NOT_MONOTONE) with the lowest and highest of each other key
 MAX_COMBINATIONS = 20_000
-
-
-NOT_MONOTONE = ("body_p", "x0")
 
 
 #: the keys solver.parameters.check_combination reads

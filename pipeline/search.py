@@ -132,11 +132,13 @@ def search_points(grid: dict, case_list: list) -> list:
     most MAX_CHECKS; beyond, each key's lowest and highest value, every value of the keys
     the checks are not monotone in), a design's samples, or [{}] for [base] alone."""
     import itertools
+
+    from solver.parameters import NOT_MONOTONE
     if not grid:
         return [dict(c) for c in case_list] or [{}]
     choices = list(grid.values())
     if math.prod(len(c) for c in choices) > MAX_CHECKS:
-        choices = [c if k in ("body_p", "x0") or not all(isinstance(v, (int, float)) for v in c)
+        choices = [c if k in NOT_MONOTONE or not all(isinstance(v, (int, float)) for v in c)
                    else sorted({min(c), max(c)}) for k, c in grid.items()]
     return [dict(zip(grid, combo)) for combo in itertools.product(*choices)]
 

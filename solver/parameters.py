@@ -99,6 +99,13 @@ MIN_STAGE_RESPONSE = 1e-4
 
 #: the parameters t_sc depends on
 TIME_SCALE_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H")
+#: the keys Parameters checks together (_check_scales: the time scale, the impact stage against
+#: the layer's response time, flat_width against L + |x0|; x0 against L; hi against L): a
+#: study checks every combination of its grid's values of them (pipeline.consistency)
+COUPLED_KEYS = (*TIME_SCALE_KEYS, "R", "V", "body_p", "flat_width", "deadrise", "x0", "K", "he")
+#: the keys those checks are not monotone in (the stage against body_p, and against |x0|): where
+#: a grid has too many combinations, every value of these is checked with the extremes of the rest
+NOT_MONOTONE = ("body_p", "x0")
 
 
 def water_added_mass(rho_w, lam, H):
