@@ -57,7 +57,7 @@ def _check_bound(where: str, key: str, bound: float, base: dict) -> None:
     try:
         Parameters(**{**{k: v for k, v in base.items() if k in PARAMETER_INFO}, key: bound})
     except ParameterError as err:
-        if str(err).split()[0] == key or key in str(err):
+        if key in str(err):                  # about this key, not a [base] that is wrong alone
             raise StudyError(f"{where} = {bound:g}: {err}") from None
 
 

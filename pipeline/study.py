@@ -228,6 +228,10 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
     if "analysis" in data:
         from .analysis import check_analysis
         analysis = check_analysis(data["analysis"], design, output)
+    solver = check_solver(data.get("solver", {}))
+    extreme = data.get("accept_extreme_values", False)
+    if not isinstance(extreme, bool):
+        raise StudyError(f"{path}: accept_extreme_values must be true or false")
     search = {}
     if "search" in data:
         from .search import check_search
@@ -240,13 +244,10 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         if "reference" in data:
             raise StudyError("[reference] is not run by a [search] (its runs are the bisection's): remove it")
         from .search import check_bracket, search_points
-        extreme = data.get("accept_extreme_values", False)
-        check_bracket(search, {**base, **check_solver(data.get("solver", {}))}, search_points(grid, case_list),
-                      extreme is True)
+        check_bracket(search, {**base, **solver}, search_points(grid, case_list), extreme)
         # the study's own cases are the points searched, at the bracket's low end (the key may
         # have no default: a free floe's duration)
         base = {**base, search["key"]: search["bracket"][0]}
-    solver = check_solver(data.get("solver", {}))
     reference = check_reference("[reference]", data["reference"]) if "reference" in data else {}
     plots_table = data.get("plots", {})
     if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
@@ -261,9 +262,6 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
     study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference, design=design, analysis=analysis, search=search)
-    extreme = data.get("accept_extreme_values", False)
-    if not isinstance(extreme, bool):
-        raise StudyError(f"{path}: accept_extreme_values must be true or false")
     masses = body_masses(study)
     study.output["body"] = any(math.isfinite(m) for m in masses if isinstance(m, (int, float)))
     if output["end"] == "separation" and not all(isinstance(m, (int, float)) and math.isfinite(m) for m in masses):
