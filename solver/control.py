@@ -14,8 +14,7 @@ and as dx^2 with the quadrature.
 import math
 from collections import namedtuple
 
-from numba import njit
-
+from .jit import kernel
 from .layout import B_D, B_U
 from .model.basis import field_sum
 from .model.plate import MASS, ONES, mode_a
@@ -66,7 +65,7 @@ def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, ma
                    float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin))
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def error_ratio(model, control, z, znew, err, errb, gap, scratch):
     """Local error (err, errb) over tolerance in the energy norm: the plate's error and a free
     body's velocity error M err_U^2, against the plate's energy at the step's start (z) or end
@@ -102,7 +101,7 @@ def error_ratio(model, control, z, znew, err, errb, gap, scratch):
     return ratio
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def energy_allowance(delta_new, jm5, e_new, w_new, e0, work, basis):
     """How much one step may change the residual E_plate + E_layer - W (see ENERGY_JUMP); the
     paper's rule's compressed nodes counted as on the half plate (mirror / 2 of them on the
@@ -118,7 +117,7 @@ def energy_allowance(delta_new, jm5, e_new, w_new, e0, work, basis):
     return ENERGY_JUMP * max(e_new, w_new, e0) + under * abs(w_new - work)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def next_step(control, t, target, h, fixed):
     """The step to try from t towards the next output time: (h_step, t_new, landing).
     fixed = [target the fixed step was chosen for, that step] (updated)."""
@@ -142,7 +141,7 @@ def next_step(control, t, target, h, fixed):
     return h_step, t_new, landing
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def grown_step(control, ratio, expo, prev_ratio, h_step, h, landing):
     """The next step after an accepted one, by PI control (Gustafsson: damps the accept/reject
     oscillation of a plain I step): (h, the ratio to remember)."""

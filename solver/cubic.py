@@ -9,10 +9,11 @@ cubic with known roots and extrema is reproduced to round-off.
 import math
 
 import numpy as np
-from numba import njit
+
+from .jit import kernel
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def hermite(p0, p1, r0, r1, h):
     """Power-basis coefficients of the cubic with p(0) = p0, p(1) = p1 and time derivatives
     r0, r1 at the ends of a step of length h."""
@@ -21,12 +22,12 @@ def hermite(p0, p1, r0, r1, h):
     return p0, h * r0, c2, c3
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def cubic(c0, c1, c2, c3, th):
     return c0 + th * (c1 + th * (c2 + th * c3))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def cubic_breaks(c1, c2, c3):
     """The critical points of the cubic in (0, 1), increasing: (count, r1, r2), count 0 to 2
     (r1, r2 meaningful up to count). With 0 and 1 they split [0, 1] into monotone pieces."""
@@ -61,7 +62,7 @@ def cubic_breaks(c1, c2, c3):
     return n, b1, b2
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _break(k, n, b1, b2):
     """The k-th of the breaks 0, (b1, b2 up to n), 1."""
     if k == 0:
@@ -71,7 +72,7 @@ def _break(k, n, b1, b2):
     return b1 if k == 1 else b2
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def cubic_max(c0, c1, c2, c3):
     """(max, argmax) of the cubic over [0, 1]."""
     nc, b1, b2 = cubic_breaks(c1, c2, c3)
@@ -86,7 +87,7 @@ def cubic_max(c0, c1, c2, c3):
     return best, tb
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _bisect(c0, c1, c2, c3, level, lo, hi):
     """th in [lo, hi] where the monotone cubic crosses level (to round-off)."""
     above_hi = cubic(c0, c1, c2, c3, hi) > level
@@ -101,7 +102,7 @@ def _bisect(c0, c1, c2, c3, level, lo, hi):
     return hi
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def cubic_first_reach(c0, c1, c2, c3, level):
     """Smallest th in [0, 1] with p(th) >= level, or -1 if the cubic stays below level."""
     if c0 >= level:
@@ -114,7 +115,7 @@ def cubic_first_reach(c0, c1, c2, c3, level):
     return -1.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def cubic_sign_changes(c0, c1, c2, c3, out):
     """The th in (0, 1] where p changes between > 0 and <= 0, increasing; returns the count."""
     nc, b1, b2 = cubic_breaks(c1, c2, c3)

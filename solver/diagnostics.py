@@ -9,9 +9,9 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from .control import ENERGY_BOUND
+from .jit import kernel
 from .layout import (D_BODY_RESIDUAL, D_BOTTOM_SPEED, D_BOTTOM_T, D_BOTTOM_X, D_ENERGY_JUMPS,
                      D_ENERGY_RESIDUAL, D_FAIL_KIND, D_FAIL_T, D_H_MAX, D_H_MIN, D_MAX_ABS, D_MAX_ABS_T,
                      D_MAX_ABS_X, D_MAX_CONTACTS, D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_FORCE, D_MAX_FORCE_T,
@@ -30,7 +30,7 @@ from .model.plate import _plus_plate_energy
 Outputs = namedtuple("Outputs", "a adot series diag level_t level_x")
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def start_diagnostics(diag, t_start):
     """The diagnostics before the first step: NaN but for the counts and running maxima."""
     for i in range(N_DIAG):
@@ -44,7 +44,7 @@ def start_diagnostics(diag, t_start):
     diag[D_ENERGY_JUMPS] = 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def record_output(model, out, k, t, state, jmax, carried, err_sum):
     """Row k of the outputs: the state at t (an output time the steps have landed on), with the
     carried force, work and dissipated energy and the summed local error err_sum."""
@@ -63,7 +63,7 @@ def record_output(model, out, k, t, state, jmax, carried, err_sum):
     series[k, S_BODY_SPEED] = body_speed(model.body, state.yb)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def running_maxima(diag, t, force, gap):
     """The largest force and compression so far, after an accepted step."""
     if force > diag[D_MAX_FORCE]:
@@ -74,7 +74,7 @@ def running_maxima(diag, t, force, gap):
         diag[D_MAX_DELTA_T] = t
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def bottomed_at(diag, t, gap, he):
     """The located bottoming event at t (gap: the largest delta, its rate and place)."""
     diag[D_FAIL_T] = t
@@ -86,7 +86,7 @@ def bottomed_at(diag, t, gap, he):
     diag[D_MAX_FORCE_T] = t
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def failed_at(diag, t, kind):
     """The run stopped early at t for the reason kind (a FAIL_* code, as a float: numba would
     compile a copy for each literal integer)."""
@@ -94,7 +94,7 @@ def failed_at(diag, t, kind):
     diag[D_FAIL_KIND] = kind
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
     """The run's summary diagnostics at its end; returns the final status. residuals = (the
     largest work over the run, the largest energy residual, the largest body residual); the

@@ -15,10 +15,10 @@ of the in-loop located crossing (tests/test_fracture.py: <= 1e-6 relative agains
 located on true sub-steps of the integrator).
 """
 import numpy as np
-from numba import njit
 
 from .axes import log_axis
 from .cubic import cubic_first_reach, cubic_max, hermite
+from .jit import kernel
 from .layout import R_JOIN, R_RATE, R_T, R_VALUE, R_X
 
 #: record nodes whose places differ by more than this [m] belong to two different peaks
@@ -36,7 +36,7 @@ def default_eps_Y() -> np.ndarray:
     return np.unique(np.r_[log_axis(1e-5, 1e-1, 41), PAPER_EPS_Y])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _first_reach(rec, levels, out_t, out_x):
     n = rec.shape[0]
     starts = np.empty(n, np.int64)
@@ -96,7 +96,7 @@ THIN_VALUE = 1e-10
 THIN_SPAN = 64
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _fits(rec, a, b):
     h = rec[b, R_T] - rec[a, R_T]
     if not h > 0.0:
@@ -120,7 +120,7 @@ def _fits(rec, a, b):
     return True
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def thin_record(rec):
     """Rows of a tension record to keep (bool mask): the first and last row of every chain, and
     as few in between as keep the piecewise Hermite within THIN_TIME / THIN_VALUE of itself."""

@@ -15,12 +15,13 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
+from .arrays import copy_into
 from .control import energy_allowance, error_ratio, grown_step, next_step
 from .cubic import cubic_max, hermite
 from .diagnostics import (bottomed_at, failed_at, finish_diagnostics, record_output, running_maxima,
                           start_diagnostics)
+from .jit import kernel
 from .layout import (B_D, B_U, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
                      D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T,
                      D_T_REACHED, ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP,
@@ -50,19 +51,19 @@ Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 
 ACCEPT, RETRY, STOP = 0, 1, 2
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def new_state(N, J):
     """A State for N modes and J nodes (the body at d = u = 0)."""
     return State(np.empty(N, np.complex128), np.empty(N), np.empty(N), np.empty(N), np.empty(J), np.empty(J),
                  np.zeros(2), np.empty(N, np.complex128), np.zeros(2), np.zeros(3))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _step_work(N, J):
     return StepWork(np.empty((2, N), np.complex128), np.empty((5, N)), np.empty(J), np.zeros((6, 6)))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
@@ -70,7 +71,7 @@ def _workspace(method, model, N, J, margin):
                      np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _initial(model, ws, cur, t, a0, adot0, records, diag):
     """The state at t_start and its observers: (status, force, jmax, layer power, contacts,
     records); status 1 if the layer is bottomed out already."""
@@ -106,21 +107,19 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
     return 0, force, jmax, lp, contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _copy_state(source, target):
     """target's arrays = source's (all but eps, which the caller recomputes)."""
-    target.z[:] = source.z
-    target.forcing[:] = source.forcing
-    target.a[:] = source.a
-    target.adot[:] = source.adot
-    target.delta[:] = source.delta
-    target.yb[:] = source.yb
-    target.err[:] = source.err
-    target.errb[:] = source.errb
-    target.acc[:] = source.acc
+    for to, of in ((target.forcing, source.forcing), (target.a, source.a), (target.adot, source.adot),
+                   (target.delta, source.delta), (target.yb, source.yb), (target.errb, source.errb),
+                   (target.acc, source.acc)):
+        copy_into(to, of, of.shape[0])
+    for n in range(source.z.shape[0]):
+        target.z[n] = source.z[n]
+        target.err[n] = source.err[n]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _finite_state(st, w_new, z, yb):
     if not (st == 0 and math.isfinite(w_new)):
         return False
@@ -130,7 +129,7 @@ def _finite_state(st, w_new, z, yb):
     return math.isfinite(yb[B_D]) and math.isfinite(yb[B_U])
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _residual(model, state, jm, w_new, e0):
     """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state
     (its z, delta and acc: the arrays it reads, not the State, whose every array numba would
@@ -145,7 +144,7 @@ def _residual(model, state, jm, w_new, e0):
     return e_new, e_new + acc[0] - w_new - e0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
     """The verdict on a trial step from t (z0 at t) to new, trial = (status, W(t_new), jmax, t, h,
     error exponent), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
@@ -187,7 +186,7 @@ def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, di
     return ACCEPT, h_step, ratio, resid_new, OK, 0
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _gap_at(model, t, state, jm, gap):
     """a, a' of a state = (z, a, adot, yb, delta) from its z, and its gap (gap_peak) into gap."""
     z, a, adot, yb, delta = state
@@ -198,7 +197,7 @@ def _gap_at(model, t, state, jm, gap):
     gap_peak(model, body_position(model.body, t, yb), body_speed(model.body, yb), delta, jm, a, adot, gap)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _may_bottom(model, control, gap0, gap1, h):
     """The gap may close to bottom_gap inside the step: at its end, or by the cubic Hermite of the
     largest delta and its rate between the ends."""
@@ -207,7 +206,7 @@ def _may_bottom(model, control, gap0, gap1, h):
     return model.layer.K > 0.0 and (gap1[0] >= level or cubic_max(c0, c1, c2, c3)[0] >= level)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _strain_error(model, err):
     """The local error of a step in strain amplitude (the error of a and of a' / omega)."""
     plate = model.plate
@@ -223,7 +222,7 @@ def _strain_error(model, err):
     return math.sqrt(e_step)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _locate_levels(ws, levels, out, start, carried, t, h):
     """Tension levels first reached in the accepted step, located on true sub-steps (for
     verification): their time and place into out.level_t, out.level_x. (Runs only where levels
@@ -239,7 +238,7 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
                     out.level_x[s, i] = ws.value[2]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
     observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork), ends = (jmax at t, jmax and F
@@ -248,7 +247,8 @@ def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     tw, cw, peaks0, zw = observers
     jmax, jm5, F5, rows = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
-    peaks0[:, :] = tw.track[PEAKS:PEAKS + 2]
+    for s in range(2):
+        copy_into(peaks0[s], tw.track[PEAKS + s], 4)
     tw.marks[DENSE] = 0.0 if h > 0.0 else 1.0     # computed on demand by the tension observer
     dz = Dense(cur.z, cur.forcing, rows[2], new.forcing)
     rec_up, n_up, rec_lo, n_lo = observe_tensions(model, tw, t, h, (cur.eps, new.eps, new.a, new.adot), dz,
@@ -264,7 +264,7 @@ def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c), left
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def integrate(method, model, control, t_out, a0, adot0, levels, out):
     """Integrate the mode equations (and a free body's motion) from control.t_start to t_end,
     landing on every t_out (sorted, in [t_start, t_end]); a0, adot0: a_n [m] and a_n' [m s-1] at
@@ -342,7 +342,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             if found:                        # the state is the search's last sub-step
                 bottomed, h_eff, t_new, F5, jm5, w_new = True, s_lo, t + s_lo, F_b, jm_b, w_b
                 _copy_state(sub, new)
-                gap1[:] = value
+                copy_into(gap1, value, 3)
                 reached = stepper.work.rows
                 resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)[1]
         # ----- accepted: observers on [t, t + h_eff], then the states swap
@@ -361,7 +361,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             _locate_levels(ws, levels, out, start, carried, t, h_eff)
         separated = left and control.until_separation
         cur, new = new, cur
-        gap0[:] = gap1
+        copy_into(gap0, gap1, 3)
         t, work, diss, lp, force, jmax, resid = t_new, w_new, cur.acc[0], cur.acc[1], F5, jm5, resid_new
         max_residual = max(max_residual, abs(resid))
         peak_work = max(peak_work, work)

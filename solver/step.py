@@ -37,8 +37,7 @@ methods return a_n(t) = cos(omega_n t), ETD34 to round-off; the observed order o
 import math
 from collections import namedtuple
 
-from numba import njit
-
+from .jit import kernel
 from .layout import B_D, B_U, ETD34
 from .model.body import _body_error, _step_work, body_accel, body_coefficients
 from .model.contact import count_contacts
@@ -71,7 +70,7 @@ Start = namedtuple("Start", "z forcing yb")
 Stepper = namedtuple("Stepper", "method model coeffs work")
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def etd_coefficients(plate, h, C):
     """ETD34 coefficients of a step h for every mode, rows of C (9, N): e^{zeta}, e^{zeta/2},
     then the stage and update weights of the scheme in the module docstring (a damped mode's
@@ -98,7 +97,7 @@ def etd_coefficients(plate, h, C):
         C[8, n] = h * (4.0 * p3 - p2)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _stage(model, rows, fvals, zs, s, U, delta, P):
     """A stage at the state zs, the body at penetration s moving down at U: layer_forcing_at into
     P. Returns (status, force, jmax, the layer's power). a' is needed only by a viscoelastic
@@ -114,7 +113,7 @@ def _stage(model, rows, fvals, zs, s, U, delta, P):
     return layer_forcing_at(model, s, U, a_work, adot_work, delta, fvals, P)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _last_stage(model, w, out, t_new):
     """The forcing at the step's end (stage 5, the next step's first), with the strain at every
     node into eps, out = (z, yb, delta, forcing, eps) of the step's end. Returns (status, jmax)."""
@@ -135,13 +134,13 @@ def _last_stage(model, w, out, t_new):
     return st, jm
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _contacts_changed(mirror, st, delta, jm, contacts):
     """A stage that succeeded has another number of contact intervals than the step's start."""
     return st == 0 and count_contacts(delta, jm, mirror) != contacts
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     """ETD34's stages 2, 3 and 4 (the module docstring), the body's alongside: (status, jmax,
     event), event if the number of contact intervals changed among them."""
@@ -186,7 +185,7 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     return st, jm, event
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     """Classical RK4's stages 2, 3 and 4 on z' = i omega z + P (w.cz[1] accumulates k1 + 2 k2 +
     2 k3), the body's as ETD34 has them: (status, jmax)."""
@@ -226,7 +225,7 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     return st, jm
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _update(method, model, coeffs, w, start, h, out):
     """The step's solution into out = (z, yb) of the step's end from the stage table."""
     z_out, yb_out = out
@@ -250,7 +249,7 @@ def _update(method, model, coeffs, w, start, h, out):
             z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _local_error(method, model, coeffs, w, start, h, event, out):
     """The step's local error estimate into err and errb of out = (z, forcing, yb, err, errb) of
     the step's end: ETD34's embedded estimate, or, across a change of contact (event), its
@@ -282,7 +281,7 @@ def _local_error(method, model, coeffs, w, start, h, event, out):
         _body_error(h, G[1], G[2], G[3], G[4], G[5], errb)      # 0 exactly for the prescribed body
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     """One step from (t, start) to t_new = t + h, coeffs for h (RK4 uses them for its error
     estimate), the start's forcing, force, work, dissipated energy and layer power given.
@@ -337,7 +336,7 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     return 0, w.table[F_ROW, 5], jm, w_new, event
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def substep(stepper, start, carried, t, s, out):
     """A step of length s from (t, start) into out, with the stepper's own coefficients; out.a and
     out.adot receive a_n and a_n' at t + s. Returns take_step's tuple."""
@@ -351,7 +350,7 @@ def substep(stepper, start, carried, t, s, out):
     return res
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def dense_states(z0, N1, Nm, N5, plate, h, A, AD):
     """a_n and a_n' at t0 + k h / K, k = 1..K-1 (K = A.shape[0] + 1), inside an accepted step.
 

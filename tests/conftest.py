@@ -1,15 +1,29 @@
 """Shared fixtures: runs of the reference case reused by several tests (computed once)."""
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
 from solver import Parameters, Settings, compile_kernels, solve
 
 
+#: the DOP853 reference calls the model's kernels from Python, each compiled whole on first use
+#: (solver/jit.py); a tiny reference run compiles and caches them
+REFERENCE_KERNELS = ("from solver import Parameters, Settings, solve; p = Parameters(Nmod=2); "
+                     "solve(p, Settings(integrator='dop853'), times=[0.0, p.stage_duration])")
+
+
 def pytest_configure(config):
     """Compile (or load) the solver's kernels once, in the controller, before pytest-xdist starts its
-    workers: each worker would otherwise compile the same kernels with an empty cache."""
+    workers: each worker would otherwise compile the same kernels with an empty cache. The
+    reference's kernels compile at the same time in a second process (two cores)."""
     if not hasattr(config, "workerinput"):
-        compile_kernels()
+        helper = subprocess.Popen([sys.executable, "-c", REFERENCE_KERNELS])
+        try:
+            compile_kernels()
+        finally:
+            helper.wait()
 
 
 def relative_l2(a, b):

@@ -24,9 +24,9 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from .floe import TABLE_STRAIN, floe_plane, floe_sums
+from ..jit import kernel
 
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
 #: the hat weights dx sinc^2(lambda_n dx / 2) [m], mirror (2: the symmetric half plate, whose
@@ -36,7 +36,6 @@ from .floe import TABLE_STRAIN, floe_plane, floe_sums
 #: kind (0: these cosines; 1: a free floe's wet modes, solver.model.floe, whose node table is cosq
 #: and whose other tables and shapes are packed in floe; empty on the cosines)
 Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe")
-
 
 
 #: Settings.quadrature -> Basis.rule
@@ -53,7 +52,7 @@ NEWTON_STOP = 1e-7
 PEAK_MARGIN = 0.02
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _add_segment(P, lam1, alpha, beta, ga, gb, sign):
     """P_n += sign * int_alpha^beta g(x) cos(lambda_n x) dx, g linear from ga to gb (exact).
 
@@ -88,7 +87,7 @@ def _add_segment(P, lam1, alpha, beta, ga, gb, sign):
         cur_r *= rot_r
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def modal_sum(a, cosq, out, jmax):
     """out[j] = sum_n a_n cos(lambda_n x_j) for the nodes j < jmax (a deflection, in a's units).
 
@@ -98,7 +97,7 @@ def modal_sum(a, cosq, out, jmax):
     modal_sum_range(a, cosq, out, 0, jmax)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def modal_sum_range(a, cosq, out, j0, j1):
     """modal_sum on the nodes j0 <= j < j1 (the same arithmetic at each node)."""
     N = a.shape[0]
@@ -125,7 +124,7 @@ def modal_sum_range(a, cosq, out, j0, j1):
         n += 1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def modal_sum_strain(a, strain_coef, cosq, out, eps, jmax):
     """modal_sum into out (j < jmax) and strain_nodes into eps (every node).
 
@@ -136,7 +135,7 @@ def modal_sum_strain(a, strain_coef, cosq, out, eps, jmax):
     strain_nodes(a, strain_coef, cosq, eps)
 
 
-@njit(cache=True, nogil=True, fastmath={"reassoc", "contract"})
+@kernel(fastmath={"reassoc", "contract"})
 def modal_projection(f, cosq, P, jmax):
     """P[n] = sum_{j < jmax} f_j cos(lambda_n x_j): four rows per pass over f.
 
@@ -170,7 +169,7 @@ def modal_projection(f, cosq, P, jmax):
         n += 1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def strain_nodes(a, strain_coef, cosq, eps):
     """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node (eps: (J,) scratch):
     modal_sum of the products strain_coef_n a_n (the same arithmetic as modal_sum_strain)."""
@@ -180,7 +179,7 @@ def strain_nodes(a, strain_coef, cosq, eps):
     modal_sum(c, cosq, eps, eps.shape[0])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_sum(w, c, lam1, x):
     """sum_n w_n c_n cos(lambda_n x), lambda_n = n lam1 (the cosines by rotation: odd and even
     modes on two interleaved chains, which halves the latency of the recurrence)."""
@@ -201,7 +200,7 @@ def mode_sum(w, c, lam1, x):
     return ta + tb
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def argmax_node(vals, sign, n):
     """Node j < n of the largest sign * vals[j] (the first one on ties)."""
     jbest = 0
@@ -214,7 +213,7 @@ def argmax_node(vals, sign, n):
     return jbest
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def climb(vals, sign, j, n):
     """From node j, move to the larger neighbour while sign * vals grows: a local peak."""
     while True:
@@ -230,7 +229,7 @@ def climb(vals, sign, j, n):
         j = best
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def refine(vals, sign, j, n, dx):
     """sign * vals at the peak near node j over continuous x: a parabola through j - 1, j,
     j + 1. On an end node (x = 0, the symmetry line; x = L, the wall) the node value.
@@ -247,7 +246,7 @@ def refine(vals, sign, j, n, dx):
     return best - 0.25 * (em - ep) * off, (j + off) * dx
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_sums(w, c, lam1, x):
     """sum_n w_n c_n (cos, -lambda_n sin, -lambda_n^2 cos)(lambda_n x): a modal field and its
     first two x-derivatives at one point (two interleaved rotation chains, as in mode_sum)."""
@@ -280,7 +279,7 @@ def mode_sums(w, c, lam1, x):
     return a0 + b0, a1 + b1, a2 + b2
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _newton_move(x, d1, d2, xlo, xhi, stop):
     """One safeguarded Newton step towards a maximum, from the first and second derivative d1,
     d2 at x, kept in [xlo, xhi]: (new x, done); done when the move is below stop, or at once
@@ -291,7 +290,7 @@ def _newton_move(x, d1, d2, xlo, xhi, stop):
     return xn, abs(xn - x) <= stop
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     """Largest value over continuous x near node j of the field
         v(x) = sign * scale * sum_n w_n c_n cos(lambda_n x) + q2 x^2 + q0
@@ -317,7 +316,7 @@ def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     return sign * scale * s0 + q2 * x * x + q0, x
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def global_peak(eps, sign, basis, w, a):
     """The global peak of sign * eps over continuous x: every local maximum of the nodes within
     PEAK_MARGIN of the largest node is refined on the modes (a sharp peak between nodes can
@@ -342,7 +341,7 @@ def global_peak(eps, sign, basis, w, a):
     return bv, bx, bj
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def field_sums(lam1, floe, field, c, x):
     """A modal field and its first two x-derivatives at one point x (kernel coordinates), from
     a Basis's lam1 and floe (not the Basis: numba counts a reference to each of its arrays at
@@ -355,7 +354,7 @@ def field_sums(lam1, floe, field, c, x):
     return floe_sums(floe, c, x, code)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def field_sum(lam1, floe, field, c, x):
     """The value of field_sums alone (on the cosines, mode_sum)."""
     w, code = field
@@ -364,7 +363,7 @@ def field_sum(lam1, floe, field, c, x):
     return floe_sums(floe, c, x, code)[0]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
     """The position of the peak of sign * a modal field (field_sums) near x: safeguarded Newton,
     kept in [xlo, xhi], stopping at NEWTON_STOP of the bracket (at most 8 steps)."""
@@ -376,7 +375,7 @@ def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
     return x
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def node_strain(cosq, floe, strain, a, eps):
     """The upper-surface strain at every node into eps, from a Basis's cosq and floe (see
     field_sums): strain_nodes on the cosines (weights strain = (hi/2) lambda_n^2), the strain

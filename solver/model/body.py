@@ -18,8 +18,7 @@ M (U^2 - V^2)/2 - M g_b s + W = 0 (``body_residual``, the free body's energy bal
 import math
 from collections import namedtuple
 
-from numba import njit
-
+from ..jit import kernel
 from ..layout import B_D, B_U
 
 #: the body: V [m s-1], inv_mass = 1/M [m kg-1] (0: the paper's body at constant speed), g = g_b
@@ -28,13 +27,13 @@ from ..layout import B_D, B_U
 Body = namedtuple("Body", "V inv_mass g R p flat tanb xc profile")
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def is_parabola(body):
     """The paper's parabola x^2 / 2R, centred at the kernel's x = 0."""
     return body.p == 2.0 and body.flat == 0.0 and body.tanb == 0.0 and body.xc == 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_profile(x, body):
     """b(x) [m]: with u = max(|x - x_c| - c, 0) (x_c: the body's centre in kernel
     coordinates, 0 but for an off-centre impact; c: half-width of a flat bottom), u tan(beta)
@@ -50,14 +49,14 @@ def body_profile(x, body):
     return u ** p / (p * R ** (p - 1.0))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_corners(body):
     """Where b may not be smooth, in kernel coordinates: x_c - c, x_c, x_c + c (a wedge's apex, a
     flat bottom's edges; the same point three times for a pointed body)."""
     return body.xc - body.flat, body.xc, body.xc + body.flat
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_slope_curvature(x, body):
     """(b'(x), b''(x)) (at a wedge's or a flat bottom's corner: the values on the side away
     from the centre x_c)."""
@@ -73,7 +72,7 @@ def body_slope_curvature(x, body):
     return side * (u ** (p - 1.0) / R ** (p - 1.0)), (p - 1.0) * u ** (p - 2.0) / R ** (p - 1.0)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_extent(reach, body):
     """The largest x with b(x) <= reach (reach > 0): x_c plus b's inverse."""
     xc = body.xc
@@ -86,7 +85,7 @@ def body_extent(reach, body):
     return xc + (body.flat + (p * R ** (p - 1.0) * reach) ** (1.0 / p))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_coefficients(h, Cb):
     """The rows of etd_coefficients in the limit omega -> 0, for the body (Cb (9, 2)).
 
@@ -119,7 +118,7 @@ def body_coefficients(h, Cb):
     Cb[8, 1] = 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _body_error(h, G1, G2, G3, G4, G5, errb):
     """A free body's local error against genuine third-order companions (docs/model.md, "A
     body of finite mass"). The modes' embedded estimate h (4 phi3 - phi2)(G4 - G5) reads ~ h^6
@@ -131,25 +130,25 @@ def _body_error(h, G1, G2, G3, G4, G5, errb):
     errb[B_D] = h * h / 6.0 * (G2 + G3 - G1 - G5)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_accel(body, F):
     """G = u' = F / M - g_b: the body's deceleration (0 for the paper's prescribed body)."""
     return body.inv_mass * F - body.g
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_position(body, t, yb):
     """Penetration s = V t - d of the body [m] (exactly V t for the prescribed body)."""
     return body.V * t - yb[B_D]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_speed(body, yb):
     """Downward speed U = V - u of the body [m s-1]."""
     return body.V - yb[B_U]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def body_residual(body, t, yb, work):
     """M (U^2 - V^2) / 2 - M g_b s + W: zero along an exact motion (0 for the prescribed body)."""
     im = body.inv_mass
@@ -159,7 +158,7 @@ def body_residual(body, t, yb, work):
     return (0.5 * u * u - body.V * u - body.g * body_position(body, t, yb)) / im + work
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _step_work(body, h, work, F, U):
     """W(t + h) = W + int F U dt by the step's weights (1, 2, 2, 1)/6 over its stages: F and U
     are the forces and the body's speeds at the four stages."""

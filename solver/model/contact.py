@@ -17,17 +17,17 @@ contact edge and never inside it; reach_in_step bounds every node that changes s
 step; the contact observer on the bounded nodes equals the observer on every node.
 """
 import numpy as np
-from numba import njit
 
 from .basis import NEWTON_STOP, _newton_move, argmax_node, continuous_peak, field_sum, field_sums, modal_sum_range, refine
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
+from ..jit import kernel
 from .plate import ONES
 
 #: modes taken exactly in contact_bound's node-by-node bound on the deflection
 BOUND_MODES = 4
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def contact_bound(body, basis, s, a, work):
     """jmax such that no node j >= jmax - 1 touches: delta_j < 0 there.
 
@@ -60,7 +60,7 @@ def contact_bound(body, basis, s, a, work):
     return min(J, j + 2)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def last_reachable(profile, cosq, c, m, lift, work, j0, j1):
     """The last node j0 <= j < j1 with b(x_j) <= lift + sum_{n < m} c_n cos(lambda_n x_j), or
     j0 - 1 if there is none: m + 1 vectorised passes over work (scratch), then a scan down."""
@@ -77,7 +77,7 @@ def last_reachable(profile, cosq, c, m, lift, work, j0, j1):
     return j0 - 1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def count_contacts(delta, jmax, mirror):
     """Disjoint intervals of delta > 0 on -L..L from the nodes of 0..L (central one once;
     mirror = 2), or from the nodes of the full plate (mirror = 1: each once)."""
@@ -94,7 +94,7 @@ def count_contacts(delta, jmax, mirror):
     return count
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def reach_in_step(body, basis, jm, a0, a1, s0, s1, drift, work):
     """jm' >= jm such that no node j >= jm' can be in contact at any time of a step.
 
@@ -129,7 +129,7 @@ def reach_in_step(body, basis, jm, a0, a1, s0, s1, drift, work):
     return max(jm, last_reachable(body.profile, basis.cosq, mean, m, lift, work, jm, jc) + 1)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def node_deltas(he, body, basis, a, s, delta, j0, j1):
     """delta = (w + s - b(x_j)) / he at the nodes j0 <= j < j1 (as node_reaction has it)."""
     if j1 <= j0:
@@ -139,7 +139,7 @@ def node_deltas(he, body, basis, a, s, delta, j0, j1):
         delta[j] = (delta[j] + s - body.profile[j]) / he
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def shape_peak(model, delta, j, n, a, s):
     """continuous_peak of delta = (w + s - b(x)) / he for any body shape: Newton on delta'
     with b', b'' from body_slope_curvature, kept within [x_{j-1}, x_{j+1}]. Returns (value, x)."""
@@ -164,7 +164,7 @@ def shape_peak(model, delta, j, n, a, s):
     return value, x
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _corner_peak(model, a, s, v, x):
     """The larger of (v, x) and delta at the body's corners on the plate (a wedge's apex, a flat
     bottom's edges), where delta has a kink that Newton on delta' cannot settle on: (value, x)."""
@@ -178,7 +178,7 @@ def _corner_peak(model, a, s, v, x):
     return v, x
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def gap_peak(model, s, U, delta, jm, a, adot, out):
     """Largest delta over the continuous plate and its rate: out[:] = (delta, rate, x), the
     body at penetration s moving down at U.

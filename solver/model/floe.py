@@ -37,7 +37,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from ..jit import kernel
 from scipy.linalg import eigh
 from scipy.optimize import brentq
 
@@ -164,7 +165,7 @@ def wet_modes(p, count: int, antisymmetric: bool = True):
     return 1.0 / np.sqrt(mu), Q, kinds, betas, norms
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _raw(kind, beta, L, x, order):
     """One raw dry mode's derivative of the given order at one x in -L..L (as dry_mode)."""
     if kind == 0.0:
@@ -183,13 +184,13 @@ def _raw(kind, beta, L, x, order):
     return bo * (math.sin(arg) / math.sin(beta * L) + hyp / (1.0 - e2))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def floe_plane(floe, N, J, k):
     """Table k (TABLE_*) of a floe's packed array, (N, J) (a view)."""
     return floe[k * N * J:(k + 1) * N * J].reshape((N, J))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def floe_shapes(floe, N):
     """The shapes table (4 + N, N) of a floe's packed array (a view)."""
     return floe[floe.shape[0] - (4 + N) * N:].reshape((4 + N, N))
@@ -200,7 +201,7 @@ def pack_floe(tables, shapes):
     return np.ascontiguousarray(np.concatenate([tables.ravel(), shapes.ravel()]))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def floe_sums(floe, c, x, field):
     """sum_k c_k F_k(x) and its first two x-derivatives, F_k the wet mode k's deflection (field
     0) or upper-surface strain -hi/2 Psi_k'' (field 1), at x in kernel coordinates."""
@@ -225,7 +226,7 @@ def floe_sums(floe, c, x, field):
     return v0, v1, v2
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _quintic(t):
     """The quintic Hermite basis on [0, 1]: weights of (p0, p0', p0'', p1, p1', p1'') (the
     derivatives in units of the interval)."""
@@ -238,7 +239,7 @@ def _quintic(t):
             -4.0 * t3 + 7.0 * t4 - 3.0 * t5, 0.5 * (t3 - 2.0 * t4 + t5))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def floe_segment(P, cosq, floe, dx, j, segment, sign):
     """P_n += sign * int_alpha^beta g(x) Psi_n(x) dx for g linear from ga to gb, segment = (alpha,
     beta, ga, gb) inside the subinterval [x_j, x_j+1]: Psi_n there is the quintic Hermite of its

@@ -8,10 +8,10 @@ evaluate the law here.
 """
 import math
 
-from numba import njit
+from ..jit import kernel
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def law_pressure(law, d):
     """f(delta) for 0 < delta < 1 (the paper's delta / (1 - delta), or the linear delta). Plain
     arithmetic, so that its ``py_func`` also takes numpy arrays (the field reconstruction)."""
@@ -20,7 +20,7 @@ def law_pressure(law, d):
     return d / (1.0 - d)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def law_energy(law, d):
     """G(delta) for 0 < delta < 1, the energy stored per unit volume over K: G' = f, G(0) = 0."""
     if law == 1:

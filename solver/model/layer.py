@@ -29,11 +29,11 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, node_strain
 from .floe import TABLE_HAT, floe_plane, floe_segment
 from .contact import contact_bound
+from ..jit import kernel
 from .law import law_energy, law_pressure
 from .quadrature import gauss_energy, gauss_reaction
 from .plate import COEF, STRAIN
@@ -45,7 +45,7 @@ Layer = namedtuple("Layer", "he K tau law")
 LAW_CODES = {"paper": 0, "linear": 1}
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def layer_forcing(model, t, a, delta, fvals, P):
     """layer_forcing_at for the body at the paper's constant speed (penetration s = V t) and the
     paper's elastic layer: (status, force, jmax)."""
@@ -54,7 +54,7 @@ def layer_forcing(model, t, a, delta, fvals, P):
     return st, force, jmax
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
     """Modal forcing P_n(s, a) and body force F from the layer reaction, the body's lowest point
     at y = he - s (penetration s: V t for the paper's body).
@@ -81,10 +81,10 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
     modal_sum(a, model.basis.cosq, delta, jmax)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
-                                  False), P)
+                                  np.bool_(False)), P)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     """layer_forcing_at, and the strain at every node into eps (strain_nodes), from one pass over
     the table where both are needed; the contact-resolving rule also leaves the layer's energy
@@ -103,10 +103,10 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
         node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], a, eps)
     return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
                    layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
-                                  True), P)
+                                  np.bool_(True)), P)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def rule_energy(model, fvals):
     """E_layer [J m-1] at the state of the last layer_forcing_strain, by the contact-resolving
     rule, which leaves he int G dx there in fvals[0] (the paper's rule: NaN; layer_energy
@@ -118,7 +118,7 @@ def rule_energy(model, fvals):
     return model.basis.mirror * model.layer.K * fvals[0]
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _scaled(K, mirror, coef, reaction, P):
     """layer_reaction's result with P scaled by K coef_n (the modes' -2 K / (L M_n)), where it
     succeeded; the force times mirror K. (Scalars and the one array it reads: binding a Model to
@@ -131,7 +131,7 @@ def _scaled(K, mirror, coef, reaction, P):
     return 0, mirror * K * force, jmax, power
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals):
     """delta and f at the nodes j < jmax, given the deflection sum_n a_n cos(lambda_n x_j) in
     delta (with the viscoelastic layer's part, layer_damping): (status, sum of f, jc, power), jc
@@ -158,7 +158,7 @@ def node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals):
     return 0, total, jc, power
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
     """The viscoelastic layer (tau_l = layer.tau > 0): at each compressed node f becomes
     f max(1 + tau_l delta', 0), delta' = (w' + U) / he, w' = sum_n adot_n cos(lambda_n x_j) (one
@@ -196,7 +196,7 @@ def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
     return force, basis.mirror * layer.K * basis.dx * power
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """The rest of layer_forcing_at, given the deflection sum_n a_n cos(lambda_n x_j) in delta
     (j < jmax) and modes = (a, adot), out = (fvals, P): P / (K coef_n) and int f dx by the
@@ -238,7 +238,7 @@ def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     return 0, split_segments(basis, jmax, delta, fvals, P, force * basis.dx), jmax, power
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """layer_reaction by the contact-resolving rule: delta at the nodes j < jmax (status 1 if
     one has delta >= 1), then gauss_reaction into out = (fvals, P), he int G dx into fvals[0]
@@ -260,7 +260,7 @@ def _gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     return 0, force, jmax, basis.mirror * layer.K * power
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def split_segments(basis, jmax, delta, fvals, P, force):
     """Subintervals where delta changes sign: f is continued by f(delta) = delta for delta <= 0
     (C1 at 0, since f'(0) = 1), interpolated linearly, and only its positive part kept; the split
@@ -288,7 +288,7 @@ def split_segments(basis, jmax, delta, fvals, P, force):
     return force
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _segment(P, basis, j, segment, sign):
     """P_n += sign * int g(x) mode_n(x) dx over segment = (alpha, beta, ga, gb) in the
     subinterval j, g linear from ga to gb: exact on the cosines (_add_segment), by the quintic
@@ -300,7 +300,7 @@ def _segment(P, basis, j, segment, sign):
         floe_segment(P, basis.cosq, basis.floe, basis.dx, j, segment, sign)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def layer_energy(model, a, s, delta, jmax):
     """E_layer = 2 K he int_0^L G(delta) dx (delta > 0); on the full plate of an off-centre
     impact (mirror = 1) K he int_0^2L G dx; delta at the nodes j < jmax, the modes a and the
@@ -317,7 +317,7 @@ def layer_energy(model, a, s, delta, jmax):
     return node_energy(model, delta, jmax)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def node_energy(model, delta, jmax):
     """E_layer by the paper's rule from delta at the nodes j < jmax (layer_energy)."""
     J = delta.shape[0]

@@ -19,7 +19,8 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
+
+from ..jit import kernel
 
 #: the plate: modes (8, N), its per-mode constants over the kernel's modes n in the rows below,
 #: and lm_floor, L M of the first symmetric mode (the floor of the error norm) [kg m-1]. One
@@ -50,7 +51,7 @@ PHI3_RE = np.array([1.0 / math.factorial(2 * k + 3) for k in range(9)])
 PHI3_IM = np.array([1.0 / math.factorial(2 * k + 4) for k in range(9)])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def phi_from(y, e):
     """phi_1, phi_2, phi_3 of zeta = i y, given e = e^{i y} (phi_k(z) = sum_m z^m / (m + k)!).
 
@@ -80,7 +81,7 @@ def phi_from(y, e):
     return complex(r1, i1), complex(r2, i2), complex(re, im)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def phi_functions(y):
     """phi_1, phi_2, phi_3 of zeta = i y (see phi_from)."""
     return phi_from(y, complex(math.cos(y), math.sin(y)))
@@ -91,7 +92,7 @@ def phi_functions(y):
 PHI3_SERIES = np.array([1.0 / math.factorial(m + 3) for m in range(18)])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def phi_complex(zeta):
     """e^zeta, phi_1, phi_2, phi_3 of any complex zeta (a damped mode: Re zeta < 0).
 
@@ -113,7 +114,7 @@ def phi_complex(zeta):
     return zeta * p1 + 1.0, p1, p2, p3
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_phis(plate, n, d):
     """(e, phi_1, phi_2, phi_3) of the damped mode n over a time d, packed as complex numbers
     that act on its z as emul does: an oscillating mode's of zeta = mu_+ d, mu_+ = -c/2 + i
@@ -129,7 +130,7 @@ def mode_phis(plate, n, d):
             complex(p3p.real, p3m.real))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def emul(e, z, kind):
     """e^{zeta} z for a mode's z: a complex product (kind 0), or component by component for an
     overdamped mode (kind 1: z = y_+ + i y_-, two real decaying components)."""
@@ -138,13 +139,13 @@ def emul(e, z, kind):
     return complex(e.real * z.real, e.imag * z.imag)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def plate_damped(plate):
     """True for viscoelastic ice (c_n grows with n: the last mode is damped if any is)."""
     return plate.modes[HALF_C, plate.modes.shape[1] - 1] > 0.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_a(z, n, plate):
     """a_n from z_n. With mu_+- the roots of mu^2 + c mu + omega^2 = 0, z = a' - mu_- a obeys
     z' = mu_+ z + P: for c = 0, z = a' + i omega a. Oscillating: z = a' + (c/2) a + i omega_d a;
@@ -154,7 +155,7 @@ def mode_a(z, n, plate):
     return (z.real - z.imag) / (2.0 * plate.modes[OMEGA_D, n])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_adot(z, a, n, plate):
     """a_n' from z_n and a_n (see mode_a)."""
     if plate.modes[KIND, n] == 0.0:
@@ -162,7 +163,7 @@ def mode_adot(z, a, n, plate):
     return z.real - (plate.modes[HALF_C, n] + plate.modes[OMEGA_D, n]) * a
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_z(a, adot, n, plate):
     """z_n from a_n and a_n' (see mode_a); exactly a' + i omega a for an undamped mode."""
     hc = plate.modes[HALF_C, n]
@@ -174,13 +175,13 @@ def mode_z(a, adot, n, plate):
     return complex(adot + (hc + wd) * a, adot + (hc - wd) * a)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def damping_power(plate, n, v):
     """L M_n c_n a_n'^2 [W m-1]: the power the Kelvin-Voigt damping takes from mode n at a_n' = v."""
     return 2.0 * plate.modes[HALF_C, n] * plate.modes[MASS, n] * v * v
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def dissipation_rate(z, plate):
     """sum_n L M_n c_n a_n'^2 [W m-1]: the power the Kelvin-Voigt damping takes from the plate."""
     r = 0.0
@@ -193,7 +194,7 @@ def dissipation_rate(z, plate):
     return r
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mode_acceleration(plate, a, v, P, out):
     """The mode equations in (a, a') form, a_n'' = P_n - omega_n^2 a_n - c_n a_n', into out (for
     an integrator of first-order systems, solver.scipy_reference); returns the power the damping
@@ -207,7 +208,7 @@ def mode_acceleration(plate, a, v, P, out):
     return power
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _plus_plate_energy(e, plate, z):
     """e + E_plate, E_plate = sum_n L M_n (a_n'^2 + omega_n^2 a_n^2) / 2 [J m-1] (added term by
     term to e): L M_n |z_n|^2 / 2 for the undamped plate."""

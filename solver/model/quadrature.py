@@ -37,10 +37,10 @@ import cmath
 import math
 
 import numpy as np
-from numba import njit
 
 from .basis import modal_projection, modal_sum_range
 from .body import body_corners, body_profile, body_slope_curvature
+from ..jit import kernel
 from .law import law_energy, law_pressure
 
 #: Gauss-Legendre nodes in a panel of the rule
@@ -72,7 +72,7 @@ NARROWEST = 1e-12
 EDGE_STOP = 1e-10
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _gap_and_slope(a, lam1, x, s, body):
     """(w + s - b, w' - b') at x [m]: the layer's compression times he and its slope."""
     rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
@@ -87,7 +87,7 @@ def _gap_and_slope(a, lam1, x, s, body):
     return w + s - body_profile(x, body), dw - b1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def contact_edge(a, lam1, s, body, x0, g0, x1, g1, stop):
     """The root of g = w + s - b in [x0, x1], g0 = g(x0) and g1 = g(x1) of opposite signs:
     Newton from the linear interpolant, a bisection of the bracket where Newton leaves it."""
@@ -109,7 +109,7 @@ def contact_edge(a, lam1, s, body, x0, g0, x1, g1, stop):
     return x
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
     """The contact intervals from delta at the nodes j < jmax (delta < 0 beyond): their ends
     into edges (2 per interval, kernel coordinates [m]); returns their number."""
@@ -145,7 +145,7 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
     return count + corner_contacts(body, basis, s, a, he, delta, jmax, edges[2 * count:])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def corner_contacts(body, basis, s, a, he, delta, jmax, edges):
     """Contact at a corner of the body (a wedge's apex, a flat bottom's edge) between two
     uncompressed nodes: there delta has a kink and grows linearly in time from first touch, and
@@ -178,7 +178,7 @@ def corner_contacts(body, basis, s, a, he, delta, jmax, edges):
     return count
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _pieces(body, xa, xb, cuts):
     """The breakpoints of [xa, xb] at the body's corners inside it: cuts[0..m] ascending;
     returns m + 1."""
@@ -193,7 +193,7 @@ def _pieces(body, xa, xb, cuts):
     return m + 1
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def first_panels(body, basis, edges, count):
     """The panels of the contact intervals: each cut at the body's corners, each piece into equal
     panels no wider than basis.panel. Returns the panels' ends [m], rows LO and HI."""
@@ -218,7 +218,7 @@ def first_panels(body, basis, edges, count):
     return panels
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def gauss_nodes(basis, panels, nodes):
     """The rule's nodes and weights on the panels [lo_i, hi_i] (rows LO, HI) into the rows X and
     W of nodes (NODE_ROWS, K), m = len(gauss_x) a panel."""
@@ -235,7 +235,7 @@ def gauss_nodes(basis, panels, nodes):
             wk[m * i + g] = r * gw[g]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _ellipse(t):
     """rho of the Bernstein ellipse of [-1, 1] through the complex point t: |t + sqrt(t^2 - 1)|,
     the branch with rho >= 1."""
@@ -243,7 +243,7 @@ def _ellipse(t):
     return max(abs(r), 1.0 / max(abs(r), 1e-300))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def near_pole(dk, gx, gw, i):
     """The pieces panel i must be cut into for the paper's f = delta / (1 - delta), whose pole is
     at delta = 1 (1: resolved), from its nodes' deltas dk[m i .. m i + m - 1].
@@ -292,7 +292,7 @@ def near_pole(dk, gx, gw, i):
     return min(MAX_PIECES, max(2, int(math.ceil(2.0 * RHO_MIN / rho))))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def cosine_table(lam1, xk, c2, table):
     """table[n, k] = cos(lambda_n x_k) (N, K), lambda_n = (n + 1) lam1, by the Chebyshev
     recurrence cos((n + 1) t) = 2 cos t cos(n t) - cos((n - 1) t), t = lam1 x_k: one
@@ -320,7 +320,7 @@ def cosine_table(lam1, xk, c2, table):
             row[k] = c2[k] * r1[k] - r2[k]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _deltas(body, s, he, a, lam1, nodes, table):
     """The cosine table at the nodes (row X of nodes) into table (N, K), and delta there into
     row DELTA."""
@@ -331,7 +331,7 @@ def _deltas(body, s, he, a, lam1, nodes, table):
         dk[k] = (dk[k] + s - body_profile(xk[k], body)) / he
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _split(panels, pieces):
     """The panels of the next round: panel i cut into pieces[i] equal parts where pieces[i] > 1
     (a panel with pieces[i] == 1 is resolved and not carried)."""
@@ -354,7 +354,7 @@ def _split(panels, pieces):
     return cut
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _round(layer, body, basis, s, U, modes, panels, out, flags):
     """One round of the rule on the panels [lo_i, hi_i] (rows LO, HI): the panels resolved (for
     the paper's law, not near its pole, near_pole; in the last round, or at NARROWEST, all) add
@@ -405,7 +405,7 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
     return 0, pieces
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     """The rule over the contact intervals found from delta at the nodes j < jmax, modes = (a,
     adot): (status, int f dx, the viscoelastic layer's power, he int G dx) without their factors
@@ -432,21 +432,21 @@ def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     return 0, sums[0], sums[1], sums[2]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, P, energy):
     """P_n = int f cos(lambda_n x) dx over the contact intervals (unscaled, as layer_reaction
     leaves it), given delta at the nodes j < jmax and modes = (a, adot): (status, int f dx, the viscoelastic layer's
     power without its factor mirror K, he int G dx if energy else 0). status 1: delta >= 1 at a
     node of the rule."""
-    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, (True, energy))
+    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, (np.bool_(True), energy))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def gauss_energy(layer, body, basis, s, a, delta, jmax):
     """he int G(delta) dx over the contact intervals on the rule's nodes (the caller's factor
     mirror K), delta at the nodes j < jmax."""
     P = np.empty(a.shape[0])
-    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, (False, True))
+    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, (np.bool_(False), np.bool_(True)))
     return energy if st == 0 else np.inf
 
 

@@ -9,14 +9,14 @@ and the run ends separated, stopped or ok as its motion says.
 import math
 
 import numpy as np
-from numba import njit
 
 from ..cubic import cubic, cubic_sign_changes, hermite
+from ..jit import kernel
 from ..layout import D_MAX_PENETRATION, D_SEPARATION_SPEED, D_SEPARATION_T, D_STOP_T
 from ..model.body import body_accel, body_position, body_speed
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def observe_body(body, t, h, yb0, yb1, F0, F1, contacts, record, diag):
     """A free body's ends within the step [t, t + h] (the body at yb0, yb1, the force F0, F1 at
     its ends): its stops, the deepest penetration taken there, and its separation: no contact at

@@ -17,9 +17,9 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from ..cubic import cubic, cubic_sign_changes, hermite
+from ..jit import kernel
 from ..model.basis import modal_sum_range, refine
 from ..model.body import body_position, body_speed
 from ..model.contact import count_contacts, node_deltas, reach_in_step
@@ -33,13 +33,13 @@ RUN_GAP = 4
 ContactWork = namedtuple("ContactWork", "sgn ev_th ev_j near")
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def contact_work(J):
     """A ContactWork for J nodes (allocated once per run)."""
     return ContactWork(np.empty(J), np.empty(4 * J + 16), np.empty(4 * J + 16), np.empty((4, J)))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _extremum(near, rates, he, h, j, th):
     """The extremum over x of the parabola through delta at nodes j - 1, j, j + 1 at th
     (basis.refine; each node's delta the cubic Hermite of its ends near[0:2] and rates near[2:4]
@@ -62,7 +62,7 @@ def _extremum(near, rates, he, h, j, th):
     return sign * value, rate, True
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _between_nodes(model, near, t0, h, end0, end1, j, th):
     """The time at which the count changes on the continuous plate, for a change found at node j
     at th (fraction of the step [t0, t0 + h]): where the extremum of delta between j's neighbours
@@ -98,7 +98,7 @@ def _between_nodes(model, near, t0, h, end0, end1, j, th):
     return t0 + s * h
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
     <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; the ends'
@@ -128,7 +128,7 @@ def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     return cand, nc, jm
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
     step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
@@ -174,7 +174,7 @@ def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     return n_ev
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
     """Changes of the number of contact intervals inside the step [t0, t0 + h], between its two
     states, each given as end = (a, adot, delta, yb) (the arrays read of a State, not the State:

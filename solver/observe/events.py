@@ -9,8 +9,8 @@ with DOP853's (test_bottoming_time_agrees_with_dop853); bottomed-out data never 
 import math
 
 import numpy as np
-from numba import njit
 
+from ..jit import kernel
 from ..model.basis import global_peak, node_strain
 from ..model.body import body_position, body_speed
 from ..model.contact import gap_peak
@@ -21,7 +21,7 @@ from ..step import substep
 SCAN = 8
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def event_value(model, kind, t, jm, state, out):
     """The quantity an event is defined on, at a state: kind 0, the largest delta on the plate
     (gap_peak); kind +1 / -1, the peak of +eps / -eps over x. out[:] = (value, rate, x). (kind
@@ -38,7 +38,7 @@ def event_value(model, kind, t, jm, state, out):
     return v
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _value_after(stepper, kind, level, start, carried, t, s, out, value):
     """A sub-step of length s and the event's value minus level there (inf where a stage failed:
     past the level). Returns (f, F, jmax, W)."""
@@ -48,7 +48,7 @@ def _value_after(stepper, kind, level, start, carried, t, s, out, value):
     return event_value(stepper.model, kind, t + s, jm, out, value) - level, F, jm, w
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def locate_event(stepper, kind, level, start, carried, t, h, p0, out, value):
     """First time in the accepted step [t, t + h] at which event_value(kind) reaches level,
     found on true sub-steps of the integrator from (t, start): Illinois regula falsi, bisection

@@ -1,14 +1,17 @@
 """Growable records (rows of floats) that the observers append to inside the kernels."""
 import numpy as np
-from numba import njit
+
+from ..arrays import copy_into
+from ..jit import kernel
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def append_row(buf, n, row0, row1, row2, row3, row4):
     """Append a row (the first columns of it) to a growable record; returns (buf, n)."""
     if n == buf.shape[0]:
         bigger = np.empty((2 * buf.shape[0], buf.shape[1]))
-        bigger[:n] = buf[:n]
+        for i in range(n):
+            copy_into(bigger[i], buf[i], buf.shape[1])
         buf = bigger
     buf[n, 0] = row0
     buf[n, 1] = row1

@@ -18,9 +18,10 @@ record answers ten eps_Y as ten separate runs would.
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
+from ..arrays import copy_into
 from ..cubic import cubic_max, hermite
+from ..jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
 from ..model.basis import climb, field_sum, field_sums, global_peak, newton_peak, node_strain
 from ..model.plate import OMEGA, STRAIN
@@ -60,7 +61,7 @@ RUN_MAX, JOINABLE, DENSE = 0, 2, 4
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def tension_work(N, J):
     """A TensionWork for N modes and J nodes (allocated once per run)."""
     return TensionWork(np.empty((9, 4)), np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
@@ -69,7 +70,7 @@ def tension_work(N, J):
                        np.zeros(5))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
     near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
@@ -81,7 +82,7 @@ def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     track[2] = x
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def global_state(model, eps, sign, a, adot, track):
     """The global peak of sign * eps over continuous x (global_peak) and its time derivative
     d/dt = sign * eps_t at the peak (envelope theorem): track[:] = (value, rate, x, node)."""
@@ -93,7 +94,7 @@ def global_state(model, eps, sign, a, adot, track):
     track[3] = j
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
     receives the (max, time, x) of the Hermite pieces between samples; the samples are stored
@@ -116,7 +117,7 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     return rec, n, True
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     """The peak of surface s over the step: from track P0 (t0) to P1 (t0 + h), each (value, rate,
     x), through the dense-output states inside the step (computed from dz unless marks DENSE says
@@ -160,13 +161,13 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
                   model.basis.lam1, model.basis.floe, back)
         xb = back[2]
         if back[0] > samples[k, 0]:
-            samples[k, :3] = back[:3]
-    samples[0, :3] = p0[:3]
-    samples[K, :3] = p1[:3]
+            copy_into(samples[k], back, 3)
+    copy_into(samples[0], p0, 3)
+    copy_into(samples[K], p1, 3)
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _global_piece(model, tw, s, t0, h, dz, rec, n):
     """The global peak over a step in which it passes from one local peak to another (a new
     peak may emerge inside the step, where no track can follow it): at SWITCH_SAMPLES - 1
@@ -182,8 +183,8 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
         best[2] = p0[2] if p0[0] >= p1[0] else p1[2]
         return rec, n, False
     dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
-    samples[0, :3] = p0[:3]
-    samples[K, :3] = p1[:3]
+    copy_into(samples[0], p0, 3)
+    copy_into(samples[K], p1, 3)
     strain = model.plate.modes[STRAIN]
     for k in range(1, K):
         node_strain(model.basis.cosq, model.basis.floe, strain, tw.A2[k - 1], tw.eps)
@@ -194,7 +195,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
     [t0, t0 + h], between its two states: ends = (eps at t0, eps, a and a' at t0 + h).
@@ -210,7 +211,7 @@ def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     eps0, eps1, a1, adot1 = ends
     J = eps1.shape[0]
     p0, p1, best, piece = tw.track[P0], tw.track[P1], tw.track[BEST], tw.track[PIECE]
-    p0[:] = tw.track[PEAKS + s]
+    copy_into(p0, tw.track[PEAKS + s], p0.shape[0])
     j0 = int(p0[3])
     global_state(model, eps1, sign, a1, adot1, p1)
     jb0 = climb(eps0, sign, int(p1[3]), J)
@@ -223,14 +224,14 @@ def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
         rec, n, stored = _global_piece(model, tw, s, t0, h, dz, rec, n)
     tw.marks[JOINABLE + s] = 1.0 if stored else 0.0
     if piece[0] > best[0]:
-        best[:3] = piece[:3]
+        copy_into(best, piece, 3)
     if best[0] > tw.marks[RUN_MAX + s]:
         tw.marks[RUN_MAX + s] = best[0]
-    tw.track[PEAKS + s] = p1
+    copy_into(tw.track[PEAKS + s], p1, p1.shape[0])
     return rec, n
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def observe_tensions(model, tw, t, h, ends, dz, records, diag):
     """The tension records of both surfaces over the accepted step (observe_tension; ends = (eps
     at t, eps, a and a' at t + h): the arrays it reads of the two states, not the States, whose
@@ -243,11 +244,11 @@ def observe_tensions(model, tw, t, h, ends, dz, records, diag):
         else:
             rec_lo, n_lo = observe_tension(model, tw, s, t, h, ends, dz, rec_lo, n_lo)
         _largest(tw.track[BEST], s, diag)
-        tw.track[STEP_BEST + s, :3] = tw.track[BEST, :3]
+        copy_into(tw.track[STEP_BEST + s], tw.track[BEST], 3)
     return rec_up, n_up, rec_lo, n_lo
 
 
-@njit(cache=True, nogil=True, inline="always")
+@kernel(inline="always")
 def _largest(best, s, diag):
     """The step's (max, time, x) of surface s into diag where it is the largest so far."""
     if best[0] > diag[D_MAX_UPPER + 3 * s]:

@@ -32,9 +32,9 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba import njit
 
 from ..cubic import cubic_max, hermite
+from ..jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import field_sum, newton_peak
 from ..model.plate import OMEGA, STRAIN
@@ -46,7 +46,7 @@ from .tension import RESOLVED
 ZoneWork = namedtuple("ZoneWork", "peaks reach")
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def zone_work(margin):
     """A ZoneWork before the first contact (c = 0) and before the first peak."""
     peaks = np.zeros((2, 4))
@@ -55,7 +55,7 @@ def zone_work(margin):
     return ZoneWork(peaks, np.array([0.0, margin, -1.0, -1.0]))
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _to_zero(d_in, d0, d_out):
     """Where, in node spacings beyond a node with delta = d0 > 0, delta reaches 0 before the
     outer neighbour (d_out <= 0): the root of the parabola through the inner neighbour, the node
@@ -75,7 +75,7 @@ def _to_zero(d_in, d0, d_out):
     return lin
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def contact_extent(delta, jmax, dx, xc):
     """The largest distance from xc of a point with delta > 0 (-1: none), from the nodes j <
     jmax (where delta is computed): the outermost contact nodes, moved to delta's zero between
@@ -94,7 +94,7 @@ def contact_extent(delta, jmax, dx, xc):
     return far
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def zone_peak(eps, sign, basis, strain, a, lo, hi):
     """The largest sign * eps over continuous x in the zone [lo, hi] (kernel coordinates, inside
     the plate): the zone's two ends, and each local peak of the nodes refined on the modes within
@@ -126,7 +126,7 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
     return bv, bx, bj
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def observe_zone(model, zw, t0, h, ends, diag):
     """The zone's peaks of both surfaces at the end of the accepted step [t0, t0 + h] and their
     largest values over it (module docstring); ends = (eps at the nodes, delta, a, a' at t0 + h,

@@ -1,0 +1,155 @@
+r"""How the solver's kernels are compiled: each kernel once, the whole program optimised once.
+
+numba compiles every function as a library of its own: a function called from another kernel is
+optimised by LLVM, turned into machine code and cached, and then its code is linked into its
+caller's library, which is optimised and turned into machine code again, and so on up to
+``integrate``. A function deep in the tree is optimised once for each level above it, and the
+first compile took about 100 s, 62 s of it in LLVM (docs/performance.md, "The first compile").
+
+A :class:`Kernel` is a solver function with two numba dispatchers:
+
+* called from another kernel, the *link* dispatcher types and lowers it to LLVM IR with the
+  function-level passes only: no module optimisation, no machine code, no CPython wrapper and
+  no cache entry (:class:`LinkOnlyLibrary`). Its IR is linked into the caller as before;
+* called from Python (``integrate`` from ``solve``; a piece from a test or the DOP853 reference),
+  the *call* dispatcher compiles it as numba always does, optimises the whole linked program
+  at once at numba's optimisation level, emits it and caches it (solver.kernel_cache).
+
+So LLVM optimises and emits the program once per entry point. The code that runs is the same
+program, optimised by the same pipeline at its top; the results are bit for bit (no fast-math
+is added: IEEE arithmetic is left as written) and ``make bench-revisions`` measures the speed.
+
+A function marked ``inline="always"`` stays a plain numba dispatcher: numba inlines its IR into
+each caller, so it is never compiled on its own (unless a test calls it from Python).
+"""
+from __future__ import annotations
+
+import functools
+import importlib
+
+from numba import njit, types
+from numba.core import codegen, compiler, typed_passes
+from numba.core.compiler_machinery import register_pass
+from numba.extending import typeof_impl
+
+#: the options of every kernel (its Python-callable dispatcher adds cache=True)
+OPTIONS = {"nogil": True}
+
+
+class _NoEnvironment:
+    """The codegen as a link-only library shows it: its code never runs on its own, so there is
+    no environment pointer to set (numba sets it in the machine code it has not made)."""
+
+    def __init__(self, codegen_):
+        self._codegen = codegen_
+
+    def set_env(self, env_name, env):
+        pass
+
+    def __getattr__(self, name):
+        return getattr(self._codegen, name)
+
+
+class LinkOnlyLibrary(codegen.JITCodeLibrary):
+    """A kernel's code for linking into its callers only: finalising links its callees' IR in,
+    and does not optimise the module or emit machine code (its callers do, once)."""
+
+    def finalize(self):
+        codegen.require_global_compiler_lock()
+        self._raise_if_finalized()
+        seen = set()
+        for library in self._linking_libraries:
+            if library not in seen:
+                seen.add(library)
+                self._reload_init.update(library._reload_init)
+                self._final_module.link_in(library._get_module_for_linking(), preserve=True)
+        self._finalized = True
+
+    def get_pointer_to_function(self, name):
+        self._ensure_finalized()
+        return 0                                     # no machine code: a link dispatcher is never called
+
+    @property
+    def codegen(self):
+        return _NoEnvironment(self._codegen)
+
+
+@register_pass(mutates_CFG=True, analysis_only=False)
+class LinkOnlyLowering(typed_passes.NativeLowering):
+    """numba's lowering into a LinkOnlyLibrary."""
+    _name = "floe_impact_link_only_lowering"
+
+    def run_pass(self, state):
+        state.library = LinkOnlyLibrary(state.targetctx.codegen(), state.func_id.func_qualname)
+        return super().run_pass(state)
+
+
+class LinkOnlyCompiler(compiler.CompilerBase):
+    """numba's nopython pipeline with the lowering into a LinkOnlyLibrary."""
+
+    def define_pipelines(self):
+        pm = compiler.DefaultPassBuilder.define_nopython_pipeline(self.state)
+        pm.passes = [(LinkOnlyLowering if pass_ is typed_passes.NativeLowering else pass_, text)
+                     for pass_, text in pm.passes]
+        pm.finalize()
+        return [pm]
+
+
+#: what a Kernel answers for its call dispatcher
+DELEGATED = frozenset(("stats", "signatures", "overloads", "nopython_signatures", "inspect_types", "inspect_llvm",
+                       "inspect_asm", "get_compile_result"))
+
+
+class Kernel:
+    """A solver function compiled by numba: the link dispatcher for callers in other kernels,
+    the call dispatcher (cached, made on first use) for callers in Python."""
+
+    def __init__(self, py_func, options):
+        functools.update_wrapper(self, py_func)
+        self.py_func = py_func
+        self._options = options
+        self.link_dispatcher = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
+                                    pipeline_class=LinkOnlyCompiler, **options)(py_func)
+        self._call_dispatcher = None
+
+    @property
+    def dispatcher(self):
+        """The dispatcher Python calls: numba's own, cached (solver.kernel_cache)."""
+        if self._call_dispatcher is None:
+            self._call_dispatcher = njit(cache=True, **self._options)(self.py_func)
+        return self._call_dispatcher
+
+    def __call__(self, *args, **kwargs):
+        return self.dispatcher(*args, **kwargs)
+
+    def __getattr__(self, name):
+        if name in DELEGATED:                        # the call dispatcher's; no other name is looked up
+            return getattr(self.dispatcher, name)    # there (numba probes globals for "name", ...)
+        raise AttributeError(name)
+
+    def __reduce__(self):
+        return _kernel_named, (self.py_func.__module__, self.py_func.__qualname__)
+
+    def __repr__(self):
+        return f"<solver kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+def _kernel_named(module, qualname):
+    return getattr(importlib.import_module(module), qualname)
+
+
+@typeof_impl.register(Kernel)
+def _typeof_kernel(value, context):
+    """A kernel seen from another kernel is its link dispatcher."""
+    return types.Dispatcher(value.link_dispatcher)
+
+
+def kernel(py_func=None, **options):
+    """Decorate a solver function as a Kernel: ``@kernel`` or ``@kernel(fastmath=...)``;
+    ``@kernel(inline="always")`` gives numba's dispatcher, inlined into each caller."""
+    options = {**OPTIONS, **options}
+    if py_func is None:
+        return lambda f: kernel(f, **options)
+    if options.get("inline") == "always":
+        return njit(cache=True, **options)(py_func)
+    return Kernel(py_func, options)

@@ -1,0 +1,91 @@
+"""How the kernels compile (solver/jit.py): a kernel called from another kernel is compiled for
+linking only (no machine code, no cache entry), the entry point Python calls is optimised and
+cached whole, and a warm process compiles nothing."""
+import os
+import pickle
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import numpy as np
+
+import solver
+from solver.jit import Kernel, LinkOnlyLibrary
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: a kernel tree of three levels, and a probe that reports how each level was compiled
+TREE = textwrap.dedent("""
+    import numpy as np
+    from solver.jit import kernel
+
+    @kernel
+    def leaf(x, out):
+        for i in range(out.shape[0]):
+            out[i] = x * (i + 1.0)
+        return out.sum()
+
+    @kernel
+    def middle(x, out):
+        return leaf(x, out) + 1.0
+
+    @kernel
+    def top(x, n):
+        out = np.empty(n)
+        return middle(x, out) * 2.0
+""")
+
+PROBE = textwrap.dedent("""
+    import json, sys
+    sys.path.insert(0, sys.argv[1])
+    import tree
+    value = tree.top(1.5, 4)
+    libraries = {name: [type(cres.library).__name__ for cres in getattr(tree, name).link_dispatcher.overloads.values()]
+                 for name in ("leaf", "middle")}
+    print(json.dumps({"value": value, "link": libraries,
+                      "top_hits": sum(tree.top.stats.cache_hits.values()),
+                      "called_from_python": [n for n in ("leaf", "middle") if getattr(tree, n)._call_dispatcher]}))
+""")
+
+
+def _probe(tmp_path):
+    env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
+    proc = subprocess.run([sys.executable, "-c", PROBE, str(tmp_path)], env=env, capture_output=True, text=True,
+                          timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    import json
+    return json.loads(proc.stdout)
+
+
+def test_callees_compile_for_linking_only_and_a_warm_process_compiles_nothing(tmp_path):
+    """First process: the entry point runs (value exact), its callees are link-only libraries and
+    never got a Python-callable dispatcher. Second process: the entry point comes from the cache
+    and no callee is compiled at all (the cached entry point carries their code)."""
+    (tmp_path / "tree.py").write_text(TREE)
+    expected = 2.0 * (1.5 * (1 + 2 + 3 + 4) + 1.0)
+    cold = _probe(tmp_path)
+    assert cold["value"] == expected
+    assert cold["link"] == {"leaf": ["LinkOnlyLibrary"], "middle": ["LinkOnlyLibrary"]}
+    assert cold["top_hits"] == 0 and cold["called_from_python"] == []
+    warm = _probe(tmp_path)
+    assert warm["value"] == expected and warm["top_hits"] == 1
+    assert warm["link"] == {"leaf": [], "middle": []}
+
+
+def test_a_kernel_called_from_python_gets_numbas_own_dispatcher():
+    """An inner kernel called from Python (a test, the DOP853 reference) is compiled whole, with
+    machine code, as numba compiles any function; it computes what its Python source does."""
+    from solver.model.plate import mode_a
+    from solver.loop import integrate
+    assert isinstance(mode_a, Kernel) and isinstance(integrate, Kernel)
+    plate = solver.core.Tables(solver.Parameters(Nmod=1), 16, False, "paper", 4).model.plate
+    z = 0.3 + 0.4j
+    assert mode_a(z, 0, plate) == mode_a.py_func(z, 0, plate)
+    assert mode_a.signatures
+    assert not any(isinstance(cres.library, LinkOnlyLibrary) for cres in mode_a.dispatcher.overloads.values())
+
+
+def test_a_kernel_pickles_as_a_reference_to_itself():
+    from solver.loop import integrate
+    assert pickle.loads(pickle.dumps(integrate)) is integrate
