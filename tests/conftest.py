@@ -22,6 +22,9 @@ def pytest_configure(config):
         helper = subprocess.Popen([sys.executable, "-c", REFERENCE_KERNELS])
         try:
             compile_kernels()
+        except BaseException:                   # Ctrl-C: stop the helper too, at once
+            helper.kill()
+            raise
         finally:
             helper.wait()
 
