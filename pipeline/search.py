@@ -37,6 +37,7 @@ import math
 import numpy as np
 
 from .errors import StudyError, check_table
+from .identity import SAMPLE
 
 EVENTS = ("bottoming", "crack_onset", "crack_onset_lower")
 SEARCH_KEYS = {"key", "bracket", "log", "event", "eps_Y", "tolerance", "scan"}
@@ -113,12 +114,15 @@ def check_bracket(search: dict, values: dict, points: list, extreme: bool) -> No
         at = (" at " + ", ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in point.items())
               if point else "")
         merged = {**values, **point}
-        settings = {k: (True if k == "error_estimate" and v == "sample" else v)
-                    for k, v in merged.items() if k in SETTING_INFO}
+        try:
+            settings = Settings(**{k: (True if k == "error_estimate" and v == SAMPLE else v)
+                                   for k, v in merged.items() if k in SETTING_INFO})
+        except ParameterError as err:
+            raise StudyError(f"[search] bracket{at}: {err}") from None
         for value in scanned:
             params = {**{k: v for k, v in merged.items() if k in PARAMETER_INFO}, key: value}
             try:
-                check_combination(Parameters(**params), Settings(**settings))
+                check_combination(Parameters(**params), settings)
             except ParameterError as err:
                 raise StudyError(f"[search] bracket: {key} = {value:g}{at}: {err}") from None
             reason = None if extreme else outside_physical_range(params)
