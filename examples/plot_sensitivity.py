@@ -20,7 +20,7 @@ FAST = os.environ.get("FLOE_GALLERY_FAST") == "1"
 study = {
     "description": "Sobol' indices of crack onset and max strain over five keys",
     "base": {"Nmod": 6 if FAST else 12},
-    "design": {"method": "saltelli", "samples": 8 if FAST else 64, "seed": 7,
+    "design": {"method": "saltelli", "samples": 16 if FAST else 64, "seed": 7,
                "keys": {"K": {"min": 1e6, "max": 1e8, "log": True}, "he": {"min": 0.01, "max": 0.05},
                         "R": {"min": 5.0, "max": 20.0}, "V": {"min": 1.0, "max": 10.0, "log": True},
                         "hi": {"min": 0.3, "max": 1.0}}},

@@ -34,6 +34,11 @@ from numba.extending import typeof_impl
 
 #: the options of every kernel (its Python-callable dispatcher adds cache=True)
 OPTIONS = {"nogil": True}
+#: the numba internals a link-only library uses (numba 0.68 has them); where one is missing, a
+#: kernel is numba's plain dispatcher (the same results, the slower first compile)
+LINK_ONLY = (all(hasattr(codegen.CPUCodeLibrary, name) for name in
+                 ("_get_module_for_linking", "_optimize_final_module", "_raise_if_finalized"))
+             and hasattr(codegen, "require_global_compiler_lock") and hasattr(codegen, "JITCodeLibrary"))
 
 
 class _NoEnvironment:
@@ -150,6 +155,6 @@ def kernel(py_func=None, **options):
     options = {**OPTIONS, **options}
     if py_func is None:
         return lambda f: kernel(f, **options)
-    if options.get("inline") == "always":
+    if options.get("inline") == "always" or not LINK_ONLY:
         return njit(cache=True, **options)(py_func)
     return Kernel(py_func, options)

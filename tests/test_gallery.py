@@ -118,7 +118,7 @@ def test_plot_sensitivity(tmp_path, monkeypatch):
     pytest.importorskip("SALib")
     g = run("plot_sensitivity.py", tmp_path, monkeypatch)
     indices = g["indices"]
-    assert indices["S1"].dims == ("output", "key") and g["ds"].sizes["sample"] == 8 * 7
+    assert indices["S1"].dims == ("output", "key") and g["ds"].sizes["sample"] == 16 * 7
     assert np.all(np.isfinite(indices["ST"].values))
 
 

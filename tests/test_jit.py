@@ -8,8 +8,6 @@ import sys
 import textwrap
 from pathlib import Path
 
-import numpy as np
-
 import solver
 from solver.jit import Kernel, LinkOnlyLibrary
 
@@ -84,6 +82,13 @@ def test_a_kernel_called_from_python_gets_numbas_own_dispatcher():
     assert mode_a(z, 0, plate) == mode_a.py_func(z, 0, plate)
     assert mode_a.signatures
     assert not any(isinstance(cres.library, LinkOnlyLibrary) for cres in mode_a.dispatcher.overloads.values())
+
+
+def test_this_numba_has_what_a_link_only_library_needs():
+    """Where numba lacks an internal the link-only library uses, kernels fall back to numba's
+    plain dispatcher; on the numba the project installs they must not."""
+    from solver import jit
+    assert jit.LINK_ONLY
 
 
 def test_a_kernel_pickles_as_a_reference_to_itself():
