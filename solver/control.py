@@ -65,7 +65,7 @@ def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, ma
                    float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin))
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def error_ratio(model, control, z, znew, err, errb, gap, scratch):
     """Local error (err, errb) over tolerance in the energy norm: the plate's error and a free
     body's velocity error M err_U^2, against the plate's energy at the step's start (z) or end

@@ -119,7 +119,7 @@ def _copy_state(source, target):
         target.err[n] = source.err[n]
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _finite_state(st, w_new, z, yb):
     if not (st == 0 and math.isfinite(w_new)):
         return False
@@ -129,7 +129,7 @@ def _finite_state(st, w_new, z, yb):
     return math.isfinite(yb[B_D]) and math.isfinite(yb[B_U])
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _residual(model, state, jm, w_new, e0):
     """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state
     (its z, delta and acc: the arrays it reads, not the State, whose every array numba would
@@ -144,7 +144,7 @@ def _residual(model, state, jm, w_new, e0):
     return e_new, e_new + acc[0] - w_new - e0
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
     """The verdict on a trial step from t (z0 at t) to new, trial = (status, W(t_new), jmax, t, h,
     error exponent), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
@@ -186,7 +186,7 @@ def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, di
     return ACCEPT, h_step, ratio, resid_new, OK, 0
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _gap_at(model, t, state, jm, gap):
     """a, a' of a state = (z, a, adot, yb, delta) from its z, and its gap (gap_peak) into gap."""
     z, a, adot, yb, delta = state
@@ -197,7 +197,7 @@ def _gap_at(model, t, state, jm, gap):
     gap_peak(model, body_position(model.body, t, yb), body_speed(model.body, yb), delta, jm, a, adot, gap)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _may_bottom(model, control, gap0, gap1, h):
     """The gap may close to bottom_gap inside the step: at its end, or by the cubic Hermite of the
     largest delta and its rate between the ends."""
@@ -206,7 +206,7 @@ def _may_bottom(model, control, gap0, gap1, h):
     return model.layer.K > 0.0 and (gap1[0] >= level or cubic_max(c0, c1, c2, c3)[0] >= level)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _strain_error(model, err):
     """The local error of a step in strain amplitude (the error of a and of a' / omega)."""
     plate = model.plate
@@ -222,7 +222,7 @@ def _strain_error(model, err):
     return math.sqrt(e_step)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _locate_levels(ws, levels, out, start, carried, t, h):
     """Tension levels first reached in the accepted step, located on true sub-steps (for
     verification): their time and place into out.level_t, out.level_x. (Runs only where levels
@@ -238,7 +238,7 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
                     out.level_x[s, i] = ws.value[2]
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
     observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork), ends = (jmax at t, jmax and F

@@ -97,7 +97,7 @@ def etd_coefficients(plate, h, C):
         C[8, n] = h * (4.0 * p3 - p2)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _stage(model, rows, fvals, zs, s, U, delta, P):
     """A stage at the state zs, the body at penetration s moving down at U: layer_forcing_at into
     P. Returns (status, force, jmax, the layer's power). a' is needed only by a viscoelastic
@@ -113,7 +113,7 @@ def _stage(model, rows, fvals, zs, s, U, delta, P):
     return layer_forcing_at(model, s, U, a_work, adot_work, delta, fvals, P)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _last_stage(model, w, out, t_new):
     """The forcing at the step's end (stage 5, the next step's first), with the strain at every
     node into eps, out = (z, yb, delta, forcing, eps) of the step's end. Returns (status, jmax)."""
@@ -134,13 +134,13 @@ def _last_stage(model, w, out, t_new):
     return st, jm
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _contacts_changed(mirror, st, delta, jm, contacts):
     """A stage that succeeded has another number of contact intervals than the step's start."""
     return st == 0 and count_contacts(delta, jm, mirror) != contacts
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     """ETD34's stages 2, 3 and 4 (the module docstring), the body's alongside: (status, jmax,
     event), event if the number of contact intervals changed among them."""
@@ -185,7 +185,7 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     return st, jm, event
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     """Classical RK4's stages 2, 3 and 4 on z' = i omega z + P (w.cz[1] accumulates k1 + 2 k2 +
     2 k3), the body's as ETD34 has them: (status, jmax)."""
@@ -225,7 +225,7 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
     return st, jm
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _update(method, model, coeffs, w, start, h, out):
     """The step's solution into out = (z, yb) of the step's end from the stage table."""
     z_out, yb_out = out
@@ -249,7 +249,7 @@ def _update(method, model, coeffs, w, start, h, out):
             z_out[n] = z[n] + h / 6.0 * (incr[n] + k4)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _local_error(method, model, coeffs, w, start, h, event, out):
     """The step's local error estimate into err and errb of out = (z, forcing, yb, err, errb) of
     the step's end: ETD34's embedded estimate, or, across a change of contact (event), its

@@ -24,7 +24,7 @@ TREE = textwrap.dedent("""
             out[i] = x * (i + 1.0)
         return out.sum()
 
-    @kernel
+    @kernel(inline="llvm")
     def middle(x, out):
         return leaf(x, out) + 1.0
 
@@ -41,7 +41,18 @@ PROBE = textwrap.dedent("""
     value = tree.top(1.5, 4)
     libraries = {name: [type(cres.library).__name__ for cres in getattr(tree, name).link_dispatcher.overloads.values()]
                  for name in ("leaf", "middle")}
+    def attributes(name):
+        return [sorted(str(a) for a in cres.library._final_module.get_function(cres.fndesc.mangled_name).attributes)
+                for cres in getattr(tree, name).link_dispatcher.overloads.values()]
+    names = {name: [cres.fndesc.mangled_name for cres in getattr(tree, name).link_dispatcher.overloads.values()]
+             for name in ("leaf", "middle")}
+    top_ir = "".join(tree.top.inspect_llvm().values())
+    called = {name: any(f"@{m}(" in line for m in names[name] for line in top_ir.splitlines() if " call " in line)
+              for name in names}
     print(json.dumps({"value": value, "link": libraries,
+                      "always_inline": {n: any("alwaysinline" in a for a in attributes(n)[0]) if names[n] else None
+                                        for n in ("leaf", "middle")},
+                      "called_in_top": called,
                       "top_hits": sum(tree.top.stats.cache_hits.values()),
                       "called_from_python": [n for n in ("leaf", "middle") if getattr(tree, n)._call_dispatcher]}))
 """)
@@ -66,6 +77,9 @@ def test_callees_compile_for_linking_only_and_a_warm_process_compiles_nothing(tm
     assert cold["value"] == expected
     assert cold["link"] == {"leaf": ["LinkOnlyLibrary"], "middle": ["LinkOnlyLibrary"]}
     assert cold["top_hits"] == 0 and cold["called_from_python"] == []
+    # middle is inline="llvm": marked alwaysinline, and no call to it is left in the program
+    assert cold["always_inline"] == {"leaf": False, "middle": True}
+    assert cold["called_in_top"]["middle"] is False
     warm = _probe(tmp_path)
     assert warm["value"] == expected and warm["top_hits"] == 1
     assert warm["link"] == {"leaf": [], "middle": []}
@@ -82,6 +96,16 @@ def test_a_kernel_called_from_python_gets_numbas_own_dispatcher():
     assert mode_a(z, 0, plate) == mode_a.py_func(z, 0, plate)
     assert mode_a.signatures
     assert not any(isinstance(cres.library, LinkOnlyLibrary) for cres in mode_a.dispatcher.overloads.values())
+
+
+def test_an_unknown_inline_mode_is_refused_by_name():
+    from solver.jit import kernel
+    try:
+        kernel(inline="sometimes")(lambda x: x)
+    except ValueError as error:
+        assert "inline='sometimes'" in str(error) and "llvm" in str(error)
+    else:
+        raise AssertionError("inline='sometimes' was accepted")
 
 
 def test_this_numba_has_what_a_link_only_library_needs():

@@ -98,7 +98,7 @@ def _between_nodes(model, near, t0, h, end0, end1, j, th):
     return t0 + s * h
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
     <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; the ends'
@@ -128,7 +128,7 @@ def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     return cand, nc, jm
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
     step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
@@ -174,7 +174,7 @@ def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     return n_ev
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
     """Changes of the number of contact intervals inside the step [t0, t0 + h], between its two
     states, each given as end = (a, adot, delta, yb) (the arrays read of a State, not the State:

@@ -82,7 +82,7 @@ def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     track[2] = x
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def global_state(model, eps, sign, a, adot, track):
     """The global peak of sign * eps over continuous x (global_peak) and its time derivative
     d/dt = sign * eps_t at the peak (envelope theorem): track[:] = (value, rate, x, node)."""
@@ -117,7 +117,7 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     return rec, n, True
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     """The peak of surface s over the step: from track P0 (t0) to P1 (t0 + h), each (value, rate,
     x), through the dense-output states inside the step (computed from dz unless marks DENSE says
@@ -195,7 +195,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
     [t0, t0 + h], between its two states: ends = (eps at t0, eps, a and a' at t0 + h).
@@ -248,7 +248,7 @@ def observe_tensions(model, tw, t, h, ends, dz, records, diag):
     return rec_up, n_up, rec_lo, n_lo
 
 
-@kernel(inline="always")
+@kernel(inline="llvm")
 def _largest(best, s, diag):
     """The step's (max, time, x) of surface s into diag where it is the largest so far."""
     if best[0] > diag[D_MAX_UPPER + 3 * s]:
