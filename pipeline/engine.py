@@ -19,7 +19,7 @@ from contextlib import contextmanager
 import dask
 from distributed import Client, LocalCluster, as_completed
 
-from solver import compile_kernels
+from solver import compile_kernels, kernel_cache
 
 from .casefile import CaseWriteError
 from .tables import COMPLETE, ENDED_EARLY, WRITE_FAILED
@@ -252,8 +252,11 @@ def start_kernels():
     """Start filling numba's cache, before the workers load it: in a child process, so that a
     Ctrl-C during the compile interrupts only the child (an interrupt inside LLVM left the
     runner to crash at exit: SIGSEGV, or a second SIGINT) and the runner exits cleanly. It
-    runs while the cluster starts; kernels_ready waits for it. Returns (process, start time)."""
+    runs while the cluster starts; kernels_ready waits for it. Returns (process, start time), or
+    (None, start time) where compile_kernels has cached them all before (solver.kernel_cache)."""
     print("loading the solver's kernels ...", file=sys.stderr, flush=True)
+    if kernel_cache.is_complete():                     # cached whole: the workers load them
+        return None, time.monotonic()
     # SIGINT kills the child outright (SIG_DFL): a KeyboardInterrupt raised inside the compiler
     # could be swallowed there and the compile go on
     code = "import signal; signal.signal(signal.SIGINT, signal.SIG_DFL); " \
@@ -271,11 +274,14 @@ COMPILE_NOTICE = 4.0
 def kernels_ready(handle) -> None:
     """Wait for start_kernels' child; one line if it failed (KernelCompileError)."""
     proc, started = handle
+    if proc is None:
+        print("kernels ready (cached)", file=sys.stderr, flush=True)
+        return
     try:
         try:
             _, stderr = proc.communicate(timeout=COMPILE_NOTICE)
         except subprocess.TimeoutExpired:              # not from the cache: numba compiles them
-            print("compiling them (the first run after an install or an update: about 100 s on a 2-core "
+            print("compiling them (the first run after an install or an update: about 40 s on a 2-core "
                   "machine) ...", file=sys.stderr, flush=True)
             _, stderr = proc.communicate()
     except BaseException:                              # Ctrl-C: the child got it too

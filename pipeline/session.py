@@ -37,8 +37,9 @@ class Session:
                 try:
                     self.client = stack.enter_context(cluster_client(self.workers, self.scheduler))
                 except BaseException:
-                    compiling[0].kill()
-                    compiling[0].wait()
+                    if compiling[0] is not None:
+                        compiling[0].kill()
+                        compiling[0].wait()
                     raise
                 kernels_ready(compiling)
                 check()

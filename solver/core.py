@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from . import kernel_cache
 from . import layout as kn
 from .control import make_control
 from .diagnostics import Outputs
@@ -500,3 +501,4 @@ def compile_kernels() -> None:
           locate_eps_Y=[1e-6])
     rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]])
     crack_onset(rec[thin_record(rec)], [0.5])
+    kernel_cache.mark_complete()

@@ -137,6 +137,35 @@ class SolverCacheLocator(caching._SourceFileBackedLocatorMixin, caching._CacheLo
         return super().from_function(py_func, py_file)
 
 
+#: the file, in a key's directory, that lists the index files compile_kernels left there: a run
+#: that finds it (and them) needs no process of its own to fill the cache
+COMPLETE = "complete"
+
+
+def mark_complete() -> None:
+    """Record that every entry point of this key is cached (compile_kernels calls it last)."""
+    directory = SolverCacheLocator.directory
+    if directory is None:
+        return
+    indexes = sorted(p.relative_to(directory).as_posix() for p in directory.rglob("*.nbi"))
+    try:
+        partial = directory / f"{COMPLETE}.{os.getpid()}"
+        partial.write_text("".join(f"{name}\n" for name in indexes))
+        os.replace(partial, directory / COMPLETE)
+    except OSError:                                  # a read-only cache: each run checks it again
+        pass
+
+
+def is_complete() -> bool:
+    """Are this key's kernels all cached: the list compile_kernels wrote, and every index in it?"""
+    directory = SolverCacheLocator.directory
+    try:
+        names = (directory / COMPLETE).read_text().split() if directory is not None else []
+    except OSError:
+        return False
+    return bool(names) and all((directory / name).is_file() for name in names)
+
+
 def install() -> Path:
     """Put SolverCacheLocator first among numba's locators (before any kernel is defined)."""
     if SolverCacheLocator.directory is None:

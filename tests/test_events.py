@@ -151,8 +151,9 @@ def test_bottoming_time_converges_with_tolerance():
     assert np.max(np.abs(times / times[-1] - 1)) <= 1e-4
 
 
-@pytest.mark.parametrize("N", [20, pytest.param(40, marks=pytest.mark.slow), pytest.param(80, marks=pytest.mark.slow)])
+@pytest.mark.parametrize("N", [12] + [pytest.param(n, marks=pytest.mark.slow) for n in (20, 40, 80)])
 def test_bottoming_time_agrees_with_dop853(N):
+    """(issue 35: make test checks 12 modes; 20, 40 and 80, 14 s and more each, in make test-slow)"""
     r = _bottoming(N, 1e-8)
     d = _bottoming(N, 1e-10, integrator="dop853")
     tb, td = r.diagnostics["bottoming_time"], d.diagnostics["bottoming_time"]

@@ -119,3 +119,29 @@ def test_a_dask_worker_compiles_into_the_same_directory():
     with cluster_client(1, None) as client:
         seen = client.run(lambda: str(__import__("solver").kernel_cache.SolverCacheLocator.directory))
     assert set(seen.values()) == {str(kernel_cache.SolverCacheLocator.directory)}
+
+
+def test_the_cache_is_complete_only_with_every_index_compile_kernels_listed(tmp_path, monkeypatch):
+    """compile_kernels lists the index files it left; a run skips its compile process only while
+    every one of them is there (deleting one, as after `find solver -name "*.nb[ic]" -delete`,
+    makes the next run fill the cache again)."""
+    monkeypatch.setattr(kernel_cache.SolverCacheLocator, "directory", tmp_path)
+    assert not kernel_cache.is_complete()                                # nothing written yet
+    (tmp_path / "model").mkdir()
+    for name in ("loop.integrate-1.py311.nbi", "model/basis.peak-2.py311.nbi"):
+        (tmp_path / name).write_text("index")
+    kernel_cache.mark_complete()
+    assert (tmp_path / kernel_cache.COMPLETE).read_text().split() == ["loop.integrate-1.py311.nbi",
+                                                                       "model/basis.peak-2.py311.nbi"]
+    assert kernel_cache.is_complete()
+    (tmp_path / "model" / "basis.peak-2.py311.nbi").unlink()
+    assert not kernel_cache.is_complete()
+
+
+def test_a_run_starts_no_compile_process_when_the_cache_is_complete(monkeypatch, capsys):
+    from pipeline import engine
+    monkeypatch.setattr(kernel_cache, "is_complete", lambda: True)
+    monkeypatch.setattr(engine.subprocess, "Popen", lambda *a, **k: pytest.fail("a compile process started"))
+    handle = engine.start_kernels()
+    engine.kernels_ready(handle)
+    assert handle[0] is None and "kernels ready (cached)" in capsys.readouterr().err

@@ -39,8 +39,6 @@ import math
 import numpy as np
 
 from ..jit import kernel
-from scipy.linalg import eigh
-from scipy.optimize import brentq
 
 #: A floe's Basis.floe is one 1-D array (fewer arrays in the Basis tuple: numba counts a reference
 #: to each at every call that takes it): the four tables TABLE_* (N, J) one after the other, then
@@ -62,6 +60,7 @@ GAUSS4_X, GAUSS4_W = (np.ascontiguousarray(v) for v in np.polynomial.legendre.le
 def free_free_roots(count: int, symmetric: bool) -> np.ndarray:
     """beta L of the first ``count`` symmetric (tan + tanh = 0) or antisymmetric (tan = tanh)
     elastic modes of a free-free beam of half-length L (brentq on each branch of tan)."""
+    from scipy.optimize import brentq        # (here, not at the top: 0.3 s of every import of solver)
     roots = np.empty(count)
     for k in range(count):
         if symmetric:       # tan y = -tanh y: one root in ((k + 1/2) pi, (k + 1) pi)
@@ -151,6 +150,7 @@ def wet_modes(p, count: int, antisymmetric: bool = True):
     from heave, pitch and ``count`` symmetric and antisymmetric dry modes (without the
     antisymmetric ones: the symmetric wet modes, the added mass having no term between the two
     parities): (omega [rad s-1], Q (Nd, N): the M-orthonormal eigenvectors, kinds, betas, norms)."""
+    from scipy.linalg import eigh            # (here: a floe's tables only)
     kinds, betas = dry_modes(p.L, count, antisymmetric)
     G = mode_norms(kinds, betas, p.L)
     norms = 1.0 / np.sqrt(G / (2.0 * p.L))          # each dry mode of mean square 1 on the floe
