@@ -1,6 +1,7 @@
 """Shared fixtures: runs of the reference case reused by several tests (computed once)."""
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -10,13 +11,16 @@ from solver import Parameters, Settings, compile_kernels, solve
 
 #: the DOP853 reference calls the model's kernels from Python, each compiled whole on first use
 #: (solver/jit.py); a tiny reference run compiles and caches them. The crack-onset kernels
-#: (fracture.py) compile there too: compile_kernels in the controller then finds them cached
-#: (this process ends in about 17 s, the controller's compile of integrate in about 35 s)
+#: (fracture.py) compile there too, so that compile_kernels in the controller finds them cached,
+#: and so do the pieces tests call from Python (tests/warm_kernels.py). This process ends in
+#: about 30 s, the controller's compile of integrate in about 35 s (2 cores)
 REFERENCE_KERNELS = ("import numpy as np; from solver import Parameters, Settings, solve, crack_onset; "
                      "from solver.fracture import thin_record; p = Parameters(Nmod=2); "
                      "solve(p, Settings(integrator='dop853'), times=[0.0, p.stage_duration]); "
                      "rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]]); "
-                     "crack_onset(rec[thin_record(rec)], [0.5])")
+                     "crack_onset(rec[thin_record(rec)], [0.5]); "
+                     f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+                     "import warm_kernels; warm_kernels.compile_pieces()")
 
 
 def pytest_configure(config):
