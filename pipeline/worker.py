@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from .casefile import batch_dataset, case_arrays, write_batch
-from .combine import reduce_arrays
+from .reduce import reduce_arrays
 from .case import Case, x_positions
 from .tables import WRITE_FAILED
 
