@@ -489,7 +489,7 @@ class Settings:
         control (for convergence-order studies) [1].
     max_steps : attempted steps after which a run stops with status ``step_limit`` [1].
     error_estimate : estimate the relative strain error of the run (see
-        ``solver.core.error_estimates``); for etd34 this runs a companion at 10x the tolerance.
+        ``solver.error_estimate.error_estimates``); for etd34 this runs a companion at 10x the tolerance.
     bottoming_gap : the layer bottoms out when its gap he (1 - delta) first closes to this
         fraction of he anywhere on the plate (docs/model.md, "Bottoming out") [1].
     impact_zone_margin : the impact zone, whose tension maxima are reported apart from the

@@ -75,7 +75,7 @@ def test_mirrored_x0_mirrors_every_field(settings):
     assert right.status == left.status == "ok"
     # adaptive: the mirrored quadrature's round-off moves the step sequence; the runs then agree
     # within their own errors. Each estimate is 0.33 to 2.2 times its run's true error
-    # (solver.core.error_estimates), so they differ by at most 3x the sum of the estimates
+    # (solver.error_estimate.error_estimates), so they differ by at most 3x the sum of the estimates
     # (measured 1.6x with numba generic, 1x on this machine's own target)
     bound = 1e-11 if settings.fixed_step else 3.0 * (right.diagnostics["error_estimate_time"]
                                                       + left.diagnostics["error_estimate_time"])
