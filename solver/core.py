@@ -448,6 +448,13 @@ def compile_kernels() -> None:
     solve(p, Settings(subintervals=16), times=[0.0, p.stage_duration], fields=FIELDS)
     solve(p, Settings(integrator="rk4", subintervals=16), times=[0.0, p.stage_duration], fields=(),
           locate_eps_Y=[1e-6])
+    compile_crack_onset()
+    if not kernel_cache.is_complete():         # (each worker calls this at start: write once)
+        kernel_cache.mark_complete()
+
+
+def compile_crack_onset() -> None:
+    """Compile (or load from numba's cache) the crack-onset kernels (fracture.py) on a two-row
+    tension record."""
     rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]])
     crack_onset(rec[thin_record(rec)], [0.5])
-    kernel_cache.mark_complete()

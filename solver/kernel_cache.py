@@ -143,7 +143,8 @@ COMPLETE = "complete"
 
 
 def mark_complete() -> None:
-    """Record that every entry point of this key is cached (compile_kernels calls it last)."""
+    """Record that every entry point of this key is cached (compile_kernels calls it last): the
+    list of the index files in the key's directory then, its entry points' among them."""
     directory = SolverCacheLocator.directory
     if directory is None:
         return

@@ -9,26 +9,18 @@ import pytest
 from solver import Parameters, Settings, compile_kernels, solve
 
 
-#: the DOP853 reference calls the model's kernels from Python, each compiled whole on first use
-#: (solver/jit.py); a tiny reference run compiles and caches them. The crack-onset kernels
-#: (fracture.py) compile there too, so that compile_kernels in the controller finds them cached,
-#: and so do the pieces tests call from Python (tests/warm_kernels.py). This process ends in
-#: about 30 s, the controller's compile of integrate in about 35 s (2 cores)
-REFERENCE_KERNELS = ("import numpy as np; from solver import Parameters, Settings, solve, crack_onset; "
-                     "from solver.fracture import thin_record; p = Parameters(Nmod=2); "
-                     "solve(p, Settings(integrator='dop853'), times=[0.0, p.stage_duration]); "
-                     "rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]]); "
-                     "crack_onset(rec[thin_record(rec)], [0.5]); "
-                     f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
-                     "import warm_kernels; warm_kernels.compile_pieces()")
+#: the kernels tests call from Python (the DOP853 reference's, crack onset's, the layer's pieces),
+#: compiled in a second process while the controller compiles integrate: it ends in about 30 s,
+#: the controller in about 35 s (2 cores)
+WARM_KERNELS = Path(__file__).with_name("warm_kernels.py")
 
 
 def pytest_configure(config):
     """Compile (or load) the solver's kernels once, in the controller, before pytest-xdist starts its
     workers: each worker would otherwise compile the same kernels with an empty cache. The
-    reference's kernels compile at the same time in a second process (two cores)."""
+    kernels tests call from Python compile at the same time in a second process (two cores)."""
     if not hasattr(config, "workerinput"):
-        helper = subprocess.Popen([sys.executable, "-c", REFERENCE_KERNELS])
+        helper = subprocess.Popen([sys.executable, str(WARM_KERNELS)])
         try:
             compile_kernels()
         except BaseException:                   # Ctrl-C: stop the helper too, at once

@@ -1,15 +1,24 @@
-"""Kernels the tests call from Python, compiled while the controller compiles integrate
-(tests/conftest.py): each is compiled whole on its first call from Python (solver/jit.py), and a
-test that makes the first call waits for it. The calls here take the argument types the tests
-use; a kernel a test calls with other types is compiled in that test, as before."""
+"""Kernels the tests call from Python, compiled by ``python tests/warm_kernels.py`` while the
+controller compiles integrate (tests/conftest.py): each is compiled whole on its first call from
+Python (solver/jit.py), and a test that makes the first call waits for it. The calls here take
+the argument types the tests use; a kernel a test calls with other types is compiled in that
+test, as before."""
 import numpy as np
 
-from solver import Parameters
+from solver import Parameters, Settings, solve
+from solver.core import compile_crack_onset
 from solver.model.assemble import Tables
 from solver.model.layer import layer_energy, layer_forcing_at, layer_forcing_strain, rule_energy
 
 
+def compile_reference() -> None:
+    """The model's kernels the DOP853 reference calls from Python, on a tiny run."""
+    p = Parameters(Nmod=2)
+    solve(p, Settings(integrator="dop853"), times=[0.0, p.stage_duration])
+
+
 def compile_pieces() -> None:
+    """The layer's forcing, strain and energy under both rules, as the quadrature tests call them."""
     p = Parameters(Nmod=2)
     a = np.zeros(p.Nmod)
     for rule in ("paper", "gauss"):
@@ -17,7 +26,13 @@ def compile_pieces() -> None:
         J = tab.xq.size
         delta, fvals = np.empty(J), np.empty(J)
         layer_forcing_at(tab.model, 0.0, p.V, a, a, delta, fvals, np.empty(p.Nmod))
-        st, _, jmax, _ = layer_forcing_strain(tab.model, 0.0, p.V, a, a, delta, fvals, np.empty(p.Nmod),
+        _, _, jmax, _ = layer_forcing_strain(tab.model, 0.0, p.V, a, a, delta, fvals, np.empty(p.Nmod),
                                               np.empty(J))
         rule_energy(tab.model, fvals)
         layer_energy(tab.model, a, 0.0, delta, jmax)
+
+
+if __name__ == "__main__":
+    compile_reference()
+    compile_crack_onset()            # compile_kernels in the controller then finds them cached
+    compile_pieces()
