@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import kernel_cache
+from . import kernel_cache, parallel_compile
 from . import layout as kn
 from .control import make_control
 from .diagnostics import Outputs
@@ -22,7 +22,7 @@ from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
-from .fracture import crack_onset, thin_record
+from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError, Settings, check_combination
 from .scipy_reference import integrate_dop853
 from .statuses import status_message
@@ -444,17 +444,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
 
 def compile_kernels() -> None:
     """Compile (or load from numba's cache) every kernel by running a tiny case once."""
-    p = Parameters(Nmod=2)
-    solve(p, Settings(subintervals=16), times=[0.0, p.stage_duration], fields=FIELDS)
-    solve(p, Settings(integrator="rk4", subintervals=16), times=[0.0, p.stage_duration], fields=(),
-          locate_eps_Y=[1e-6])
+    p, s, times = parallel_compile.tiny_case()
+    with parallel_compile.helper():              # a second process compiles part of integrate's tree
+        solve(p, s, times=times, fields=FIELDS)
+        solve(p, replace(s, integrator="rk4"), times=times, fields=(), locate_eps_Y=[1e-6])
     compile_crack_onset()
     if not kernel_cache.is_complete():         # (each worker calls this at start: write once)
         kernel_cache.mark_complete()
 
-
-def compile_crack_onset() -> None:
-    """Compile (or load from numba's cache) the crack-onset kernels (fracture.py) on a two-row
-    tension record."""
-    rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]])
-    crack_onset(rec[thin_record(rec)], [0.5])

@@ -167,3 +167,10 @@ def crack_onset(record, eps_Y):
     if np.ndim(eps_Y) == 0:
         return float(out_t[0]), float(out_x[0])
     return out_t, out_x
+
+
+def compile_crack_onset() -> None:
+    """Compile (or load from numba's cache) the crack-onset kernels on a two-row tension record
+    (solver.compile_kernels; its helper process, solver/parallel_compile.py)."""
+    rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]])
+    crack_onset(rec[thin_record(rec)], [0.5])

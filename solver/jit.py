@@ -9,8 +9,10 @@ first compile took about 100 s, 62 s of it in LLVM (docs/performance.md, "The fi
 A :class:`Kernel` is a solver function with two numba dispatchers:
 
 * called from another kernel, the *link* dispatcher types and lowers it to LLVM IR with the
-  function-level passes only: no module optimisation, no machine code, no CPython wrapper and
-  no cache entry (:class:`LinkOnlyLibrary`). Its IR is linked into the caller as before;
+  function-level passes only: no module optimisation, no machine code, no CPython wrapper
+  (:class:`LinkOnlyLibrary`). Its IR is linked into the caller as before, and cached on disk
+  as IR (:class:`LinkCache`), so that a process compiling the tree afresh links what another
+  process compiled (solver/parallel_compile.py);
 * called from Python (``integrate`` from ``solve``; a piece from a test or the DOP853 reference),
   the *call* dispatcher compiles it as numba always does, optimises the whole linked program
   at once at numba's optimisation level, emits it and caches it (solver.kernel_cache).
@@ -32,8 +34,9 @@ from __future__ import annotations
 import functools
 import importlib
 
+from llvmlite import binding as llvm
 from numba import njit, types
-from numba.core import codegen, compiler, typed_passes
+from numba.core import caching, codegen, compiler, sigutils, typed_passes
 from numba.core.compiler_machinery import register_pass
 from numba.extending import typeof_impl
 
@@ -95,6 +98,73 @@ class LinkOnlyLibrary(codegen.JITCodeLibrary):
     def codegen(self):
         return _NoEnvironment(self._codegen)
 
+    def serialize_using_object_code(self):
+        """The library as the link cache stores it: its IR for linking (there is no object code)."""
+        return (self.name, LINK_IR, self._get_module_for_linking().as_bitcode())
+
+    @classmethod
+    def from_serialized(cls, codegen_, state):
+        """The library serialize_using_object_code stored, finalised: its callees are linked in."""
+        name, kind, bitcode = state
+        if kind != LINK_IR:
+            raise ValueError(f"not a link-only library: {kind!r}")
+        library = cls(codegen_, name)
+        library._final_module = library._shared_module = llvm.parse_bitcode(bitcode)
+        library._finalized = True
+        return library
+
+
+#: the kind of a serialised LinkOnlyLibrary
+LINK_IR = "link-ir"
+
+
+class LinkCacheImpl(caching.CompileResultCacheImpl):
+    """numba's cache of compile results, for link dispatchers: the IR for linking, under
+    file names of their own (``link-<module>.<function>-...``)."""
+
+    def get_filename_base(self, fullname, abiflags):
+        return "link-" + super().get_filename_base(fullname, abiflags)
+
+    def rebuild(self, target_context, payload):
+        libdata, fndesc, env, signature, objectmode, lifted, typeann, reload_init, referenced_envs = payload
+        for init in reload_init or ():
+            init()
+        library = LinkOnlyLibrary.from_serialized(target_context.codegen(), libdata)
+        return compiler.CompileResult(
+            target_context=target_context, typing_context=target_context.typing_context, library=library,
+            environment=env, entry_point=target_context.get_executable(library, fndesc, env), fndesc=fndesc,
+            type_annotation=typeann, signature=signature, objectmode=objectmode, lifted=lifted, typing_error=None,
+            call_helper=None, metadata=None, reload_init=reload_init, referenced_envs=referenced_envs)
+
+
+#: while kernels compile in two processes, who compiles which function (solver.parallel_compile)
+claims = None
+
+
+class LinkCache(caching.Cache):
+    """The on-disk cache of a kernel's link dispatcher (solver.kernel_cache's directory). While
+    two processes compile (``claims`` set), a function one of them compiles the other waits for."""
+    _impl_class = LinkCacheImpl
+
+    def load_cached(self, sig, target_context):
+        """The cached result for sig, if it is one for sig: numba's index and data files are
+        not written atomically together, and two processes saving two signatures of one
+        function at once can leave an index entry naming the other's data."""
+        cres = super().load_overload(sig, target_context)
+        if cres is not None and tuple(cres.signature.args) != tuple(sigutils.normalize_signature(sig)[0]):
+            return None
+        return cres
+
+    def load_overload(self, sig, target_context):
+        if claims is None:
+            return self.load_cached(sig, target_context)
+        return claims.load_or_claim(self, sig, target_context)
+
+    def save_overload(self, sig, data):
+        super().save_overload(sig, data)
+        if claims is not None:
+            claims.release(self, sig, data.codegen)
+
 
 @register_pass(mutates_CFG=True, analysis_only=False)
 class LinkOnlyLowering(typed_passes.NativeLowering):
@@ -148,6 +218,10 @@ class Kernel:
         pipeline = InlineLinkOnlyCompiler if always_inline else LinkOnlyCompiler
         self.link_dispatcher = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
                                     pipeline_class=pipeline, **options)(py_func)
+        try:
+            self.link_dispatcher._cache = LinkCache(py_func)
+        except RuntimeError:                         # no locator for its file: not cached
+            pass
         self._call_dispatcher = None
 
     @property

@@ -1,6 +1,6 @@
 """How the kernels compile (solver/jit.py): a kernel called from another kernel is compiled for
-linking only (no machine code, no cache entry), the entry point Python calls is optimised and
-cached whole, and a warm process compiles nothing."""
+linking only (no machine code; its IR cached for linking), the entry point Python calls is
+optimised and cached whole, and a warm process compiles nothing."""
 import os
 import pickle
 import subprocess
@@ -54,6 +54,8 @@ PROBE = textwrap.dedent("""
                                         for n in ("leaf", "middle")},
                       "called_in_top": called,
                       "top_hits": sum(tree.top.stats.cache_hits.values()),
+                      "link_hits": {n: sum(getattr(tree, n).link_dispatcher.stats.cache_hits.values())
+                                    for n in ("leaf", "middle")},
                       "called_from_python": [n for n in ("leaf", "middle") if getattr(tree, n)._call_dispatcher]}))
 """)
 
@@ -83,6 +85,24 @@ def test_callees_compile_for_linking_only_and_a_warm_process_compiles_nothing(tm
     warm = _probe(tmp_path)
     assert warm["value"] == expected and warm["top_hits"] == 1
     assert warm["link"] == {"leaf": [], "middle": []}
+
+
+def test_callees_one_process_compiled_are_linked_from_the_cache_by_another(tmp_path):
+    """The link-only libraries are cached as IR (solver.jit.LinkCache): a process that compiles
+    the entry point afresh types none of its callees, it loads and links them, and computes the
+    same value. (So a second process can compile part of a tree: solver/parallel_compile.py.)"""
+    (tmp_path / "tree.py").write_text(TREE)
+    cold = _probe(tmp_path)
+    entry = list((tmp_path / "numba-cache").rglob("tree.top-*"))
+    assert entry and all(not path.name.startswith("link-") for path in entry)
+    for path in entry:
+        path.unlink()
+    again = _probe(tmp_path)
+    assert again["value"] == cold["value"] and again["top_hits"] == 0
+    # middle comes from the cache with leaf's code linked in: leaf is not even looked up
+    assert again["link_hits"] == {"leaf": 0, "middle": 1}
+    assert again["link"] == {"leaf": [], "middle": ["LinkOnlyLibrary"]}
+    assert again["always_inline"]["middle"] is True and again["called_in_top"]["middle"] is False
 
 
 def test_a_kernel_called_from_python_gets_numbas_own_dispatcher():

@@ -6,7 +6,6 @@ test, as before."""
 import numpy as np
 
 from solver import Parameters, Settings, solve
-from solver.core import compile_crack_onset
 from solver.model.assemble import Tables
 from solver.model.layer import layer_energy, layer_forcing_at, layer_forcing_strain, rule_energy
 
@@ -33,6 +32,5 @@ def compile_pieces() -> None:
 
 
 if __name__ == "__main__":
-    compile_reference()
-    compile_crack_onset()            # compile_kernels in the controller then finds them cached
+    compile_reference()              # (crack onset: compile_kernels' own helper process compiles it)
     compile_pieces()
