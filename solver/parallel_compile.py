@@ -132,7 +132,8 @@ def _returns(function, *argtypes):
 
 def tiny_case():
     """(Parameters, Settings, times) of the tiny case compile_kernels solves first."""
-    from .parameters import Parameters, Settings
+    from .parameters import Parameters
+    from .settings import Settings
     p = Parameters(Nmod=2)
     return p, Settings(subintervals=16), np.array([0.0, p.stage_duration])
 
@@ -182,13 +183,27 @@ def run_helper() -> None:
     """The helper process: its subtrees, then the crack-onset kernels."""
     from .fracture import compile_crack_onset
     _die_with_parent()
-    jit.claims = Claims(kernel_cache.SolverCacheLocator.directory / CLAIMS)
-    try:
+    with claiming():
         for function, argtypes in helper_jobs():
             function.link_dispatcher.compile(argtypes)
+    compile_crack_onset()
+
+
+@contextlib.contextmanager
+def claiming():
+    """Within: this process claims each function it compiles for linking, and waits for those
+    another claiming process compiles (the helper, and any process that compiles kernels while
+    compile_kernels runs, such as the test suite's warm-up, tests/warm_kernels.py)."""
+    directory = kernel_cache.SolverCacheLocator.directory
+    if jit.claims is not None or directory is None or os.name != "posix":
+        yield
+        return
+    jit.claims = Claims(directory / CLAIMS)
+    try:
+        yield
     finally:
         jit.claims.release_all()
-    compile_crack_onset()
+        jit.claims = None
 
 
 def _cpus() -> int:
@@ -213,16 +228,13 @@ def helper():
     with tempfile.TemporaryFile() as log:
         process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=log)
-        jit.claims = Claims(directory / CLAIMS)
         try:
-            yield
+            with claiming():
+                yield
         except BaseException:
             process.kill()
             process.wait()
             raise
-        finally:
-            jit.claims.release_all()
-            jit.claims = None
         if process.wait() != 0:
             log.seek(0)
             last = (log.read().decode(errors="replace").strip().splitlines() or ["no message"])[-1]

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import pytest
 from numba import typeof
+from numba.core.caching import NullCache
 
 import solver
 from solver import loop, parallel_compile
@@ -34,6 +35,9 @@ def test_the_helpers_subtrees_are_those_integrate_calls(monkeypatch):
     p, s, times = parallel_compile.tiny_case()
     solver.solve(p, s, times=times)
     argtypes = tuple(typeof(a) for a in seen[0])
+    # integrate typed here (not its link-only library from the cache, which a run of this test
+    # leaves there): its callees come from the link cache
+    monkeypatch.setattr(loop.integrate.link_dispatcher, "_cache", NullCache())
     loop.integrate.link_dispatcher.compile(argtypes)
     jobs = parallel_compile.helper_jobs()
     assert [function.__name__ for function, _ in jobs] == ["_observe", "take_step", "locate_event", "_judge"]

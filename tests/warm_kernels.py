@@ -7,6 +7,7 @@ import numpy as np
 
 from solver import Parameters, Settings, solve
 from solver.model.assemble import Tables
+from solver.parallel_compile import claiming
 from solver.model.layer import layer_energy, layer_forcing_at, layer_forcing_strain, rule_energy
 
 
@@ -32,5 +33,6 @@ def compile_pieces() -> None:
 
 
 if __name__ == "__main__":
-    compile_reference()              # (crack onset: compile_kernels' own helper process compiles it)
-    compile_pieces()
+    with claiming():                 # what compile_kernels' processes compile, this one links
+        compile_reference()          # (crack onset: compile_kernels' own helper process compiles it)
+        compile_pieces()
