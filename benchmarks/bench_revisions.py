@@ -23,7 +23,7 @@ import tempfile
 from pathlib import Path
 
 from solver import Settings
-from solver.parameters import PAPER_NUMERICS
+from solver.settings import PAPER_NUMERICS
 
 ROOT = Path(__file__).resolve().parents[1]
 

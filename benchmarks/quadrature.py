@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import Parameters, Settings, solve
-from solver.parameters import PAPER_NUMERICS
+from solver.settings import PAPER_NUMERICS
 
 #: name -> (parameters, the part of the stage compared: the fast impact bottoms out at 0.86..0.94
 #: of it, by N, so its runs stop at 0.8)

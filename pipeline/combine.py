@@ -25,7 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
-from solver.parameters import CHOICES, NAMED_SETTINGS
+from solver.parameters import CHOICES
+from solver.settings import NAMED_SETTINGS
 
 from . import provenance
 from .case import x_fractions, x_positions

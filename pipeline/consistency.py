@@ -11,7 +11,8 @@ import math
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
-from solver.parameters import CHOICES, COUPLED_KEYS, NAMED_SETTINGS, NOT_MONOTONE, check_combination
+from solver.parameters import CHOICES, COUPLED_KEYS, NOT_MONOTONE
+from solver.settings import NAMED_SETTINGS, check_combination
 
 from .case import coordinate_times
 from .errors import StudyError
@@ -87,12 +88,12 @@ def check_grid_values(study) -> None:
 MAX_COMBINATIONS = 20_000
 
 
-#: the keys solver.parameters.check_combination reads
+#: the keys solver.settings.check_combination reads
 COMBINED_KEYS = ("edges", "quadrature", "integrator", "tau", "layer_tau", "duration")
 
 
 def _check_setting_combinations(study, params: dict, settings: dict) -> None:
-    """Every combination of the grid's values of the keys solver.parameters.check_combination
+    """Every combination of the grid's values of the keys solver.settings.check_combination
     reads (the integrator and the quadrature against the ice, the layer, the edges and L) goes
     together, so that no case is refused only when a worker runs it."""
     keys = [k for k in study.grid if k in COMBINED_KEYS]

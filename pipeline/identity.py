@@ -14,7 +14,7 @@ import itertools
 import json
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
-from solver.parameters import check_combination
+from solver.settings import check_combination
 from solver.revision import RESULTS_REVISION
 
 from .case import Case

@@ -106,7 +106,8 @@ def check_bracket(search: dict, values: dict, points: list, extreme: bool) -> No
     the bracket. ``values``: [base] and [solver]; ``points``: each point's own values (a grid's
     combinations, a design's samples, or [{}] for [base] alone)."""
     from solver import PARAMETER_INFO, SETTING_INFO, Parameters, Settings
-    from solver.parameters import ParameterError, check_combination, outside_physical_range
+    from solver.parameters import ParameterError, outside_physical_range
+    from solver.settings import check_combination
     key, scanned = search["key"], scan_values(search)
     if len(points) * len(scanned) > MAX_CHECKS:
         scanned = [scanned[0], scanned[-1]]

@@ -8,7 +8,8 @@ import math
 
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Settings, default_eps_Y
 from solver.axes import log_axis
-from solver.parameters import CHOICES, NAMED_SETTINGS
+from solver.parameters import CHOICES
+from solver.settings import NAMED_SETTINGS
 
 from .errors import StudyError
 from .identity import SAMPLE

@@ -17,8 +17,8 @@ _kernel_cache.install()
 from .core import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, Result, compile_kernels, solve
 from .statuses import STATUS_INFO
 from .fracture import EPS_Y_INFO, PAPER_EPS_Y, crack_onset, default_eps_Y
-from .parameters import (INTEGRATORS, PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters,
-                         Settings)
+from .parameters import PARAMETER_INFO, ParameterError, Parameters
+from .settings import INTEGRATORS, SETTING_INFO, Settings
 
 try:
     __version__ = _version("floe-impact")

@@ -23,7 +23,8 @@ from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
 from .fracture import compile_crack_onset, crack_onset, thin_record
-from .parameters import Parameters, ParameterError, Settings, check_combination
+from .parameters import Parameters, ParameterError
+from .settings import Settings, check_combination
 from .scipy_reference import integrate_dop853
 from .statuses import status_message
 

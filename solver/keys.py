@@ -1,11 +1,14 @@
 """The study keys: every physical parameter's long name and units, the names a few of them take,
 the values that are the paper's model, the ranges the model is meant for, and the bounds a value
 must keep (solver.parameters checks a case against them; pipeline.variables writes them to
-docs/parameters.md).
+docs/parameters.md); the error a value outside them raises, and the checks shared with
+solver.settings.
 """
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from .model.layer import LAW_CODES
 
@@ -97,3 +100,31 @@ BEYOND_BOUNDS = {
     "layer_tau": (0.0, False, False, "0: elastic layer"),
     "duration": (0.0, False, False, "0: the walled plate's impact stage"),
 }
+
+
+class ParameterError(ValueError):
+    """A parameter or setting with a value outside its allowed range."""
+
+
+def check_bound(name: str, value, lowest: float, strict: bool, infinite: bool, note: str) -> None:
+    """Refuse a value that is not a number, is NaN, lies below lowest (at it, when strict) or is
+    infinite where that is not allowed: one line naming the key and its range."""
+    number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
+    v = float(value) if number else math.nan
+    if number and not math.isnan(v) and (v > lowest if strict else v >= lowest) and (infinite or math.isfinite(v)):
+        return
+    bound = f"{'>' if strict else '>='} {lowest:g}"
+    raise ParameterError(f"{name} must be {bound if infinite else 'finite and ' + bound}"
+                         f"{f' ({note})' if note else ''}, got {value!r}")
+
+
+def check_positive(name: str, value, integer: bool = False) -> None:
+    """Refuse a value that is not a finite number > 0 (a positive integer, when integer)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise ParameterError(f"{name} must be a number, got {value!r}")
+    if integer:
+        if not math.isfinite(float(value)) or float(value) != int(value) or int(value) < 1:
+            raise ParameterError(f"{name} must be a positive integer, got {value!r}")
+        return
+    if not math.isfinite(float(value)) or float(value) <= 0.0:
+        raise ParameterError(f"{name} must be finite and > 0, got {value!r}")

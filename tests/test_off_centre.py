@@ -9,7 +9,7 @@ from dop853_check import against_dop853
 from neutral_ids import assert_ids_hold_at_neutral, run_swept_study
 from solver import ParameterError, Parameters, Settings, solve
 from solver.model.assemble import Tables
-from solver.parameters import PAPER_NUMERICS
+from solver.settings import PAPER_NUMERICS
 
 FIELDS = ("deflection", "strain", "layer_pressure", "compression")
 X = np.linspace(-6.0, 6.0, 97)                     # symmetric about 0: X[::-1] == -X

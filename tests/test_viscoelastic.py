@@ -16,7 +16,7 @@ from solver.diagnostics import Outputs
 from solver.loop import integrate
 from solver.model.assemble import Tables
 from solver.model.plate import HALF_C, KIND, OMEGA, OMEGA_D
-from solver.parameters import PAPER_NUMERICS
+from solver.settings import PAPER_NUMERICS
 from dop853_check import against_dop853
 from helpers import run_cli
 
