@@ -72,7 +72,11 @@ def _probe(tmp_path):
 def test_callees_compile_for_linking_only_and_a_warm_process_compiles_nothing(tmp_path):
     """First process: the entry point runs (value exact), its callees are link-only libraries and
     never got a Python-callable dispatcher. Second process: the entry point comes from the cache
-    and no callee is compiled at all (the cached entry point carries their code)."""
+    and no callee is compiled at all (the cached entry point carries their code). Third process,
+    the entry point's own cache entry removed: the link-only libraries are cached as IR
+    (solver.jit.LinkCache), so it types none of its callees, it loads and links them, and
+    computes the same value (so a second process can compile part of a tree:
+    solver/parallel_compile.py)."""
     (tmp_path / "tree.py").write_text(TREE)
     expected = 2.0 * (1.5 * (1 + 2 + 3 + 4) + 1.0)
     cold = _probe(tmp_path)
@@ -85,20 +89,12 @@ def test_callees_compile_for_linking_only_and_a_warm_process_compiles_nothing(tm
     warm = _probe(tmp_path)
     assert warm["value"] == expected and warm["top_hits"] == 1
     assert warm["link"] == {"leaf": [], "middle": []}
-
-
-def test_callees_one_process_compiled_are_linked_from_the_cache_by_another(tmp_path):
-    """The link-only libraries are cached as IR (solver.jit.LinkCache): a process that compiles
-    the entry point afresh types none of its callees, it loads and links them, and computes the
-    same value. (So a second process can compile part of a tree: solver/parallel_compile.py.)"""
-    (tmp_path / "tree.py").write_text(TREE)
-    cold = _probe(tmp_path)
     entry = list((tmp_path / "numba-cache").rglob("tree.top-*"))
     assert entry and all(not path.name.startswith("link-") for path in entry)
     for path in entry:
         path.unlink()
     again = _probe(tmp_path)
-    assert again["value"] == cold["value"] and again["top_hits"] == 0
+    assert again["value"] == expected and again["top_hits"] == 0
     # middle comes from the cache with leaf's code linked in: leaf is not even looked up
     assert again["link_hits"] == {"leaf": 0, "middle": 1}
     assert again["link"] == {"leaf": [], "middle": ["LinkOnlyLibrary"]}
