@@ -192,6 +192,16 @@ def _still_ours(out_dir: Path, identity: tuple) -> None:
                          f"stopping (run the same command again to start over)")
 
 
+def _workers_for(requested: int, runs: int, batches: Path) -> int:
+    """Local workers to start: no more than there is work for (the runs to compute, and the batch
+    files of earlier runs the combine reads), so that a one-case study or a rerun of one case
+    starts one worker process, not two (each costs about 1 s of CPU to start)."""
+    if runs >= requested:
+        return requested
+    earlier = sum(1 for _ in zip(range(requested), batches.glob("*.nc")))
+    return max(1, min(requested, runs + earlier))
+
+
 def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     """The runs to compute as (items [case_id, position or -1], signatures)."""
     from .tables import FAILED
@@ -237,7 +247,8 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
     items_run = list(items)
     identity = _identity(out_dir)
     import contextlib
-    with contextlib.nullcontext(session) if session is not None else Session(options.workers, options.scheduler) \
+    workers = _workers_for(options.workers, len(items), batches)
+    with contextlib.nullcontext(session) if session is not None else Session(workers, options.scheduler) \
             as session:
         for attempt in range(3):
             writer = None

@@ -295,6 +295,20 @@ def test_interrupted_combine_is_rebuilt_from_case_files(regression_run, tmp_path
         np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
 
 
+def test_a_run_starts_no_more_workers_than_it_has_work_for(tmp_path):
+    """--workers N is an upper bound: the runs to compute, plus the batch files of earlier runs
+    the combine reads, bound it (a one-case study starts one worker process, not two)."""
+    from pipeline.run import _workers_for
+    batches = tmp_path / "batches"
+    batches.mkdir()
+    assert [_workers_for(2, runs, batches) for runs in (0, 1, 2, 9)] == [1, 1, 2, 2]
+    assert _workers_for(4, 3, batches) == 3 and _workers_for(1, 9, batches) == 1
+    for i in range(3):
+        (batches / f"{i}.nc").write_bytes(b"")
+    assert [_workers_for(2, runs, batches) for runs in (0, 1)] == [2, 2]
+    assert _workers_for(8, 1, batches) == 4
+
+
 def test_workers_are_warm_before_the_first_case():
     """Every local worker has the kernels loaded before any case runs, so run_time is solver
     time (issue 9: the first case on each worker used to carry numba's cache load)."""
