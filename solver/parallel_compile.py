@@ -35,6 +35,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 import warnings
 from pathlib import Path
@@ -213,6 +214,24 @@ def _cpus() -> int:
         return os.cpu_count() or 1
 
 
+def _stop_on_interrupt(process):
+    """On Ctrl-C, stop the helper in the signal handler itself, then raise as before: Python
+    raises KeyboardInterrupt wherever the compile is, and inside a destructor (llvmlite frees
+    its objects in __del__) the exception is printed and dropped, the compile going on.
+    Returns the handler replaced (None off the main thread, where none can be set)."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    previous = signal.getsignal(signal.SIGINT)
+
+    def interrupted(signum, frame):
+        process.kill()
+        if callable(previous):
+            previous(signum, frame)
+        elif previous != signal.SIG_IGN:
+            raise KeyboardInterrupt
+    return signal.signal(signal.SIGINT, interrupted)
+
+
 @contextlib.contextmanager
 def helper():
     """Within: a helper process compiles part of the kernels, and this process claims what it
@@ -228,6 +247,7 @@ def helper():
     with tempfile.TemporaryFile() as log:
         process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=log)
+        previous = _stop_on_interrupt(process)
         try:
             with claiming():
                 yield
@@ -235,6 +255,9 @@ def helper():
             process.kill()
             process.wait()
             raise
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGINT, previous)
         if process.wait() != 0:
             log.seek(0)
             last = (log.read().decode(errors="replace").strip().splitlines() or ["no message"])[-1]
