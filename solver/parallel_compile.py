@@ -149,7 +149,7 @@ def helper_jobs():
     from .model.assemble import Tables
     from .observe.events import locate_event
     from .step import Carried, Coefficients, Start, take_step
-    p, s, times = tiny_case()
+    p, s, _ = tiny_case()
     model = typeof(Tables(p, s.subintervals, False, s.quadrature, s.quadrature_density).model)
     f8, i8, a1 = types.float64, types.int64, typeof(np.empty(1))
     control = typeof(make_control(0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1, 0.0))
@@ -214,13 +214,15 @@ def _cpus() -> int:
         return os.cpu_count() or 1
 
 
+@contextlib.contextmanager
 def _stop_on_interrupt(process):
-    """On Ctrl-C, stop the helper in the signal handler itself, then raise as before: Python
-    raises KeyboardInterrupt wherever the compile is, and inside a destructor (llvmlite frees
-    its objects in __del__) the exception is printed and dropped, the compile going on.
-    Returns the handler replaced (None off the main thread, where none can be set)."""
+    """Within: on Ctrl-C, stop the helper in the signal handler itself, then raise as before.
+    Python raises KeyboardInterrupt wherever the compile is, and inside a destructor (llvmlite
+    frees its objects in __del__) the exception is printed and dropped, the compile going on.
+    Off the main thread no handler can be set, and none is."""
     if threading.current_thread() is not threading.main_thread():
-        return None
+        yield
+        return
     previous = signal.getsignal(signal.SIGINT)
 
     def interrupted(signum, frame):
@@ -229,7 +231,11 @@ def _stop_on_interrupt(process):
             previous(signum, frame)
         elif previous != signal.SIG_IGN:
             raise KeyboardInterrupt
-    return signal.signal(signal.SIGINT, interrupted)
+    signal.signal(signal.SIGINT, interrupted)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous if previous is not None else signal.SIG_DFL)
 
 
 @contextlib.contextmanager
@@ -247,17 +253,13 @@ def helper():
     with tempfile.TemporaryFile() as log:
         process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=log)
-        previous = _stop_on_interrupt(process)
         try:
-            with claiming():
+            with _stop_on_interrupt(process), claiming():
                 yield
         except BaseException:
             process.kill()
             process.wait()
             raise
-        finally:
-            if previous is not None:
-                signal.signal(signal.SIGINT, previous)
         if process.wait() != 0:
             log.seek(0)
             last = (log.read().decode(errors="replace").strip().splitlines() or ["no message"])[-1]

@@ -178,3 +178,17 @@ def test_a_run_compiles_in_one_process_when_asked(monkeypatch):
     with parallel_compile.helper():
         pass
     assert started == [] and solver.jit.claims is None
+
+
+def test_the_interrupt_handler_is_the_one_before_after_the_compile():
+    """The handler that stops the helper on Ctrl-C is set for the compile only."""
+    import signal
+    before = signal.getsignal(signal.SIGINT)
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        with parallel_compile._stop_on_interrupt(child):
+            assert signal.getsignal(signal.SIGINT) is not before
+        assert signal.getsignal(signal.SIGINT) is before
+    finally:
+        child.kill()
+        child.wait()
