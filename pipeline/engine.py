@@ -10,11 +10,13 @@ disk is the result), and at most ``2 x workers`` tasks are in flight.
 from __future__ import annotations
 
 import logging
+import multiprocessing
 import signal
 import subprocess
 import sys
 import time
 from contextlib import contextmanager
+from pathlib import Path
 
 import dask
 from distributed import Client, LocalCluster, as_completed
@@ -96,11 +98,43 @@ def _main_script_hidden():
             setattr(main, key, value)
 
 
+#: how local workers start: forked from a forkserver that has imported their modules and loaded
+#: the kernels (pipeline.forkserver); "spawn" (dask's default) where there is no forkserver
+FORK_METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+#: what the running forkserver was started from: (source digest, kernels cached), or None
+_forkserver_state = None
+
+
+def _prepare_forkserver() -> None:
+    """Name the forkserver's preload module before the first worker starts it (distributed sets
+    its own list the first time it asks for the context, once per process; asked here first,
+    it is replaced by ours, which imports those modules and more).
+
+    The forkserver lives as long as the process, so that the workers of a later run in a
+    notebook or a script start as fast. It is stopped, and the next worker starts a new one,
+    when it holds code older than the tree (an edit under solver/ or pipeline/ since it started:
+    its workers would run the old code) or was started before the kernels were cached."""
+    global _forkserver_state
+    if FORK_METHOD != "forkserver":
+        return
+    from multiprocessing import forkserver
+
+    from distributed.utils import get_mp_context
+    from solver.kernel_cache import source_digest
+    state = (source_digest() + source_digest(Path(__file__).resolve().parent), kernel_cache.is_complete())
+    if _forkserver_state is not None and state != _forkserver_state:
+        forkserver._forkserver._stop()       # CPython's own (its tests'); the next worker starts another
+    get_mp_context().set_forkserver_preload(["pipeline.forkserver"])
+    _forkserver_state = state
+
+
 def _local_cluster_client(workers: int):
     environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environ.update(SINGLE_THREAD_ENV)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
-                          "distributed.scheduler.allowed-failures": 3}):
+                          "distributed.scheduler.allowed-failures": 3,
+                          "distributed.worker.multiprocessing-method": FORK_METHOD}):
+        _prepare_forkserver()
         # workers are spawned with SIGINT ignored and blocked (both kept across exec): on Ctrl-C
         # only the runner reacts, abandons the in-flight cases and shuts the cluster down. In
         # the runner a Ctrl-C during the start stays pending (Linux keeps a blocked signal even

@@ -81,12 +81,17 @@ def _prepare_dirs(out_dir: Path) -> Path:
     from .ledger import BATCHES, LEDGER
     batches = out_dir / BATCHES
     batches.mkdir(parents=True, exist_ok=True)
-    for stale in [*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
-                  *out_dir.glob(".study.nc.inputs.tmp-*"), *out_dir.glob(f".{LEDGER}.tmp-*"),
-                  *out_dir.glob(".study.toml.tmp-*")]:
-        if stale.is_file() and not stale.is_symlink():     # killed writers
-            stale.unlink(missing_ok=True)
+    _remove_temporaries([*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
+                         *out_dir.glob(".study.nc.inputs.tmp-*"), *out_dir.glob(f".{LEDGER}.tmp-*"),
+                         *out_dir.glob(".study.toml.tmp-*")])
     return batches
+
+
+def _remove_temporaries(paths) -> None:
+    """Remove the temporary files of killed writers (the runner holds the study's lock)."""
+    for stale in paths:
+        if stale.is_file() and not stale.is_symlink():
+            stale.unlink(missing_ok=True)
 
 
 #: what makes a directory a floe-impact results directory
@@ -248,6 +253,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
     identity = _identity(out_dir)
     import contextlib
     workers = _workers_for(options.workers, len(items), batches)
+    local_workers = session is None and not options.scheduler      # ours, ended when the with ends
     with contextlib.nullcontext(session) if session is not None else Session(workers, options.scheduler) \
             as session:
         for attempt in range(3):
@@ -294,6 +300,9 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
             skipped = len(study.run_ids) - len(items)
         else:
             raise ResultsIOError("batch files keep failing their checksums; is the disk healthy?")
+    if local_workers:
+        # this run's local workers have all ended: a temporary batch file is a killed worker's
+        _remove_temporaries(batches.glob(".batch.nc.tmp-*"))
     _analysis(study, out_dir, fresh)
     _plots(options, study, out_dir, fresh)
     _summary(study, ledger, states, computed={cid for cid, _ in items_run})

@@ -76,6 +76,16 @@ def _children(pid):
     return [(int(line.split(None, 1)[0]), line.split(None, 1)[1]) for line in out.strip().splitlines()]
 
 
+def _workers(runner):
+    """The runner's dask worker processes: the children of its forkserver (pipeline.engine),
+    or its spawned children where there is no forkserver."""
+    children = _children(runner)
+    forkservers = [pid for pid, args in children if "multiprocessing.forkserver" in args]
+    if forkservers:
+        return [pid for server in forkservers for pid, _ in _children(server)]
+    return [pid for pid, args in children if "multiprocessing.spawn" in args]
+
+
 def _assert_same_results(out, reference):
     with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
         assert (ds["status"].values == ref["status"].values).all()
@@ -88,12 +98,16 @@ def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path
     out = tmp_path / "worker_killed"
     proc = _start(study_file, out)
     _wait_for_cases(out, proc, n=1)
-    workers = [pid for pid, args in _children(proc.pid) if "multiprocessing" in args or "spawn" in args]
+    workers = _workers(proc.pid)
     assert workers, _children(proc.pid)
     os.kill(workers[0], signal.SIGKILL)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
-    assert sum(len(ids) for ids in _finished(out).values()) == 8
+    ids = [case for cases in _finished(out).values() for case in cases]
+    # every case finished; one may have been computed twice: a task's result stays on its worker
+    # until the runner fetches it, so a worker killed between writing a batch file and that fetch
+    # loses the result and dask runs the batch again (its first file is complete, not in the ledger)
+    assert len(set(ids)) == 8 and len(ids) <= 9, ids
     assert not list((out / "batches").glob("*.damaged-*")) and not list((out / "batches").glob(".*tmp*"))
     _assert_same_results(out, undisturbed)
 

@@ -309,14 +309,20 @@ def test_a_run_starts_no_more_workers_than_it_has_work_for(tmp_path):
     assert _workers_for(8, 1, batches) == 4
 
 
-def test_workers_are_warm_before_the_first_case():
+def test_workers_are_warm_before_the_first_case(monkeypatch):
     """Every local worker has the kernels loaded before any case runs, so run_time is solver
-    time (issue 9: the first case on each worker used to carry numba's cache load)."""
+    time (issue 9: the first case on each worker used to carry numba's cache load): forked from
+    the forkserver that loaded them (pipeline.forkserver), or, spawned, by warm_workers."""
+    from pipeline import engine
     from pipeline.engine import cluster_client, kernels_loaded, warm_workers
     from solver import compile_kernels
     compile_kernels()
     with cluster_client(2, None) as client:
-        assert not any(client.run(kernels_loaded).values()), "fresh workers have not loaded them yet"
+        loaded = client.run(kernels_loaded)
+        assert len(loaded) == 2 and all(loaded.values()), "forked with the kernels in memory"
+    monkeypatch.setattr(engine, "FORK_METHOD", "spawn")
+    with cluster_client(2, None) as client:
+        assert not any(client.run(kernels_loaded).values()), "spawned workers have not loaded them yet"
         warm_workers(client)
         loaded = client.run(kernels_loaded)
         assert len(loaded) == 2 and all(loaded.values())

@@ -1,0 +1,42 @@
+"""Local workers are forked from a forkserver that imported their modules and loaded the
+kernels (pipeline.forkserver): they start with what a spawned worker imports and loads (about
+1.5 s of CPU each), keep the one-thread environment, and never run code older than the tree."""
+import os
+
+import pytest
+
+from pipeline import engine
+from pipeline.engine import cluster_client
+
+pytestmark = pytest.mark.skipif(engine.FORK_METHOD != "forkserver", reason="no forkserver on this platform")
+
+
+def _worker_facts():
+    import numba
+    import sys
+    return {"parent": os.getppid(), "omp": os.environ.get("OMP_NUM_THREADS"),
+            "numba_threads": numba.config.NUMBA_NUM_THREADS, "loop": "solver.loop" in sys.modules}
+
+
+def _facts(workers=1):
+    with cluster_client(workers, None) as client:
+        return list(client.run(_worker_facts).values())
+
+
+def test_workers_share_one_forkserver_with_one_thread_each():
+    facts = _facts(2)
+    assert len({f["parent"] for f in facts}) == 1 and facts[0]["parent"] != os.getpid()
+    assert all(f["omp"] == "1" and f["numba_threads"] == 1 and f["loop"] for f in facts)
+    assert _facts()[0]["parent"] == facts[0]["parent"]          # a later run reuses the forkserver
+
+
+def test_an_edit_of_the_source_starts_a_new_forkserver(monkeypatch):
+    """Its workers would otherwise run the code the forkserver imported before the edit."""
+    before = _facts()[0]["parent"]
+    from solver import kernel_cache
+    digest = kernel_cache.source_digest
+    monkeypatch.setattr(kernel_cache, "source_digest", lambda *a: "edited" + digest(*a))
+    after = _facts()[0]["parent"]
+    assert after != before
+    with pytest.raises(ProcessLookupError):                   # the old one has ended
+        os.kill(before, 0)
