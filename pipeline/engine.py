@@ -10,19 +10,18 @@ disk is the result), and at most ``2 x workers`` tasks are in flight.
 from __future__ import annotations
 
 import logging
-import multiprocessing
 import signal
 import subprocess
 import sys
 import time
 from contextlib import contextmanager
-from pathlib import Path
 
 import dask
 from distributed import Client, LocalCluster, as_completed
 
 from solver import compile_kernels, kernel_cache
 
+from . import forkserver
 from .casefile import CaseWriteError
 from .tables import COMPLETE, ENDED_EARLY, WRITE_FAILED
 from .worker import run_batch
@@ -98,34 +97,31 @@ def _main_script_hidden():
             setattr(main, key, value)
 
 
-#: how local workers start: forked from a forkserver that has imported their modules and loaded
-#: the kernels (pipeline.forkserver); "spawn" (dask's default) where there is no forkserver
-FORK_METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
-#: what the running forkserver was started from: (source digest, kernels cached), or None
-_forkserver_state = None
+@contextmanager
+def _ctrl_c_held(ignore: bool):
+    """A Ctrl-C during the cluster's start does not interrupt it half-way: it is raised once the
+    cluster is up (which is then closed). SIGINT is blocked in this thread meanwhile, so that
+    the threads the start creates inherit it blocked; only the runner reacts to a Ctrl-C,
+    abandons the in-flight cases and shuts the cluster down.
 
-
-def _prepare_forkserver() -> None:
-    """Name the forkserver's preload module before the first worker starts it (distributed sets
-    its own list the first time it asks for the context, once per process; asked here first,
-    it is replaced by ours, which imports those modules and more).
-
-    The forkserver lives as long as the process, so that the workers of a later run in a
-    notebook or a script start as fast. It is stopped, and the next worker starts a new one,
-    when it holds code older than the tree (an edit under solver/ or pipeline/ since it started:
-    its workers would run the old code) or was started before the kernels were cached."""
-    global _forkserver_state
-    if FORK_METHOD != "forkserver":
-        return
-    from multiprocessing import forkserver
-
-    from distributed.utils import get_mp_context
-    from solver.kernel_cache import source_digest
-    state = (source_digest() + source_digest(Path(__file__).resolve().parent), kernel_cache.is_complete())
-    if _forkserver_state is not None and state != _forkserver_state:
-        forkserver._forkserver._stop()       # CPython's own (its tests'); the next worker starts another
-    get_mp_context().set_forkserver_preload(["pipeline.forkserver"])
-    _forkserver_state = state
+    Workers forked from the forkserver ignore SIGINT as it does (pipeline.forkserver_preload),
+    and the Ctrl-C is recorded by a handler. Spawned workers ignore it by inheriting SIG_IGN
+    across exec (``ignore``): a Ctrl-C then goes to any thread that does not block it (numpy's
+    BLAS threads, started at import) and is lost there; the pending signal of the blocking
+    thread is raised only if no such thread exists."""
+    interrupted = []
+    mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN if ignore else
+                             (lambda signum, frame: interrupted.append(signum)))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)          # a pending Ctrl-C is raised here
+        if interrupted and previous is not signal.SIG_IGN:
+            from . import interrupts
+            interrupts.requested = True
+            raise KeyboardInterrupt
 
 
 def _local_cluster_client(workers: int):
@@ -133,33 +129,23 @@ def _local_cluster_client(workers: int):
     environ.update(SINGLE_THREAD_ENV)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
                           "distributed.scheduler.allowed-failures": 3,
-                          "distributed.worker.multiprocessing-method": FORK_METHOD}):
-        _prepare_forkserver()
-        # workers are spawned with SIGINT ignored and blocked (both kept across exec): on Ctrl-C
-        # only the runner reacts, abandons the in-flight cases and shuts the cluster down. In
-        # the runner a Ctrl-C during the start stays pending (Linux keeps a blocked signal even
-        # while it is ignored) and is raised as soon as the cluster is up: it is never lost.
-        # blocked first, then ignored: a SIGINT between the two is kept pending, not discarded
-        mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+                          "distributed.worker.multiprocessing-method": forkserver.METHOD}):
+        forkserver.start(environ)
         cluster = None
         try:
-            # CRITICAL: a case's failure reaches the runner as its record (run_batch catches
-            # everything); what dask logs at ERROR is its own shutdown races (a worker's heartbeat
-            # to a scheduler already gone when a full disk stops the study), a traceback the
-            # user cannot act on
-            # dashboard_address=None still binds the scheduler's HTTP server to 8787 and warns
-            # when another process holds that port; ":0" takes any free port, silently
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
-        finally:
-            signal.signal(signal.SIGINT, previous)
-            try:
-                signal.pthread_sigmask(signal.SIG_SETMASK, mask)     # a pending Ctrl-C is raised here
-            except KeyboardInterrupt:
-                if cluster is not None:
-                    cluster.close()
-                raise
+            with _ctrl_c_held(ignore=forkserver.METHOD != "forkserver"):
+                # CRITICAL: a case's failure reaches the runner as its record (run_batch catches
+                # everything); what dask logs at ERROR is its own shutdown races (a worker's
+                # heartbeat to a scheduler already gone when a full disk stops the study), a
+                # traceback the user cannot act on
+                # dashboard_address=None still binds the scheduler's HTTP server to 8787 and warns
+                # when another process holds that port; ":0" takes any free port, silently
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       dashboard_address=":0", silence_logs=logging.CRITICAL)
+        except KeyboardInterrupt:
+            if cluster is not None:
+                cluster.close()
+            raise
         client = Client(cluster)
         try:
             yield client

@@ -1,22 +1,64 @@
-"""The process the local workers are forked from (multiprocessing's forkserver), made ready once
-per runner: one thread for numba and BLAS, the worker's modules imported and, when numba's cache
-holds them, the solver's kernels loaded. Each worker is then a fork of it and starts with all
-that in memory, where a spawned worker imported it all and loaded the kernels itself (about
-1.5 s of CPU per worker, and again for every worker a nanny restarts).
+"""Local workers forked ready: the runner starts multiprocessing's forkserver with the workers'
+environment, the forkserver imports pipeline.forkserver_preload (the workers' modules, the
+kernels), and dask's nannies fork each worker from it (distributed's
+"multiprocessing-method" = "forkserver"). A spawned worker imported all that and loaded the
+kernels itself: about 1.5 s of CPU per worker, and again for every worker a nanny restarts.
 
-Imported by the forkserver as its preload module (pipeline.engine), never by the runner.
-The forkserver is started by the first worker's nanny, after it has set the workers'
-environment (pipeline.engine.SINGLE_THREAD_ENV, in distributed.nanny.pre-spawn-environ) in the
-runner's: the forkserver inherits it, and imports numpy and numba with one thread.
+The forkserver lives as long as the process, so that the workers of a later run in a notebook
+or a script start as fast. It is stopped and started afresh when it holds code older than the
+tree (an edit under solver/ or pipeline/ since it started: its workers would run the old code),
+or was started before the kernels were cached.
 """
-import distributed  # noqa: F401
+from __future__ import annotations
 
-from solver import compile_kernels, kernel_cache
+import multiprocessing
+import os
+import signal
+from pathlib import Path
 
-from . import worker  # noqa: F401
+#: how local workers start; "spawn" (dask's default) where there is no forkserver
+METHOD = "forkserver" if "forkserver" in multiprocessing.get_all_start_methods() else "spawn"
+PRELOAD = "pipeline.forkserver_preload"
+#: what the running forkserver was started from: (source digest, kernels cached), or None
+_started_from = None
 
-if kernel_cache.is_complete():                 # the runner compiles a cold cache; workers then load it
+
+def _source() -> tuple:
+    from solver import kernel_cache
+    digest = kernel_cache.source_digest() + kernel_cache.source_digest(Path(__file__).resolve().parent)
+    return digest, kernel_cache.is_complete()
+
+
+def start(environ: dict) -> None:
+    """Start the forkserver with ``environ`` added to this process's environment, unless one
+    started from the same source runs; a no-op where workers are spawned.
+
+    Its Python starts with SIGINT ignored, inherited across exec, so that a Ctrl-C cannot
+    kill it half-way through its start-up (a traceback on the runner's stderr); the runner
+    ignores SIGINT only while it forks and execs the forkserver and multiprocessing's resource
+    tracker, a few milliseconds."""
+    global _started_from
+    if METHOD != "forkserver":
+        return
+    from multiprocessing import forkserver
+
+    from distributed.utils import get_mp_context
+    source = _source()
+    if _started_from is not None and source != _started_from:
+        forkserver._forkserver._stop()           # CPython's own (its tests'); started afresh below
+    # distributed names its own preload modules the first time it asks for the context (once
+    # per process); asked here first, its list is replaced by ours, which imports them and more
+    get_mp_context().set_forkserver_preload([PRELOAD])
+    saved = {key: os.environ.get(key) for key in environ}
+    os.environ.update({key: str(value) for key, value in environ.items()})
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        compile_kernels()
-    except Exception:                          # the workers load the kernels themselves (warm_workers)
-        pass
+        forkserver.ensure_running()
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
+    _started_from = source

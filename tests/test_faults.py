@@ -248,3 +248,36 @@ def test_the_compile_notice_shows_only_when_the_kernels_compile(capsys, monkeypa
         engine.kernels_ready((child, time.monotonic()))
         err = capsys.readouterr().err
         assert ("compiling them" in err) == shown and "kernels ready in" in err, err
+
+
+def test_a_ctrl_c_while_the_cluster_starts_is_raised_once_it_is_up(monkeypatch):
+    """The Ctrl-C goes to a thread that does not block SIGINT (numpy's BLAS threads, started at
+    import, do not): ignored there during the cluster's start, it was lost and the study ran to
+    its end (seen 4 s into a first run). It is recorded, raised when the cluster is up, and the
+    cluster is closed."""
+    import threading
+
+    from pipeline import engine, interrupts
+    closed = []
+
+    class Cluster:
+        def __init__(self, **kwargs):
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.2)
+
+        def close(self):
+            closed.append(True)
+
+    stop = threading.Event()
+    other = threading.Thread(target=stop.wait)          # started before: SIGINT not blocked there
+    other.start()
+    monkeypatch.setattr(engine, "LocalCluster", Cluster)
+    monkeypatch.setattr(interrupts, "requested", False)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with engine.cluster_client(1, None):
+                pytest.fail("the run went on after the Ctrl-C")
+    finally:
+        stop.set()
+        other.join()
+    assert closed and interrupts.requested

@@ -1,21 +1,25 @@
 """Local workers are forked from a forkserver that imported their modules and loaded the
 kernels (pipeline.forkserver): they start with what a spawned worker imports and loads (about
-1.5 s of CPU each), keep the one-thread environment, and never run code older than the tree."""
+1.5 s of CPU each), keep the one-thread environment, ignore Ctrl-C, and never run code older
+than the tree."""
 import os
 
 import pytest
 
-from pipeline import engine
+from pipeline import forkserver
 from pipeline.engine import cluster_client
 
-pytestmark = pytest.mark.skipif(engine.FORK_METHOD != "forkserver", reason="no forkserver on this platform")
+pytestmark = pytest.mark.skipif(forkserver.METHOD != "forkserver", reason="no forkserver on this platform")
 
 
 def _worker_facts():
-    import numba
+    import signal
     import sys
+
+    import numba
     return {"parent": os.getppid(), "omp": os.environ.get("OMP_NUM_THREADS"),
-            "numba_threads": numba.config.NUMBA_NUM_THREADS, "loop": "solver.loop" in sys.modules}
+            "numba_threads": numba.config.NUMBA_NUM_THREADS, "loop": "solver.loop" in sys.modules,
+            "sigint_ignored": signal.getsignal(signal.SIGINT) == signal.SIG_IGN}
 
 
 def _facts(workers=1):
@@ -23,10 +27,11 @@ def _facts(workers=1):
         return list(client.run(_worker_facts).values())
 
 
-def test_workers_share_one_forkserver_with_one_thread_each():
+def test_workers_share_one_forkserver_with_one_thread_each_and_ignore_ctrl_c():
     facts = _facts(2)
     assert len({f["parent"] for f in facts}) == 1 and facts[0]["parent"] != os.getpid()
     assert all(f["omp"] == "1" and f["numba_threads"] == 1 and f["loop"] for f in facts)
+    assert all(f["sigint_ignored"] for f in facts)              # a Ctrl-C stops the runner alone
     assert _facts()[0]["parent"] == facts[0]["parent"]          # a later run reuses the forkserver
 
 

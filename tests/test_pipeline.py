@@ -313,14 +313,14 @@ def test_workers_are_warm_before_the_first_case(monkeypatch):
     """Every local worker has the kernels loaded before any case runs, so run_time is solver
     time (issue 9: the first case on each worker used to carry numba's cache load): forked from
     the forkserver that loaded them (pipeline.forkserver), or, spawned, by warm_workers."""
-    from pipeline import engine
+    from pipeline import forkserver
     from pipeline.engine import cluster_client, kernels_loaded, warm_workers
     from solver import compile_kernels
     compile_kernels()
     with cluster_client(2, None) as client:
         loaded = client.run(kernels_loaded)
         assert len(loaded) == 2 and all(loaded.values()), "forked with the kernels in memory"
-    monkeypatch.setattr(engine, "FORK_METHOD", "spawn")
+    monkeypatch.setattr(forkserver, "METHOD", "spawn")
     with cluster_client(2, None) as client:
         assert not any(client.run(kernels_loaded).values()), "spawned workers have not loaded them yet"
         warm_workers(client)
