@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from helpers import SMALL_GRID_STUDY as STUDY
-from helpers import ROOT, batch_files, run_cli
+from helpers import ROOT, batch_files, run_process as run_cli
 
 SMALL = STUDY.replace('description = "integrity tests"', 'description = "cli tests"') + "eps_Y = [1e-4, 1e-3]\n"
 
