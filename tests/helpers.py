@@ -1,6 +1,6 @@
 """Helpers the test files share: the repository's root, the command line (in this process, or in
-a process of its own as a user runs it), a results directory's batch files, determinism of study.nc on one machine, a small grid study,
-and a figure's axes drawn without writing it."""
+a process of its own as a user runs it), a results directory's batch files, determinism of
+study.nc on one machine, a small grid study, and a figure's axes drawn without writing it."""
 import subprocess
 import sys
 from pathlib import Path
