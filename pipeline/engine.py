@@ -127,13 +127,13 @@ def _ctrl_c_held(ignore: bool):
 def _local_cluster_client(workers: int):
     environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environ.update(SINGLE_THREAD_ENV)
+    method = forkserver.start(environ)
     with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
                           "distributed.scheduler.allowed-failures": 3,
-                          "distributed.worker.multiprocessing-method": forkserver.METHOD}):
-        forkserver.start(environ)
+                          "distributed.worker.multiprocessing-method": method}):
         cluster = None
         try:
-            with _ctrl_c_held(ignore=forkserver.METHOD != "forkserver"):
+            with _ctrl_c_held(ignore=method != "forkserver"):
                 # CRITICAL: a case's failure reaches the runner as its record (run_batch catches
                 # everything); what dask logs at ERROR is its own shutdown races (a worker's
                 # heartbeat to a scheduler already gone when a full disk stops the study), a

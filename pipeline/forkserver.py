@@ -29,9 +29,11 @@ def _source() -> tuple:
     return digest, kernel_cache.is_complete()
 
 
-def start(environ: dict) -> None:
+def start(environ: dict) -> str:
     """Start the forkserver with ``environ`` added to this process's environment, unless one
-    started from the same source runs; a no-op where workers are spawned.
+    started from the same source runs. Returns how the workers start: "forkserver", or "spawn"
+    where there is none, or where a stale one cannot be stopped (a Python without
+    ForkServer._stop).
 
     Its Python starts with SIGINT ignored, inherited across exec, so that a Ctrl-C cannot
     kill it half-way through its start-up (a traceback on the runner's stderr); the runner
@@ -39,13 +41,16 @@ def start(environ: dict) -> None:
     tracker, a few milliseconds."""
     global _started_from
     if METHOD != "forkserver":
-        return
+        return "spawn"
     from multiprocessing import forkserver
 
     from distributed.utils import get_mp_context
     source = _source()
     if _started_from is not None and source != _started_from:
-        forkserver._forkserver._stop()           # CPython's own (its tests'); started afresh below
+        stop = getattr(forkserver._forkserver, "_stop", None)    # CPython's own (its tests')
+        if stop is None:
+            return "spawn"
+        stop()                                   # started afresh below
     # distributed names its own preload modules the first time it asks for the context (once
     # per process); asked here first, its list is replaced by ours, which imports them and more
     get_mp_context().set_forkserver_preload([PRELOAD])
@@ -62,3 +67,4 @@ def start(environ: dict) -> None:
             else:
                 os.environ[key] = value
     _started_from = source
+    return "forkserver"
