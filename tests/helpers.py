@@ -29,12 +29,16 @@ end = "last_output"
 WALL_TIMES = ("run_time", "error_estimate_run_time")
 
 
+#: seconds a test's run of the command line may take
+RUN_TIMEOUT = 300
+
+
 def run_process(*args, cwd=ROOT):
     """python -m pipeline ... as a user runs it, in a process of its own; returns (exit code,
     stdout, stderr). For what only a process shows: its exit status from the console entry
     point, everything written to its stderr (warnings, its workers' output), signals."""
     proc = subprocess.run([sys.executable, "-m", "pipeline", *map(str, args)], cwd=cwd,
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=RUN_TIMEOUT)
     return proc.returncode, proc.stdout, proc.stderr
 
 
@@ -44,6 +48,7 @@ def run_cli(*args, cwd=ROOT):
     of CPU per run (Python, its imports, the workers' forkserver); here the forkserver of this
     test process serves every run."""
     import contextlib
+    import faulthandler
     import io
     import os
 
@@ -51,6 +56,9 @@ def run_cli(*args, cwd=ROOT):
     out, err = io.StringIO(), io.StringIO()
     previous = os.getcwd()
     os.chdir(cwd)
+    # a run that hangs ends the test process with every thread's traceback, as run_process's
+    # timeout ends its run (pytest-xdist reports the test as crashed), instead of hanging the suite
+    faulthandler.dump_traceback_later(RUN_TIMEOUT, exit=True)
     try:
         with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
             try:
@@ -58,6 +66,7 @@ def run_cli(*args, cwd=ROOT):
             except SystemExit as exit_:                  # argparse's usage errors
                 code = exit_.code
     finally:
+        faulthandler.cancel_dump_traceback_later()
         os.chdir(previous)
     return code, out.getvalue(), err.getvalue()
 
