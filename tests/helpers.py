@@ -1,12 +1,17 @@
 """Helpers the test files share: the repository's root, the command line (in this process, or in
 a process of its own as a user runs it), a results directory's batch files, determinism of
 study.nc on one machine, a small grid study, and a figure's axes drawn without writing it."""
+import os
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
 import xarray as xr
+
+from pipeline.casefile import DamagedFile, read_batch
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -23,6 +28,24 @@ times = { unit = "t_sc", step = 0.25, stop = 0.5 }
 fields = ["strain"]
 x_points = 11
 end = "last_output"
+"""
+
+#: a threshold search of 6 modes on two thicknesses (tests/test_search.py, test_hostile_tables.py)
+SEARCH_STUDY = """
+description = "the speed at which the layer bottoms out, on thin and thick ice"
+[base]
+Nmod = 6
+[grid]
+hi = [0.3, 1.0]
+[search]
+key = "V"
+bracket = [1.0, 10.0]
+log = true
+event = "bottoming"
+tolerance = 0.05
+[output]
+fields = []
+times = { unit = "stage", count = 3 }
 """
 
 #: what two runs on one machine may differ in: wall times
@@ -97,3 +120,48 @@ def figure_axes(monkeypatch, draw):
     monkeypatch.setattr(common.plt, "close", lambda fig: None)
     draw()
     return captured["fig"].axes
+
+
+def start_runner(study_file, out, workers=2):
+    """The runner in a process of its own and a session of its own (so that a test can signal
+    its process group), without figures."""
+    return subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
+                             "--workers", str(workers), "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+
+def finished_batches(out) -> dict:
+    """batch file -> case ids, for every complete batch file (its bytes match its name)."""
+    done = {}
+    for path in batch_files(out):
+        try:
+            done[path] = [str(c) for c in read_batch(path)["case"].values]
+        except DamagedFile:
+            pass
+    return done
+
+def assert_same_results(out, reference):
+    """study.nc of a disturbed run holds the undisturbed statuses and strains, every case present."""
+    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
+        assert (ds["status"].values == ref["status"].values).all()
+        assert (ds["status"].values != "missing").all()
+        np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
+        np.testing.assert_array_equal(ds["max_strain"].values, ref["max_strain"].values)
+
+def kill_runner_then_resume(study_file, undisturbed, out, delay):
+    """SIGKILL the runner and its workers ``delay`` s into a run of 8 cases, resume it: no finished
+    batch rewritten, no case lost or computed twice, the undisturbed results."""
+    proc = start_runner(study_file, out)
+    time.sleep(delay)
+    os.killpg(proc.pid, signal.SIGKILL)                 # the runner and its workers, at once
+    proc.wait()
+    finished = finished_batches(out)     # what a resume may trust: complete files, in the ledger or not
+    stamps = {path: path.stat().st_mtime_ns for path in finished}
+    n_done = len({cid for ids in finished.values() for cid in ids})
+    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
+    assert code == 0, err
+    assert f"{8 - n_done} to run, {n_done} already done" in err   # 0 lost, 0 computed twice
+    for path, stamp in stamps.items():
+        assert path.stat().st_mtime_ns == stamp, f"{path.name}: a finished batch was rewritten"
+    after = finished_batches(out)
+    assert sum(len(ids) for ids in after.values()) == 8, "a case was computed twice"
+    assert_same_results(out, undisturbed)

@@ -139,3 +139,17 @@ def test_the_architecture_picture_names_every_module(package):
     files = {path.name for path in (ROOT / package).rglob("*.py") if path.name not in ("__init__.py", "__main__.py")}
     missing = sorted(name for name in files if name not in picture)
     assert not missing, f"docs/architecture.md's picture does not name {missing}"
+
+
+def test_tests_share_helpers_only_through_helpers_and_conftest():
+    """A test file imports what it shares with others from tests/helpers.py or gets it from
+    tests/conftest.py's fixtures, never from another test file (17 files once took theirs from
+    test_pipeline.py: running one file alone then ran the other's module-level code)."""
+    importing = []
+    for path in sorted((ROOT / "tests").glob("test_*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = [node.module or ""] if isinstance(node, ast.ImportFrom) else \
+                [alias.name for alias in node.names] if isinstance(node, ast.Import) else []
+            if any(name.startswith("test_") for name in names):
+                importing.append(path.name)
+    assert not importing, f"these test files import from another test file: {sorted(set(importing))}"

@@ -9,8 +9,7 @@ import pipeline
 from pipeline.design import design_points, unit_points
 from pipeline.ledger import Ledger
 from pipeline.study import load_study_text
-from test_faults import _kill_runner_then_resume
-from helpers import run_cli as command
+from helpers import kill_runner_then_resume, run_cli as command
 
 BASE = """
 description = "a design"
@@ -105,7 +104,7 @@ def design_undisturbed(design_file, tmp_path_factory):
 
 @pytest.mark.slow       # the machinery of tests/test_faults.py (in make test), on a design
 def test_a_killed_runner_loses_no_sample(design_file, design_undisturbed, tmp_path):
-    _kill_runner_then_resume(design_file, design_undisturbed, tmp_path / "killed", delay=3.0)
+    kill_runner_then_resume(design_file, design_undisturbed, tmp_path / "killed", delay=3.0)
 
 
 BAD = [

@@ -6,14 +6,11 @@ import signal
 import subprocess
 import sys
 import time
-from pathlib import Path
 
-import numpy as np
 import pytest
-import xarray as xr
 
-from pipeline.casefile import DamagedFile, read_batch
-from helpers import ROOT, batch_files, run_cli
+from helpers import (ROOT, assert_same_results, batch_files, finished_batches, kill_runner_then_resume, run_cli,
+                     start_runner)
 
 STUDY = """
 description = "fault tests"
@@ -44,21 +41,6 @@ def undisturbed(study_file, tmp_path_factory):
     return out
 
 
-def _start(study_file, out, workers=2):
-    return subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
-                             "--workers", str(workers), "--no-plots"], cwd=ROOT, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
-
-
-def _finished(out) -> dict:
-    """batch file -> case ids, for every complete batch file (its bytes match its name)."""
-    done = {}
-    for path in batch_files(out):
-        try:
-            done[path] = [str(c) for c in read_batch(path)["case"].values]
-        except DamagedFile:
-            pass
-    return done
 
 
 def _wait_for_cases(out, proc, n=1, timeout=120):
@@ -86,66 +68,42 @@ def _workers(runner):
     return [pid for pid, args in children if "multiprocessing.spawn" in args]
 
 
-def _assert_same_results(out, reference):
-    with xr.open_dataset(Path(out) / "study.nc") as ds, xr.open_dataset(Path(reference) / "study.nc") as ref:
-        assert (ds["status"].values == ref["status"].values).all()
-        assert (ds["status"].values != "missing").all()
-        np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
-        np.testing.assert_array_equal(ds["max_strain"].values, ref["max_strain"].values)
-
 
 def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path):
     out = tmp_path / "worker_killed"
-    proc = _start(study_file, out)
+    proc = start_runner(study_file, out)
     _wait_for_cases(out, proc, n=1)
     workers = _workers(proc.pid)
     assert workers, _children(proc.pid)
     os.kill(workers[0], signal.SIGKILL)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
-    ids = [case for cases in _finished(out).values() for case in cases]
+    ids = [case for cases in finished_batches(out).values() for case in cases]
     # every case finished; one may have been computed twice: a task's result stays on its worker
     # until the runner fetches it, so a worker killed between writing a batch file and that fetch
     # loses the result and dask runs the batch again (its first file is complete, not in the ledger)
     assert len(set(ids)) == 8 and len(ids) <= 9, ids
     assert not list((out / "batches").glob("*.damaged-*")) and not list((out / "batches").glob(".*tmp*"))
-    _assert_same_results(out, undisturbed)
+    assert_same_results(out, undisturbed)
 
-
-def _kill_runner_then_resume(study_file, undisturbed, out, delay):
-    proc = _start(study_file, out)
-    time.sleep(delay)
-    os.killpg(proc.pid, signal.SIGKILL)                 # the runner and its workers, at once
-    proc.wait()
-    finished = _finished(out)                           # what a resume may trust: complete files,
-    stamps = {path: path.stat().st_mtime_ns for path in finished}   # in the ledger or not
-    n_done = len({cid for ids in finished.values() for cid in ids})
-    code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
-    assert code == 0, err
-    assert f"{8 - n_done} to run, {n_done} already done" in err   # 0 lost, 0 computed twice
-    for path, stamp in stamps.items():
-        assert path.stat().st_mtime_ns == stamp, f"{path.name}: a finished batch was rewritten"
-    after = _finished(out)
-    assert sum(len(ids) for ids in after.values()) == 8, "a case was computed twice"
-    _assert_same_results(out, undisturbed)
 
 
 @pytest.mark.parametrize("trial", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_killed_runner_resumes_without_loss(study_file, undisturbed, tmp_path, trial):
-    _kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
+    kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
                              delay=random.Random(trial).uniform(2.0, 6.0))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("trial", range(10))
 def test_killed_runner_resumes_without_loss_many(study_file, undisturbed, tmp_path, trial):
-    _kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
+    kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
                              delay=random.Random(100 + trial).uniform(0.5, 9.0))
 
 
 def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undisturbed, tmp_path):
     out = tmp_path / "interrupted"
-    proc = _start(study_file, out)
+    proc = start_runner(study_file, out)
     _wait_for_cases(out, proc, n=1)
     os.killpg(proc.pid, signal.SIGINT)                  # what a terminal sends on Ctrl-C
     stdout, stderr = proc.communicate(timeout=60)
@@ -155,14 +113,14 @@ def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undistur
     code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
     assert "already done" in err
-    _assert_same_results(out, undisturbed)
+    assert_same_results(out, undisturbed)
 
 
 def _ctrl_c_at(study_file, undisturbed, out, delay):
     """Ctrl-C (SIGINT to the process group) ``delay`` s after the start: from Python's imports
     through the workers' start-up to the combine. Always exit 130, the one-line hint as the
     last line, no traceback; then the same command finishes with the undisturbed results."""
-    proc = _start(study_file, out)
+    proc = start_runner(study_file, out)
     time.sleep(delay)
     os.killpg(proc.pid, signal.SIGINT)
     stdout, stderr = proc.communicate(timeout=120)
@@ -173,7 +131,7 @@ def _ctrl_c_at(study_file, undisturbed, out, delay):
     assert stderr.strip().splitlines()[-1].startswith("interrupted:"), (delay, stderr)
     code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
-    _assert_same_results(out, undisturbed)
+    assert_same_results(out, undisturbed)
 
 
 @pytest.mark.parametrize("trial", [0, *(pytest.param(i, marks=pytest.mark.slow) for i in (1, 2, 3, 4))])

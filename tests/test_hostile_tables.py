@@ -11,8 +11,7 @@ from pipeline.cli import main
 from pipeline.consistency import validity_warnings
 from pipeline.study import load_study_text
 
-from helpers import ROOT
-from test_search import STUDY as SEARCH_STUDY
+from helpers import ROOT, SEARCH_STUDY
 
 OUTPUT = """
 [output]

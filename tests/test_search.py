@@ -15,24 +15,7 @@ import xarray as xr
 import pipeline
 from pipeline.search import runs_per_search
 from pipeline.study import load_study_text
-from helpers import ROOT, run_cli as command
-
-STUDY = """
-description = "the speed at which the layer bottoms out, on thin and thick ice"
-[base]
-Nmod = 6
-[grid]
-hi = [0.3, 1.0]
-[search]
-key = "V"
-bracket = [1.0, 10.0]
-log = true
-event = "bottoming"
-tolerance = 0.05
-[output]
-fields = []
-times = { unit = "stage", count = 3 }
-"""
+from helpers import ROOT, SEARCH_STUDY as STUDY, run_cli as command
 
 
 @pytest.fixture(scope="module")
