@@ -1,16 +1,11 @@
-"""The process the local workers are forked from (multiprocessing's forkserver), made ready once
-per runner: one thread for numba and BLAS, the worker's modules imported and, when numba's cache
-holds them, the solver's kernels loaded. Each worker is then a fork of it and starts with all
-that in memory, where a spawned worker imported it all and loaded the kernels itself (about
-1.5 s of CPU per worker, and again for every worker a nanny restarts).
+"""What the forkserver the local workers are forked from imports (pipeline.forkserver.start),
+never the runner: SIGINT ignored, then the worker's modules and, when numba's cache holds them
+all, the solver's kernels; each worker is a fork of it and starts with them in memory.
 
-Imported by the forkserver as its preload module (pipeline.forkserver.start), never by the
-runner. The forkserver inherits the workers' environment (pipeline.engine.SINGLE_THREAD_ENV)
-and imports numpy and numba with one thread.
-
-The forkserver ignores SIGINT and so do the workers forked from it (it passes on the handler its
-preload modules left): a Ctrl-C stops the runner alone, which abandons the in-flight cases and
-shuts the cluster down.
+The forkserver inherits the workers' environment (pipeline.engine.SINGLE_THREAD_ENV: numpy and
+numba with one thread). It passes on the SIGINT handler its preload left, so the workers ignore
+Ctrl-C too: a Ctrl-C stops the runner alone, which abandons the in-flight cases and shuts the
+cluster down.
 """
 import signal
 

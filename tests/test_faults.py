@@ -41,8 +41,6 @@ def undisturbed(study_file, tmp_path_factory):
     return out
 
 
-
-
 def _wait_for_cases(out, proc, n=1, timeout=120):
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -59,14 +57,13 @@ def _children(pid):
 
 
 def _workers(runner):
-    """The runner's dask worker processes: the children of its forkserver (pipeline.engine),
+    """The runner's dask worker processes: the children of its forkserver (pipeline.forkserver),
     or its spawned children where there is no forkserver."""
     children = _children(runner)
     forkservers = [pid for pid, args in children if "multiprocessing.forkserver" in args]
     if forkservers:
         return [pid for server in forkservers for pid, _ in _children(server)]
     return [pid for pid, args in children if "multiprocessing.spawn" in args]
-
 
 
 def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path):
@@ -87,18 +84,17 @@ def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path
     assert_same_results(out, undisturbed)
 
 
-
 @pytest.mark.parametrize("trial", [0, pytest.param(1, marks=pytest.mark.slow)])
 def test_killed_runner_resumes_without_loss(study_file, undisturbed, tmp_path, trial):
     kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
-                             delay=random.Random(trial).uniform(2.0, 6.0))
+                            delay=random.Random(trial).uniform(2.0, 6.0))
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("trial", range(10))
 def test_killed_runner_resumes_without_loss_many(study_file, undisturbed, tmp_path, trial):
     kill_runner_then_resume(study_file, undisturbed, tmp_path / f"runner_{trial}",
-                             delay=random.Random(100 + trial).uniform(0.5, 9.0))
+                            delay=random.Random(100 + trial).uniform(0.5, 9.0))
 
 
 def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undisturbed, tmp_path):
