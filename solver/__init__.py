@@ -14,7 +14,8 @@ from . import kernel_cache as _kernel_cache
 # file (solver.kernel_cache), so that an edit anywhere in the solver compiles afresh
 _kernel_cache.install()
 
-from .core import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, Result, compile_kernels, solve
+from .core import Result, compile_kernels, solve
+from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS
 from .statuses import STATUS_INFO
 from .fracture import EPS_Y_INFO, PAPER_EPS_Y, crack_onset, default_eps_Y
 from .parameters import PARAMETER_INFO, ParameterError, Parameters

@@ -22,98 +22,12 @@ from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
+from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, POSITION_SLOTS
 from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError
 from .settings import Settings, check_combination
 from .scipy_reference import integrate_dop853
 from .statuses import status_message
-
-
-#: field name -> (long_name, units)
-FIELD_INFO = {
-    "deflection": ("ice deflection w, positive upwards", "m"),
-    "strain": ("bending strain on the upper ice surface (positive: tension)", "1"),
-    "layer_pressure": ("reaction pressure of the elastic layer K f(delta)", "Pa"),
-    "compression": ("relative compression delta of the elastic layer", "1"),
-}
-FIELDS = tuple(FIELD_INFO)
-
-#: diagnostic name -> (long_name, units, kernel index)
-DIAGNOSTIC_INFO = {
-    "max_strain": ("largest tensile strain on the upper surface, plate-wide (at a wall, a walled plate's "
-                   "confinement; impact_zone_max_strain is the impact's own)", "1", kn.D_MAX_UPPER),
-    "max_strain_x": ("position of max_strain (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m", kn.D_MAX_UPPER_X),
-    "max_strain_time": ("time of max_strain", "s", kn.D_MAX_UPPER_T),
-    "max_strain_lower": ("largest tensile strain on the lower surface (max of -strain), plate-wide", "1", kn.D_MAX_LOWER),
-    "max_strain_lower_x": ("position of max_strain_lower (centred impact: x >= 0; off centre: signed)", "m", kn.D_MAX_LOWER_X),
-    "max_strain_lower_time": ("time of max_strain_lower", "s", kn.D_MAX_LOWER_T),
-    "max_abs_strain": ("largest strain magnitude, plate-wide", "1", kn.D_MAX_ABS),
-    "max_abs_strain_x": ("position of max_abs_strain (centred impact: x >= 0; off centre: signed)", "m", kn.D_MAX_ABS_X),
-    "max_abs_strain_time": ("time of max_abs_strain", "s", kn.D_MAX_ABS_T),
-    "impact_zone_max_strain": ("largest tensile strain on the upper surface within the impact zone (the contact's "
-                               "farthest reach from the body's centre so far plus impact_zone_margin)", "1",
-                               kn.D_ZONE_UPPER),
-    "impact_zone_max_strain_x": ("position of impact_zone_max_strain (centred impact: x >= 0; off centre: signed)",
-                                 "m", kn.D_ZONE_UPPER_X),
-    "impact_zone_max_strain_time": ("time of impact_zone_max_strain", "s", kn.D_ZONE_UPPER_T),
-    "impact_zone_max_strain_lower": ("largest tensile strain on the lower surface within the impact zone",
-                                     "1", kn.D_ZONE_LOWER),
-    "impact_zone_max_strain_lower_x": ("position of impact_zone_max_strain_lower (centred impact: x >= 0; off "
-                                       "centre: signed)", "m", kn.D_ZONE_LOWER_X),
-    "impact_zone_max_strain_lower_time": ("time of impact_zone_max_strain_lower", "s", kn.D_ZONE_LOWER_T),
-    "impact_zone_max_strain_at_edge": ("1 where impact_zone_max_strain sits at the impact zone's edge (the tension "
-                                       "still rose outward), 0 where it is a peak inside the zone", "1",
-                                       kn.D_ZONE_UPPER_EDGE),
-    "impact_zone_max_strain_lower_at_edge": ("1 where impact_zone_max_strain_lower sits at the impact zone's edge, 0 "
-                                             "where it is a peak inside the zone", "1", kn.D_ZONE_LOWER_EDGE),
-    "contact_extent": ("farthest distance from the body's centre that a point in contact (delta > 0) reached "
-                       "over the run", "m", kn.D_CONTACT_EXTENT),
-    "max_contact_intervals": ("largest number of disjoint contact intervals on -L..L, intervals that "
-                              "open and close within a step included", "1", kn.D_MAX_CONTACTS),
-    "max_force": ("largest force on the body per unit width (inf: the layer bottomed out, where the "
-                  "model's force is unbounded)", "N m-1", kn.D_MAX_FORCE),
-    "max_force_time": ("time of max_force", "s", kn.D_MAX_FORCE_T),
-    "max_compression": ("largest relative compression delta of the layer over the continuous plate",
-                        "1", kn.D_MAX_DELTA),
-    "max_compression_time": ("time of max_compression", "s", kn.D_MAX_DELTA_T),
-    "bottoming_time": ("time at which the layer's gap first closed to bottoming_gap (default 1e-3) of "
-                       "its thickness, anywhere on the plate (NaN: it never did)", "s", kn.D_BOTTOM_T),
-    "bottoming_x": ("position where the gap first closed (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m", kn.D_BOTTOM_X),
-    "bottoming_closing_speed": ("speed at which the gap was closing at bottoming, he d(delta)/dt",
-                                "m s-1", kn.D_BOTTOM_SPEED),
-    "energy_rejections": ("steps rejected because the energy identity jumped", "1", kn.D_ENERGY_JUMPS),
-    "energy_residual": ("max over time of |E_plate + E_layer + D - W| divided by the largest work W over the run "
-                        "(the final work for the paper's body)", "1", kn.D_ENERGY_RESIDUAL),
-    "work": ("work done by the body on the ice up to the time reached, int F U dt", "J m-1", kn.D_WORK),
-    "dissipated_energy": ("energy dissipated in the viscoelastic ice and layer up to the time reached (0: "
-                          "elastic)", "J m-1", kn.D_DISSIPATED),
-    "stop_time": ("first time a free body's speed reached zero (NaN: never, or the paper's body at "
-                  "constant speed)", "s", kn.D_STOP_T),
-    "max_penetration": ("deepest penetration s of a free body, at a zero of its speed", "m",
-                        kn.D_MAX_PENETRATION),
-    "separation_time": ("time a free body left the ice moving up after it had stopped (NaN: it did not)",
-                        "s", kn.D_SEPARATION_T),
-    "separation_speed": ("upward speed of a free body when it left the ice (rebound speed)", "m s-1",
-                         kn.D_SEPARATION_SPEED),
-    "body_energy_residual": ("max over time of |M (U^2 - V^2)/2 - M body_g s + W| divided by the largest "
-                             "work W: the free body's own energy balance (NaN for the paper's body)", "1",
-                             kn.D_BODY_RESIDUAL),
-    # computed by solve() from the outputs (index None): how short a free floe's run is against
-    # the time the open water needs to respond, and estimates of the relative L2 strain error
-    "gravity_time_ratio": ("time reached over sqrt(L/g), the gravity-wave time of a free floe: phi = 0 on the "
-                           "open water outside it holds for values << 1 (NaN: the walled plate)", "1", None),
-    "error_estimate": ("estimated relative L2 strain error over the output times: "
-                       "error_estimate_time + error_estimate_modes + error_estimate_quadrature", "1", None),
-    "error_estimate_time": ("time-integration part (etd34: difference from a companion run at 10x "
-                            "the tolerance / (10^0.6 - 1); rk4: summed local error estimates; dop853: NaN, "
-                            "it returns no error estimates, and so is error_estimate)", "1", None),
-    "error_estimate_modes": ("modal part: strain carried by the top quarter of the retained modes",
-                             "1", None),
-    "error_estimate_quadrature": ("quadrature part: 4 x energy_residual (the paper's rule: both are the "
-                                  "O(dx^2) interpolation error of f; the Gauss rule keeps the energy identity "
-                                  "to the time error, so there it is a second measure of the time part)",
-                                  "1", None),
-}
 
 
 @dataclass
@@ -396,9 +310,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     out_err = series[:, kn.S_ERR]
     body_s = series[:, kn.S_BODY_POSITION]
     valid = np.arange(T) < n_out
-    for i in (kn.D_MAX_UPPER_X, kn.D_MAX_LOWER_X, kn.D_MAX_ABS_X, kn.D_BOTTOM_X, kn.D_ZONE_UPPER_X,
-              kn.D_ZONE_LOWER_X):
-        diag[i] += tab.origin
+    diag[list(POSITION_SLOTS)] += tab.origin        # kernel coordinates -> x on the plate
     level_x += tab.origin
     for s_, i in enumerate((kn.D_ZONE_UPPER, kn.D_ZONE_LOWER)):
         if not np.isfinite(diag[i]):                 # the zone was empty (the walls' margins cover the plate)

@@ -1,5 +1,5 @@
 r"""What a run reports: the rows at the output times, and the diagnostics vector from its start to
-its summary at the end (layout D_*, S_*; their names and units are solver.core.DIAGNOSTIC_INFO).
+its summary at the end (layout D_*, S_*; their names and units are solver.outputs.DIAGNOSTICS).
 
 The energy identity E_plate + E_layer + D - W = E(t_start) is tracked step by step by the loop; a
 run that ended well but whose residual ends above ENERGY_BOUND of the largest work is reported

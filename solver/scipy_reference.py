@@ -158,7 +158,9 @@ class _Observer:
         if not np.isinf(diag[kn.D_MAX_FORCE]):        # +inf: bottomed out, set by the caller
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = self.max_force, self.max_force_t
         diag[kn.D_MAX_DELTA], diag[kn.D_MAX_DELTA_T] = self.max_delta, self.max_delta_t
-        diag[kn.D_ZONE_UPPER:kn.D_ZONE_LOWER_EDGE + 1] = self.zone_diag[kn.D_ZONE_UPPER:kn.D_ZONE_LOWER_EDGE + 1]
+        zone = [kn.D_ZONE_UPPER + i for i in range(6)] + [kn.D_ZONE_UPPER_EDGE, kn.D_ZONE_LOWER_EDGE,
+                                                           kn.D_CONTACT_EXTENT]
+        diag[zone] = self.zone_diag[zone]
         diag[kn.D_ENERGY_JUMPS] = 0.0                 # DOP853 has no energy guard
         if self.p.free_body:
             diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION] = self.stop_t, self.depth

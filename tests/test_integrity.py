@@ -245,7 +245,8 @@ import runpy, shutil, sys
 import pipeline.ledger as L
 original = L.Ledger.append
 def append(self, entry):
-    shutil.rmtree(self.path.parent)
+    while self.path.parent.exists():     # as rm -rf run again: a worker may add a batch file meanwhile
+        shutil.rmtree(self.path.parent, ignore_errors=True)
     return original(self, entry)
 L.Ledger.append = append
 sys.argv = ["pipeline", *sys.argv[1:]]

@@ -1,0 +1,119 @@
+"""What a run reports, declared once: one row per diagnostic, and the fields.
+
+``DIAGNOSTICS`` is the diagnostics vector of the kernels (solver.layout generates its slots
+``D_<slot>`` from the rows that have one, in this order) and the diagnostics a Result, a batch
+file, a case's Dataset and study.nc hold (the rows that have a name, in this order). A row gives
+the kernel's slot (None: computed by solve after the run), the stored name (None: the kernel's own
+bookkeeping, read into the Result's attributes), units, long name, and whether the value is a
+position on the plate (solve moves it from the kernel's coordinates to x). The triples of the
+strain maxima (value, x, time) are consecutive, each surface's after the upper's: the kernels
+reach the lower surface's at the upper's slot + 3, and its zone edge flag at the upper's + 1.
+"""
+from collections import namedtuple
+
+#: one diagnostic: the kernel's slot name, the stored name, units, long name, a position on the plate
+Diagnostic = namedtuple("Diagnostic", "slot name units long_name position", defaults=(False,))
+
+DIAGNOSTICS = (
+    Diagnostic("MAX_UPPER", "max_strain", "1", "largest tensile strain on the upper surface, plate-wide (at a wall, "
+               "a walled plate's confinement; impact_zone_max_strain is the impact's own)"),
+    Diagnostic("MAX_UPPER_X", "max_strain_x", "m", "position of max_strain (centred impact: x >= 0, mirrored at -x; "
+               "off centre: signed)", position=True),
+    Diagnostic("MAX_UPPER_T", "max_strain_time", "s", "time of max_strain"),
+    Diagnostic("MAX_LOWER", "max_strain_lower", "1", "largest tensile strain on the lower surface (max of -strain), "
+               "plate-wide"),
+    Diagnostic("MAX_LOWER_X", "max_strain_lower_x", "m", "position of max_strain_lower (centred impact: x >= 0; off "
+               "centre: signed)", position=True),
+    Diagnostic("MAX_LOWER_T", "max_strain_lower_time", "s", "time of max_strain_lower"),
+    Diagnostic("MAX_ABS", "max_abs_strain", "1", "largest strain magnitude, plate-wide"),
+    Diagnostic("MAX_ABS_X", "max_abs_strain_x", "m", "position of max_abs_strain (centred impact: x >= 0; off "
+               "centre: signed)", position=True),
+    Diagnostic("MAX_ABS_T", "max_abs_strain_time", "s", "time of max_abs_strain"),
+    Diagnostic("ZONE_UPPER", "impact_zone_max_strain", "1", "largest tensile strain on the upper surface within the "
+               "impact zone (the contact's farthest reach from the body's centre so far plus impact_zone_margin)"),
+    Diagnostic("ZONE_UPPER_X", "impact_zone_max_strain_x", "m", "position of impact_zone_max_strain (centred impact: "
+               "x >= 0; off centre: signed)", position=True),
+    Diagnostic("ZONE_UPPER_T", "impact_zone_max_strain_time", "s", "time of impact_zone_max_strain"),
+    Diagnostic("ZONE_LOWER", "impact_zone_max_strain_lower", "1", "largest tensile strain on the lower surface "
+               "within the impact zone"),
+    Diagnostic("ZONE_LOWER_X", "impact_zone_max_strain_lower_x", "m", "position of impact_zone_max_strain_lower "
+               "(centred impact: x >= 0; off centre: signed)", position=True),
+    Diagnostic("ZONE_LOWER_T", "impact_zone_max_strain_lower_time", "s", "time of impact_zone_max_strain_lower"),
+    Diagnostic("ZONE_UPPER_EDGE", "impact_zone_max_strain_at_edge", "1", "1 where impact_zone_max_strain sits at the "
+               "impact zone's edge (the tension still rose outward), 0 where it is a peak inside the zone"),
+    Diagnostic("ZONE_LOWER_EDGE", "impact_zone_max_strain_lower_at_edge", "1", "1 where impact_zone_max_strain_lower "
+               "sits at the impact zone's edge, 0 where it is a peak inside the zone"),
+    Diagnostic("CONTACT_EXTENT", "contact_extent", "m", "farthest distance from the body's centre that a point in "
+               "contact (delta > 0) reached over the run"),
+    Diagnostic("MAX_CONTACTS", "max_contact_intervals", "1", "largest number of disjoint contact intervals on -L..L, "
+               "intervals that open and close within a step included"),
+    Diagnostic("MAX_FORCE", "max_force", "N m-1", "largest force on the body per unit width (inf: the layer bottomed "
+               "out, where the model's force is unbounded)"),
+    Diagnostic("MAX_FORCE_T", "max_force_time", "s", "time of max_force"),
+    Diagnostic("MAX_DELTA", "max_compression", "1", "largest relative compression delta of the layer over the "
+               "continuous plate"),
+    Diagnostic("MAX_DELTA_T", "max_compression_time", "s", "time of max_compression"),
+    Diagnostic("BOTTOM_T", "bottoming_time", "s", "time at which the layer's gap first closed to bottoming_gap "
+               "(default 1e-3) of its thickness, anywhere on the plate (NaN: it never did)"),
+    Diagnostic("BOTTOM_X", "bottoming_x", "m", "position where the gap first closed (centred impact: x >= 0, "
+               "mirrored at -x; off centre: signed)", position=True),
+    Diagnostic("BOTTOM_SPEED", "bottoming_closing_speed", "m s-1", "speed at which the gap was closing at bottoming, "
+               "he d(delta)/dt"),
+    Diagnostic("ENERGY_JUMPS", "energy_rejections", "1", "steps rejected because the energy identity jumped"),
+    Diagnostic("ENERGY_RESIDUAL", "energy_residual", "1", "max over time of |E_plate + E_layer + D - W| divided by "
+               "the largest work W over the run (the final work for the paper's body)"),
+    Diagnostic("WORK", "work", "J m-1", "work done by the body on the ice up to the time reached, int F U dt"),
+    Diagnostic("DISSIPATED", "dissipated_energy", "J m-1", "energy dissipated in the viscoelastic ice and layer up "
+               "to the time reached (0: elastic)"),
+    Diagnostic("STOP_T", "stop_time", "s", "first time a free body's speed reached zero (NaN: never, or the paper's "
+               "body at constant speed)"),
+    Diagnostic("MAX_PENETRATION", "max_penetration", "m", "deepest penetration s of a free body, at a zero of its "
+               "speed"),
+    Diagnostic("SEPARATION_T", "separation_time", "s", "time a free body left the ice moving up after it had stopped "
+               "(NaN: it did not)"),
+    Diagnostic("SEPARATION_SPEED", "separation_speed", "m s-1", "upward speed of a free body when it left the ice "
+               "(rebound speed)"),
+    Diagnostic("BODY_RESIDUAL", "body_energy_residual", "1", "max over time of |M (U^2 - V^2)/2 - M body_g s + W| "
+               "divided by the largest work W: the free body's own energy balance (NaN for the paper's body)"),
+    # computed by solve() from the outputs (no slot): how short a free floe's run is against the time
+    # the open water needs to respond, and estimates of the relative L2 strain error
+    Diagnostic(None, "gravity_time_ratio", "1", "time reached over sqrt(L/g), the gravity-wave time of a free floe: "
+               "phi = 0 on the open water outside it holds for values << 1 (NaN: the walled plate)"),
+    Diagnostic(None, "error_estimate", "1", "estimated relative L2 strain error over the output times: "
+               "error_estimate_time + error_estimate_modes + error_estimate_quadrature"),
+    Diagnostic(None, "error_estimate_time", "1", "time-integration part (etd34: difference from a companion run at "
+               "10x the tolerance / (10^0.6 - 1); rk4: summed local error estimates; dop853: NaN, it returns no "
+               "error estimates, and so is error_estimate)"),
+    Diagnostic(None, "error_estimate_modes", "1", "modal part: strain carried by the top quarter of the retained "
+               "modes"),
+    Diagnostic(None, "error_estimate_quadrature", "1", "quadrature part: 4 x energy_residual (the paper's rule: both "
+               "are the O(dx^2) interpolation error of f; the Gauss rule keeps the energy identity to the time "
+               "error, so there it is a second measure of the time part)"),
+    # the kernel's own bookkeeping (no stored name): the Result's time_reached, steps, ... and its
+    # status message
+    Diagnostic("T_REACHED", None, "s", "time the integration reached"),
+    Diagnostic("STEPS", None, "1", "accepted steps"),
+    Diagnostic("REJECTED", None, "1", "rejected steps"),
+    Diagnostic("H_MIN", None, "s", "smallest accepted step"),
+    Diagnostic("H_MAX", None, "s", "largest accepted step"),
+    Diagnostic("RHS", None, "1", "forcing evaluations"),
+    Diagnostic("FAIL_T", None, "s", "time of the step that failed (NaN if none)"),
+    Diagnostic("FAIL_KIND", None, "1", "why the run stopped early: one of solver.layout's FAIL_* codes"),
+)
+
+#: the kernel's slots in order (D_<slot> = the index), and the slots that hold positions on the plate
+SLOTS = tuple(row.slot for row in DIAGNOSTICS if row.slot is not None)
+POSITION_SLOTS = tuple(SLOTS.index(row.slot) for row in DIAGNOSTICS if row.position)
+
+#: diagnostic name -> (long_name, units, kernel slot or None), in the order they are stored
+DIAGNOSTIC_INFO = {row.name: (row.long_name, row.units, None if row.slot is None else SLOTS.index(row.slot))
+                   for row in DIAGNOSTICS if row.name is not None}
+
+#: field name -> (long_name, units)
+FIELD_INFO = {
+    "deflection": ("ice deflection w, positive upwards", "m"),
+    "strain": ("bending strain on the upper ice surface (positive: tension)", "1"),
+    "layer_pressure": ("reaction pressure of the elastic layer K f(delta)", "Pa"),
+    "compression": ("relative compression delta of the elastic layer", "1"),
+}
+FIELDS = tuple(FIELD_INFO)

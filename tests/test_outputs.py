@@ -1,0 +1,48 @@
+"""The table of what a run reports (solver.outputs): the kernels' layout is generated from it, in
+the shape the kernels assume, and every stored diagnostic is described once."""
+import numpy as np
+
+import solver.layout as kn
+from solver import DIAGNOSTIC_INFO, Parameters, Settings, solve
+from solver.outputs import DIAGNOSTICS, POSITION_SLOTS, SLOTS
+
+
+def test_the_layout_is_the_table():
+    """D_<slot> is the slot's row among the rows with a slot; names and slots are unique."""
+    assert len(set(SLOTS)) == len(SLOTS) == kn.N_DIAG
+    for index, slot in enumerate(SLOTS):
+        assert getattr(kn, f"D_{slot}") == index
+    names = [row.name for row in DIAGNOSTICS if row.name is not None]
+    assert len(set(names)) == len(names) == len(DIAGNOSTIC_INFO)
+    assert list(DIAGNOSTIC_INFO) == names
+
+
+def test_the_triples_are_where_the_kernels_reach_them():
+    """Each surface's (value, x, time) at the upper's slot + 3 (plate-wide and impact zone), its
+    zone edge flag at + 1: the kernels index them so."""
+    for upper, lower in (("MAX_UPPER", "MAX_LOWER"), ("ZONE_UPPER", "ZONE_LOWER")):
+        for tail in ("", "_X", "_T"):
+            assert getattr(kn, f"D_{lower}{tail}") == getattr(kn, f"D_{upper}{tail}") + 3
+    assert kn.D_MAX_UPPER_X == kn.D_MAX_UPPER + 1 and kn.D_MAX_UPPER_T == kn.D_MAX_UPPER + 2
+    assert kn.D_ZONE_UPPER_X == kn.D_ZONE_UPPER + 1 and kn.D_ZONE_UPPER_T == kn.D_ZONE_UPPER + 2
+    assert kn.D_ZONE_LOWER_EDGE == kn.D_ZONE_UPPER_EDGE + 1
+
+
+def test_every_row_is_described():
+    for row in DIAGNOSTICS:
+        assert row.long_name and row.units, row
+        assert row.slot is not None or row.name is not None, row
+    assert {SLOTS[i] for i in POSITION_SLOTS} == {"MAX_UPPER_X", "MAX_LOWER_X", "MAX_ABS_X", "ZONE_UPPER_X",
+                                                  "ZONE_LOWER_X", "BOTTOM_X"}
+    assert all(DIAGNOSTICS[[r.slot for r in DIAGNOSTICS].index(SLOTS[i])].units == "m" for i in POSITION_SLOTS)
+
+
+def test_positions_are_on_the_plate():
+    """An off-centre body's positions are moved from the kernel's coordinates (0 at -L) to x:
+    mirroring the body mirrors them (a fixed step: the mirror image is exact to round-off)."""
+    s = Settings(error_estimate=False, fixed_step=0.05)
+    right, left = (solve(Parameters(Nmod=10, x0=x0), s, fields=(), t_end=0.05) for x0 in (1.0, -1.0))
+    for i in POSITION_SLOTS:
+        name = next(n for n, (_, _, slot) in DIAGNOSTIC_INFO.items() if slot == i)
+        if np.isfinite(right.diagnostics[name]):
+            assert abs(right.diagnostics[name] + left.diagnostics[name]) < 1e-6 * right.parameters.L, name
