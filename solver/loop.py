@@ -35,6 +35,7 @@ from .model.plate import OMEGA, STRAIN, _plus_plate_energy, mode_a, mode_adot, m
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
 from .observe.events import locate_event
+from .observe.layer_maxima import finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import append_row
 from .observe.tension import DENSE, PEAKS, RUN_MAX, STEP_BEST, Dense, global_state, observe_tensions, tension_work
 from .observe.zone import observe_zone, zone_work
@@ -45,7 +46,7 @@ from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_co
 #: buffers as they were), the observers' work (tension, contacts, impact zone), the gap (largest
 #: delta, its rate and place) at the step's two ends, an event's value (3,), the tension peaks at the step's start (2, 4), and the
 #: fixed step's [target, step]
-Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed")
+Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima")
 
 #: a trial step's verdict
 ACCEPT, RETRY, STOP = 0, 1, 2
@@ -68,7 +69,7 @@ def _workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J), zone_work(margin),
-                     np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]))
+                     np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]), maxima_work(N))
 
 
 @kernel
@@ -278,7 +279,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
-    observers, fixed = (ws.tension, ws.contact, ws.peaks0, ws.zone), ws.fixed
+    observers, fixed, maxima = (ws.tension, ws.contact, ws.peaks0, ws.zone), ws.fixed, ws.maxima
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
@@ -359,6 +360,9 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         # sub-steps overwrite the scratch the dense output reads)
         if asks_levels:
             _locate_levels(ws, levels, out, start, carried, t, h_eff)
+        if not bottomed:                     # the force and compression located (on sub-steps too)
+            observe_layer_maxima(stepper, maxima, start, carried, t, h_eff, (F5, gap1[0], gap0[0]), sub, value,
+                                 diag)
         separated = left and control.until_separation
         cur, new = new, cur
         copy_into(gap0, gap1, 3)
@@ -377,6 +381,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             h, prev_ratio = grown_step(control, ratio, expo, prev_ratio, h_step, h, landing)
     if status == OK and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
+    finish_layer_maxima(stepper, maxima, sub, value, diag)
     out.diag[D_DISSIPATED] = diss
     status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), gap0,
                                 model.layer.he, (steps, rejected, rhs_count))

@@ -47,11 +47,11 @@ DIAGNOSTICS = (
                "contact (delta > 0) reached over the run"),
     Diagnostic("MAX_CONTACTS", "max_contact_intervals", "1", "largest number of disjoint contact intervals on -L..L, "
                "intervals that open and close within a step included"),
-    Diagnostic("MAX_FORCE", "max_force", "N m-1", "largest force on the body per unit width (inf: the layer bottomed "
-               "out, where the model's force is unbounded)"),
+    Diagnostic("MAX_FORCE", "max_force", "N m-1", "largest force on the body per unit width, located inside the steps "
+               "(inf: the layer bottomed out, where the model's force is unbounded)"),
     Diagnostic("MAX_FORCE_T", "max_force_time", "s", "time of max_force"),
     Diagnostic("MAX_DELTA", "max_compression", "1", "largest relative compression delta of the layer over the "
-               "continuous plate"),
+               "continuous plate, located inside the steps"),
     Diagnostic("MAX_DELTA_T", "max_compression_time", "s", "time of max_compression"),
     Diagnostic("BOTTOM_T", "bottoming_time", "s", "time at which the layer's gap first closed to bottoming_gap "
                "(default 1e-3) of its thickness, anywhere on the plate (NaN: it never did)"),

@@ -14,8 +14,10 @@ bit for bit reproducible on one machine with one set of libraries). A change of 
 unchanged revision fails it; after a bump, ``make fingerprint`` records the new fingerprint.
 
 History: paper 0 (its case ids carry no revision); gauss 2 (2026-11-25: the energy guard allows a
-step's work only from first touch; contact changes placed on the continuous plate).
+step's work only from first touch; contact changes placed on the continuous plate); paper 1 and
+gauss 3 (2026-11-27: max_force and max_compression located inside the steps,
+solver.observe.layer_maxima; every other output bit for bit).
 """
 
 #: quadrature -> revision of the results of runs under it
-RESULTS_REVISION = {"paper": 0, "gauss": 2}
+RESULTS_REVISION = {"paper": 1, "gauss": 3}

@@ -12,7 +12,10 @@ on delta >= 1: a stage there ends the run, with the time and scipy's step in the
 and so does a step failure, with scipy's own reason. The kernels' in-loop diagnostics (largest
 tensions and their records, so crack onset; contacts, force, compression; a free body's stop,
 separation and balance) are observed on the dense output at SAMPLES points a step, not located
-inside steps; the contact record stays empty. scipy is imported here only.
+inside steps, but for the largest force and compression: where a sample is a local maximum of
+its neighbours, the maximum between them is located on the dense output (scipy's bounded Brent),
+as the kernels locate it on sub-steps (solver.observe.layer_maxima). The contact record stays
+empty. scipy is imported here only.
 """
 from __future__ import annotations
 
@@ -93,6 +96,26 @@ class _Observer:
         self.previous_speed = p.V
         self.body_residual = 0.0
         self.peak_work = 0.0
+        self.history = []                      # the last three samples (t, force, largest delta)
+        self.value_at = None                   # (kind, t) -> force (kind 0) or largest delta, dense output
+
+    def _locate_maxima(self, t, force, delta_max):
+        """Where the previous sample is a local maximum of the force or the largest delta, the
+        maximum between its neighbours, on the dense output."""
+        from scipy.optimize import minimize_scalar
+        self.history = (self.history + [(t, force, delta_max)])[-3:]
+        if len(self.history) < 3 or self.value_at is None:
+            return
+        (a, *fa), (b, *fb), (c, *fc) = self.history
+        for kind, attr in enumerate(("max_force", "max_delta")):
+            if not (fb[kind] >= fa[kind] and fb[kind] > fc[kind]) or fb[kind] < (1 - 1e-2) * getattr(self, attr):
+                continue
+            res = minimize_scalar(lambda tt: -self.value_at(kind, tt), bounds=(a, c), method="bounded",
+                                  options={"xatol": 1e-10 * (c - a), "maxiter": 200})
+            value, when = (-res.fun, res.x) if -res.fun > fb[kind] else (fb[kind], b)
+            if value > getattr(self, attr):
+                setattr(self, attr, value)
+                setattr(self, attr + "_t", when)
 
     def sample(self, t, a, v, work, contacts, force, delta_max, s, U, delta, jmax):
         tab, p = self.tab, self.p
@@ -131,6 +154,7 @@ class _Observer:
             self.max_force, self.max_force_t = force, t
         if delta_max > self.max_delta:
             self.max_delta, self.max_delta_t = delta_max, t
+        self._locate_maxima(t, force, delta_max)
         self.peak_work = max(self.peak_work, work)
         if p.free_body:
             if np.isnan(self.stop_t) and self.previous_speed > 0.0 >= U:
@@ -271,7 +295,7 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
     while k < T and times[k] <= t_start:
         record(t_start, y0)
     solver = DOP853(rhs, t_start, y0, t_end, rtol=tolerance, atol=tolerance * 1e-3, first_step=first_step)
-    t_reached, steps = t_start, 0
+    t_reached, steps, dense = t_start, 0, None
     while solver.status == "running":
         if steps >= max_steps:
             status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS
@@ -289,7 +313,12 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
             failure = f"{message} (scipy's step {solver.h_abs:.3g} s)"
             break
         steps += 1
-        dense = solver.dense_output()
+        previous_dense, dense = dense, solver.dense_output()
+
+        def value_at(kind, tt, boundary=t_old, here=dense, before=previous_dense):
+            y = here(tt) if tt >= boundary or before is None else before(tt)
+            return forcing(tt, y)[1] if kind == 0 else largest_delta(tt, y)
+        observer.value_at = value_at
         # bottoming: the step end, and inside the step where the gap is already small
         probe = [solver.t]
         if largest_delta(solver.t, solver.y) > 0.9 or largest_delta(t_old, dense(t_old)) > 0.9:
