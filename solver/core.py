@@ -227,6 +227,18 @@ def _field_values(p, tab, fields, x, out_a, out_adot, series, valid) -> dict:
 
 
 
+def _integrator(name, method):
+    """The integrator as one interface, (tab, control, t_out, a0, adot0, levels, outputs) ->
+    (status, outputs filled, records, failure): the kernels' loop (solver.loop.integrate) or
+    DOP853 (solver.scipy_reference.integrate_dop853)."""
+    if name == "dop853":
+        return integrate_dop853
+
+    def loop(tab, control, t_out, a0, adot0, levels, outputs):
+        return (*integrate(method, tab.model, control, t_out, a0, adot0, levels, outputs), "")
+    return loop
+
+
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
@@ -282,25 +294,19 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     levels = np.ascontiguousarray(np.atleast_1d(np.asarray(locate_eps_Y, dtype=float)))
     level_t = np.full((2, levels.size), np.nan)
     level_x = np.full((2, levels.size), np.nan)
+    control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
+                           s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin)
     started = _time.perf_counter()
+    code, n_out, (up, n_up, lo, n_lo, cont, n_cont), fail = _integrator(s.integrator, method)(
+        tab, control, times, a0, v0, levels, Outputs(out_a, out_adot, series, diag, level_t, level_x))
     if s.integrator == "dop853":
-        code, n_out, out_a, out_adot, series, diag, fail, (up, lo) = integrate_dop853(
-            p, s.tolerance, tab, times, float(t_start), float(t_end), a0, v0, s.max_steps, h_init,
-            s.bottoming_gap, until_separation, s.impact_zone_margin)
         records = {"upper": up, "lower": lo}
-        contact_record = np.empty((0, 2))
-    else:
-        control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
-                               s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin)
-        code, n_out, (up, n_up, lo, n_lo, cont, n_cont) = integrate(
-            method, tab.model, control, times, a0, v0, levels, Outputs(out_a, out_adot, series, diag, level_t, level_x))
-        # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
+    else:       # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
         records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
-        contact_record = cont[:n_cont].copy()
-        # under the Gauss rule a death between nodes may be placed after its step (solver.observe.
-        # contacts._between_nodes): not after the run's end
-        contact_record[:, 0] = np.minimum(contact_record[:, 0], diag[kn.D_T_REACHED])
-        fail = ""
+    contact_record = cont[:n_cont].copy()
+    # under the Gauss rule a death between nodes may be placed after its step (solver.observe.
+    # contacts._between_nodes): not after the run's end
+    contact_record[:, 0] = np.minimum(contact_record[:, 0], diag[kn.D_T_REACHED])
     wall = _time.perf_counter() - started
     for rec in records.values():
         rec[:, kn.R_X] += tab.origin                     # kernel coordinates -> x on the plate

@@ -24,7 +24,6 @@ import math
 import numpy as np
 
 from . import layout as kn
-from .control import BOTTOM_GAP
 from .cubic import cubic_max, hermite
 from .model.body import body_accel, body_residual
 from .model.basis import field_sum, global_peak, node_strain
@@ -83,8 +82,9 @@ class _Observer:
     eps_Y, solver.fracture), contacts, force, compression, a free body's stop, separation and
     energy balance, and the impact zone's maxima (solver.observe.zone) between samples."""
 
-    def __init__(self, p, tab, zone_margin):
-        self.p, self.tab = p, tab
+    def __init__(self, tab, zone_margin):
+        self.tab, self.body = tab, tab.model.body
+        self.free = self.body.inv_mass > 0.0
         self.zone, self.zone_diag, self.zone_t = zone_work(float(zone_margin)), np.full(kn.N_DIAG, np.nan), None
         self.no_best = np.full((2, 4), -np.inf)     # (the kernels' plate-wide step maxima: not here)
         self.records = ([], [])
@@ -93,7 +93,7 @@ class _Observer:
         self.max_contacts = self.max_force = self.max_delta = 0.0
         self.max_force_t = self.max_delta_t = np.nan
         self.stop_t = self.depth = self.separation_t = self.separation_speed = np.nan
-        self.previous_speed = p.V
+        self.previous_speed = self.body.V
         self.body_residual = 0.0
         self.peak_work = 0.0
         self.history = []                      # the last three samples (t, force, largest delta)
@@ -118,7 +118,7 @@ class _Observer:
                 setattr(self, attr + "_t", when)
 
     def sample(self, t, a, v, work, contacts, force, delta_max, s, U, delta, jmax):
-        tab, p = self.tab, self.p
+        tab, V = self.tab, self.body.V
         if tab.floe is None:
             coef = a * tab.strain_coef
             eps = coef @ tab.cosq
@@ -156,12 +156,12 @@ class _Observer:
             self.max_delta, self.max_delta_t = delta_max, t
         self._locate_maxima(t, force, delta_max)
         self.peak_work = max(self.peak_work, work)
-        if p.free_body:
+        if self.free:
             if np.isnan(self.stop_t) and self.previous_speed > 0.0 >= U:
                 self.stop_t, self.depth = t, s
             if not np.isnan(self.stop_t) and np.isnan(self.separation_t) and U < 0.0 and contacts == 0:
                 self.separation_t, self.separation_speed = t, -U
-            deficits = np.array([p.V * t - s, p.V - U])         # the kernels' body state (d, u)
+            deficits = np.array([V * t - s, V - U])             # the kernels' body state (d, u)
             self.body_residual = max(self.body_residual, abs(body_residual(tab.model.body, t, deficits, work)))
             self.previous_speed = U
 
@@ -186,118 +186,174 @@ class _Observer:
                                                            kn.D_CONTACT_EXTENT]
         diag[zone] = self.zone_diag[zone]
         diag[kn.D_ENERGY_JUMPS] = 0.0                 # DOP853 has no energy guard
-        if self.p.free_body:
+        if self.free:
             diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION] = self.stop_t, self.depth
             diag[kn.D_SEPARATION_T], diag[kn.D_SEPARATION_SPEED] = self.separation_t, self.separation_speed
             diag[kn.D_BODY_RESIDUAL] = self.body_residual / self.peak_work if self.peak_work > 0 else 0.0
         return records[0], records[1]
 
 
-def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps, first_step=None,
-                     bottom_gap=BOTTOM_GAP, until_separation=False, zone_margin=1.0, coupled_damping=False):
-    """Returns (status, n_out, out_a, out_adot, out_series, diag, failure, records) with the meaning of
-    :func:`solver.loop.integrate` (the error column all NaN: DOP853 gives no local error
-    estimates back); failure names what stopped it, or "". coupled_damping: a viscoelastic floe's
-    whole Kelvin-Voigt damping matrix in its wet modes, where the kernels keep its diagonal (to
-    measure what that leaves out; docs/model.md, "A free floe"). A free body's run that asks to end
-    at separation ends at the first step after which it is off the ice, moving up."""
-    try:
-        from scipy.integrate import DOP853
-        from scipy.optimize import brentq
-    except ImportError:                                      # pragma: no cover
-        from .parameters import ParameterError
-        raise ParameterError("integrator dop853 needs scipy: pip install scipy") from None
-    N = tab.lam.size                                  # 2 Nmod on the full plate of an off-centre body
-    J = tab.xq.size
-    delta, fvals, P = np.empty(J), np.empty(J), np.empty(N)
-    om2 = tab.omega**2
-    model = tab.model
-    accel = np.empty(N)
-    gap = np.empty(3)
-    nfev = [0]
-    level = 1.0 - bottom_gap
+class _System:
+    """DOP853's first-order system y = (a_n, da_n/dt, W), then a free body's (s, U), then the
+    dissipated energy D where the ice or the layer is viscoelastic; on the kernels' model
+    functions. coupled_damping: a viscoelastic floe's whole damping matrix (its off-diagonal part
+    here; the kernels keep the diagonal)."""
 
-    coupling = None
-    if coupled_damping and tab.floe is not None and p.tau > 0:
-        coupling = tab.floe["damping_matrix"] - np.diag(np.diag(tab.floe["damping_matrix"]))
-    free = p.free_body
-    damped = p.tau > 0 or p.layer_tau > 0             # D: the plate's and the layer's dissipation
-    n_extra = 3 if free else 1
+    def __init__(self, tab, coupled_damping=False):
+        self.tab, self.model = tab, tab.model
+        N, J = tab.lam.size, tab.xq.size               # 2 Nmod on the full plate of an off-centre body
+        self.N = N
+        self.delta, self.fvals, self.P, self.accel, self.gap = (np.empty(J), np.empty(J), np.empty(N), np.empty(N),
+                                                                np.empty(3))
+        self.om2 = tab.omega**2
+        self.nfev = 0
+        viscous_ice = bool(np.any(tab.damping > 0))
+        self.coupling = None
+        if coupled_damping and tab.floe is not None and viscous_ice:
+            self.coupling = tab.floe["damping_matrix"] - np.diag(np.diag(tab.floe["damping_matrix"]))
+        self.V = self.model.body.V
+        self.free = self.model.body.inv_mass > 0.0
+        self.damped = viscous_ice or self.model.layer.tau > 0   # D: the plate's and the layer's dissipation
+        self.n_extra = 3 if self.free else 1
 
-    def position(t, y):
-        return y[2 * N + 1] if free else p.V * t
+    def initial(self, t_start, a0, v0):
+        return np.concatenate([a0, v0, [0.0, self.V * t_start, self.V] if self.free else [0.0],
+                               [0.0] if self.damped else []])
 
-    def speed(y):
-        return y[2 * N + 2] if free else p.V
+    def position(self, t, y):
+        return y[2 * self.N + 1] if self.free else self.V * t
 
-    def forcing(t, y):
-        return layer_forcing_at(model, position(t, y), speed(y), np.ascontiguousarray(y[:N]),
-                                np.ascontiguousarray(y[N:2 * N]), delta, fvals, P)
+    def speed(self, y):
+        return y[2 * self.N + 2] if self.free else self.V
 
-    def rhs(t, y):
-        nfev[0] += 1
-        st, F, _, layer_power = forcing(t, y)
+    def forcing(self, t, y):
+        N = self.N
+        return layer_forcing_at(self.model, self.position(t, y), self.speed(y), np.ascontiguousarray(y[:N]),
+                                np.ascontiguousarray(y[N:2 * N]), self.delta, self.fvals, self.P)
+
+    def rhs(self, t, y):
+        N, model, accel = self.N, self.model, self.accel
+        self.nfev += 1
+        st, F, _, layer_power = self.forcing(t, y)
         if st != 0:
             raise _StageDeltaOne(t)
         v = np.ascontiguousarray(y[N:2 * N])
-        power = mode_acceleration(model.plate, np.ascontiguousarray(y[:N]), v, P, accel)
-        if coupling is not None:                     # the off-diagonal damping, and its power
-            extra = coupling @ v
+        power = mode_acceleration(model.plate, np.ascontiguousarray(y[:N]), v, self.P, accel)
+        if self.coupling is not None:                # the off-diagonal damping, and its power
+            extra = self.coupling @ v
             np.subtract(accel, extra, out=accel)
-            power += float(np.sum(tab.LM * v * extra))
-        tail = [power + layer_power] if damped else []
-        if free:
+            power += float(np.sum(self.tab.LM * v * extra))
+        tail = [power + layer_power] if self.damped else []
+        if self.free:
             U = y[2 * N + 2]
             return np.concatenate([v, accel, [F * U, U, -body_accel(model.body, F)], tail])
-        return np.concatenate([v, accel, [p.V * F], tail])
+        return np.concatenate([v, accel, [self.V * F], tail])
 
-    def largest_delta(t, y):
-        st, _, jmax, _ = forcing(t, y)
+    def largest_delta(self, t, y):
+        """The gap (largest delta, its rate and place) into self.gap; returns the largest delta."""
+        st, _, jmax, _ = self.forcing(t, y)
         if st != 0:
             return np.inf
-        gap_peak(model, position(t, y), speed(y), delta, jmax, np.ascontiguousarray(y[:N]),
-                 np.ascontiguousarray(y[N:2 * N]), gap)
-        return gap[0]
+        N = self.N
+        gap_peak(self.model, self.position(t, y), self.speed(y), self.delta, jmax, np.ascontiguousarray(y[:N]),
+                 np.ascontiguousarray(y[N:2 * N]), self.gap)
+        return self.gap[0]
 
-    T = times.size
-    out_a, out_v = np.full((T, N), np.nan), np.full((T, N), np.nan)
-    series = np.full((T, kn.N_SERIES), np.nan)
-    diag = np.full(kn.N_DIAG, np.nan)
+    def record(self, out, k, t, y):
+        """Row k of the outputs at t."""
+        N, model = self.N, self.model
+        a, v, work = y[:N], y[N:2 * N], y[2 * N]
+        st, F, jmax, _ = self.forcing(t, y)
+        out.a[k], out.adot[k] = a, v
+        series = out.series
+        series[k, kn.S_CONTACTS] = count_contacts(self.delta, jmax, model.basis.mirror)
+        series[k, kn.S_FORCE] = F
+        series[k, kn.S_E_PLATE] = 0.5 * np.sum(self.tab.LM * (v**2 + self.om2 * a**2))
+        series[k, kn.S_E_LAYER] = layer_energy(model, np.ascontiguousarray(a), self.position(t, y), self.delta, jmax)
+        series[k, kn.S_WORK] = work
+        series[k, kn.S_BODY_POSITION] = self.position(t, y)
+        series[k, kn.S_BODY_SPEED] = self.speed(y)
+        series[k, kn.S_DISSIPATED] = y[2 * N + self.n_extra] if self.damped else 0.0
+
+    def observe(self, observer, t, y):
+        """The observer's sample at t."""
+        N = self.N
+        st, F, jmax, _ = self.forcing(t, y)
+        contacts = count_contacts(self.delta, jmax, self.model.basis.mirror)
+        dmax = self.largest_delta(t, y)              # (it recomputes delta: the same values)
+        observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, dmax, self.position(t, y), self.speed(y),
+                        self.delta, jmax)
+
+
+def _bottoming(system, level, t_old, t_new, y_new, dense):
+    """The first time in the step at which the largest delta reaches level (brentq on the dense
+    output; the step's end, and 8 points inside where the gap is already small), or None."""
+    from scipy.optimize import brentq
+    probe = [t_new]
+    if system.largest_delta(t_new, y_new) > 0.9 or system.largest_delta(t_old, dense(t_old)) > 0.9:
+        probe = list(np.linspace(t_old, t_new, 9)[1:])
+    below = t_old
+    for tp in probe:
+        if system.largest_delta(tp, dense(tp)) >= level:
+            if system.largest_delta(below, dense(below)) >= level:
+                return below
+            return brentq(lambda tt: min(system.largest_delta(tt, dense(tt)), 2.0) - level, below, tp,
+                          xtol=1e-16, rtol=1e-15)
+        below = tp
+    return None
+
+
+def _summary(out, n_out, status, reason, t_reached, counts):
+    """The diagnostics at the end of the run from the output rows: work, dissipated energy and the
+    energy residual; counts = (forcing evaluations, steps)."""
+    diag, series = out.diag, out.series
+    if status not in (kn.OK, kn.SEPARATED):
+        diag[kn.D_FAIL_T] = t_reached
+        diag[kn.D_FAIL_KIND] = reason
+    diag[kn.D_T_REACHED] = t_reached
+    if n_out:
+        e = series[:n_out]
+        work = e[-1, kn.S_WORK]
+        peak = e[:, kn.S_WORK].max()
+        diag[kn.D_WORK] = work
+        residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] + e[:, kn.S_DISSIPATED] - e[:, kn.S_WORK]
+                          - e[0, kn.S_E_PLATE] - e[0, kn.S_E_LAYER])
+        diag[kn.D_DISSIPATED] = e[-1, kn.S_DISSIPATED]
+        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / peak if peak > 0 else 0.0
+    diag[kn.D_RHS], diag[kn.D_STEPS] = counts
+    diag[kn.D_REJECTED] = 0
+
+
+def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_damping=False):
+    """The interface of :func:`solver.loop.integrate` on DOP853: fills out (Outputs; the error
+    column NaN: DOP853 gives no local error estimates back; levels are not located: level_t stays
+    NaN) and returns (status, n_out, records, failure), records = (upper, n, lower, n, contacts, 0)
+    (no contact record), failure what stopped it or "". A free body's run that asks to end at
+    separation ends at the first step after which it is off the ice, moving up. coupled_damping:
+    see _System (to measure what the kernels' diagonal damping of a floe leaves out)."""
+    try:
+        from scipy.integrate import DOP853
+    except ImportError:                                      # pragma: no cover
+        from .parameters import ParameterError
+        raise ParameterError("integrator dop853 needs scipy: pip install scipy") from None
+    system = _System(tab, coupled_damping)
+    N, T, diag = system.N, t_out.size, out.diag
+    level = 1.0 - control.bottom_gap
     diag[kn.D_FAIL_KIND] = kn.FAIL_NONE
     status, reason, failure = kn.OK, kn.FAIL_NONE, ""
-    y0 = np.concatenate([a0, v0, [0.0, p.V * t_start, p.V] if free else [0.0], [0.0] if damped else []])
+    t_start, t_end = control.t_start, control.t_end
+    y0 = system.initial(t_start, a0, adot0)
     k = 0
-
-    def record(t, y):
-        nonlocal k
-        a, v, work = y[:N], y[N:2 * N], y[2 * N]
-        st, F, jmax, _ = forcing(t, y)
-        out_a[k], out_v[k] = a, v
-        series[k, kn.S_CONTACTS] = count_contacts(delta, jmax, model.basis.mirror)
-        series[k, kn.S_FORCE] = F
-        series[k, kn.S_E_PLATE] = 0.5 * np.sum(tab.LM * (v**2 + om2 * a**2))
-        series[k, kn.S_E_LAYER] = layer_energy(model, np.ascontiguousarray(a), position(t, y), delta, jmax)
-        series[k, kn.S_WORK] = work
-        series[k, kn.S_BODY_POSITION] = position(t, y)
-        series[k, kn.S_BODY_SPEED] = speed(y)
-        series[k, kn.S_DISSIPATED] = y[2 * N + n_extra] if damped else 0.0
+    observer = _Observer(tab, control.zone_margin)
+    system.observe(observer, t_start, y0)
+    while k < T and t_out[k] <= t_start:
+        system.record(out, k, t_start, y0)
         k += 1
-
-    observer = _Observer(p, tab, zone_margin)
-
-    def observe(t, y):
-        st, F, jmax, _ = forcing(t, y)
-        contacts = count_contacts(delta, jmax, model.basis.mirror)
-        dmax = largest_delta(t, y)                   # (it recomputes delta: the same values)
-        observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, dmax, position(t, y), speed(y), delta, jmax)
-
-    observe(t_start, y0)
-    while k < T and times[k] <= t_start:
-        record(t_start, y0)
-    solver = DOP853(rhs, t_start, y0, t_end, rtol=tolerance, atol=tolerance * 1e-3, first_step=first_step)
+    solver = DOP853(system.rhs, t_start, y0, t_end, rtol=control.tolerance, atol=control.tolerance * 1e-3,
+                    first_step=control.h_init)
     t_reached, steps, dense = t_start, 0, None
     while solver.status == "running":
-        if steps >= max_steps:
+        if steps >= control.max_steps:
             status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS
             break
         t_old = solver.t
@@ -317,64 +373,37 @@ def integrate_dop853(p, tolerance, tab, times, t_start, t_end, a0, v0, max_steps
 
         def value_at(kind, tt, boundary=t_old, here=dense, before=previous_dense):
             y = here(tt) if tt >= boundary or before is None else before(tt)
-            return forcing(tt, y)[1] if kind == 0 else largest_delta(tt, y)
+            return system.forcing(tt, y)[1] if kind == 0 else system.largest_delta(tt, y)
         observer.value_at = value_at
-        # bottoming: the step end, and inside the step where the gap is already small
-        probe = [solver.t]
-        if largest_delta(solver.t, solver.y) > 0.9 or largest_delta(t_old, dense(t_old)) > 0.9:
-            probe = list(np.linspace(t_old, solver.t, 9)[1:])
-        t_bottom = None
-        below = t_old
-        for tp in probe:
-            if largest_delta(tp, dense(tp)) >= level:
-                if largest_delta(below, dense(below)) >= level:
-                    t_bottom = below
-                else:
-                    t_bottom = brentq(lambda tt: min(largest_delta(tt, dense(tt)), 2.0) - level, below, tp,
-                                      xtol=1e-16, rtol=1e-15)
-                break
-            below = tp
+        t_bottom = _bottoming(system, level, t_old, solver.t, solver.y, dense)
         t_stop = solver.t if t_bottom is None else t_bottom
         for tp in np.linspace(t_old, t_stop, SAMPLES + 1)[1:]:
-            observe(tp, dense(tp))
-        if until_separation and t_bottom is None and free and solver.y[2 * N + 2] < 0.0:
+            system.observe(observer, tp, dense(tp))
+        if control.until_separation and t_bottom is None and system.free and solver.y[2 * N + 2] < 0.0:
             if math.isnan(diag[kn.D_STOP_T]):
                 diag[kn.D_STOP_T] = t_old          # bracketed to the step only
-            st, F, jmax, _ = forcing(solver.t, solver.y)
-            if count_contacts(delta, jmax, model.basis.mirror) == 0:
-                while k < T and times[k] <= t_stop:
-                    record(times[k], dense(times[k]))
+            st, F, jmax, _ = system.forcing(solver.t, solver.y)
+            if count_contacts(system.delta, jmax, tab.model.basis.mirror) == 0:
+                while k < T and t_out[k] <= t_stop:
+                    system.record(out, k, t_out[k], dense(t_out[k]))
+                    k += 1
                 t_reached = t_stop
                 status, reason = kn.SEPARATED, kn.FAIL_NONE
                 diag[kn.D_SEPARATION_T] = solver.t
                 diag[kn.D_SEPARATION_SPEED] = -solver.y[2 * N + 2]
                 break
-        while k < T and times[k] <= t_stop:
-            record(times[k], dense(times[k]))
+        while k < T and t_out[k] <= t_stop:
+            system.record(out, k, t_out[k], dense(t_out[k]))
+            k += 1
         t_reached = t_stop
         if t_bottom is not None:
-            y = dense(t_bottom)
-            largest_delta(t_bottom, y)
+            system.largest_delta(t_bottom, dense(t_bottom))
+            gap = system.gap
             status, reason = kn.LAYER_BOTTOMED_OUT, kn.FAIL_LOCATED
-            diag[kn.D_BOTTOM_T], diag[kn.D_BOTTOM_X], diag[kn.D_BOTTOM_SPEED] = t_bottom, gap[2], p.he * gap[1]
+            diag[kn.D_BOTTOM_T], diag[kn.D_BOTTOM_X] = t_bottom, gap[2]
+            diag[kn.D_BOTTOM_SPEED] = tab.model.layer.he * gap[1]
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = np.inf, t_bottom
             break
-    records = observer.finish(diag)
-    if status not in (kn.OK, kn.SEPARATED):
-        diag[kn.D_FAIL_T] = t_reached
-        diag[kn.D_FAIL_KIND] = reason
-    diag[kn.D_T_REACHED] = t_reached
-    n_out = k
-    if n_out:
-        e = series[:n_out]
-        work = e[-1, kn.S_WORK]
-        peak = e[:, kn.S_WORK].max()
-        diag[kn.D_WORK] = work
-        residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] + e[:, kn.S_DISSIPATED] - e[:, kn.S_WORK]
-                          - e[0, kn.S_E_PLATE] - e[0, kn.S_E_LAYER])
-        diag[kn.D_DISSIPATED] = e[-1, kn.S_DISSIPATED]
-        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / peak if peak > 0 else 0.0
-    diag[kn.D_RHS] = nfev[0]
-    diag[kn.D_STEPS] = steps
-    diag[kn.D_REJECTED] = 0
-    return status, n_out, out_a, out_v, series, diag, failure, records
+    up, lo = observer.finish(diag)
+    _summary(out, k, status, reason, t_reached, (system.nfev, steps))
+    return status, k, (up, up.shape[0], lo, lo.shape[0], np.empty((0, 2)), 0), failure
