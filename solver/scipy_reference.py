@@ -10,16 +10,17 @@ located event, as in the kernels: the first time the largest delta on the contin
 reaches 1 - bottoming_gap, found by brentq on the dense output. DOP853 has no step rejection
 on delta >= 1: a stage there ends the run, with the time and scipy's step in the message,
 and so does a step failure, with scipy's own reason. The kernels' in-loop diagnostics (largest
-tensions and their records, so crack onset; contacts, force, compression; a free body's stop,
-separation and balance) are observed on the dense output at SAMPLES points a step, not located
-inside steps, but for the largest force and compression: where a sample is a local maximum of
-its neighbours, the maximum between them is located on the dense output (scipy's bounded Brent),
-as the kernels locate it on sub-steps (solver.observe.layer_maxima). The contact record stays
-empty. scipy is imported here only.
+tensions and their records, so crack onset; contacts, force, compression; a free body's
+balance) are observed on the dense output at SAMPLES points a step, not located inside steps,
+but for the largest force and compression: where a sample is a local maximum of its neighbours,
+the maximum between them is located on the dense output (scipy's bounded Brent), as the kernels
+locate it on sub-steps (solver.observe.layer_maxima). Between samples, the kernels' own
+observers of the impact zone (solver.observe.zone) and of a free body's stop and separation
+(solver.observe.body) run on them as on step ends. The contact record stays empty. scipy is
+imported here only.
 """
 from __future__ import annotations
 
-import math
 
 import numpy as np
 
@@ -30,6 +31,7 @@ from .model.basis import field_sum, global_peak, node_strain
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
+from .observe.body import observe_body
 from .observe.zone import observe_zone, zone_work
 
 
@@ -77,10 +79,11 @@ def _record_max(rec):
 
 class _Observer:
     """The in-loop diagnostics of the kernels, observed on DOP853's dense output at SAMPLES
-    points a step (not located inside steps as the kernels locate them): the largest tensions
-    with their places and times and their running-maximum records (so crack onset for any
-    eps_Y, solver.fracture), contacts, force, compression, a free body's stop, separation and
-    energy balance, and the impact zone's maxima (solver.observe.zone) between samples."""
+    points a step: the largest tensions with their places and times and their running-maximum
+    records (so crack onset for any eps_Y, solver.fracture), contacts, the force and compression
+    (located around their largest samples), a free body's energy balance; and by the kernels'
+    own observers between samples, the impact zone's maxima (solver.observe.zone) and a free
+    body's stop and separation (solver.observe.body)."""
 
     def __init__(self, tab, zone_margin):
         self.tab, self.body = tab, tab.model.body
@@ -92,8 +95,9 @@ class _Observer:
         self.last = [None, None]               # each surface's previous sample row
         self.max_contacts = self.max_force = self.max_delta = 0.0
         self.max_force_t = self.max_delta_t = np.nan
-        self.stop_t = self.depth = self.separation_t = self.separation_speed = np.nan
-        self.previous_speed = self.body.V
+        self.body_diag = np.full(kn.N_DIAG, np.nan)   # a free body's ends, by the kernels' observer
+        self.body_last = None                          # the previous sample's (t, yb, force)
+        self.no_record = (np.empty((0, 2)), np.int64(0))
         self.body_residual = 0.0
         self.peak_work = 0.0
         self.history = []                      # the last three samples (t, force, largest delta)
@@ -157,13 +161,13 @@ class _Observer:
         self._locate_maxima(t, force, delta_max)
         self.peak_work = max(self.peak_work, work)
         if self.free:
-            if np.isnan(self.stop_t) and self.previous_speed > 0.0 >= U:
-                self.stop_t, self.depth = t, s
-            if not np.isnan(self.stop_t) and np.isnan(self.separation_t) and U < 0.0 and contacts == 0:
-                self.separation_t, self.separation_speed = t, -U
             deficits = np.array([V * t - s, V - U])             # the kernels' body state (d, u)
+            if self.body_last is not None:            # its stops and separation between the samples
+                t0, yb0, F0 = self.body_last
+                observe_body(self.body, t0, t - t0, yb0, deficits, F0, force, np.int64(contacts), self.no_record,
+                             self.body_diag)
+            self.body_last = (t, deficits, force)
             self.body_residual = max(self.body_residual, abs(body_residual(tab.model.body, t, deficits, work)))
-            self.previous_speed = U
 
     def finish(self, diag):
         """The diagnostics into diag (the kernels' slots); returns the records (upper, lower)."""
@@ -187,8 +191,8 @@ class _Observer:
         diag[zone] = self.zone_diag[zone]
         diag[kn.D_ENERGY_JUMPS] = 0.0                 # DOP853 has no energy guard
         if self.free:
-            diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION] = self.stop_t, self.depth
-            diag[kn.D_SEPARATION_T], diag[kn.D_SEPARATION_SPEED] = self.separation_t, self.separation_speed
+            ends = [kn.D_STOP_T, kn.D_MAX_PENETRATION, kn.D_SEPARATION_T, kn.D_SEPARATION_SPEED]
+            diag[ends] = self.body_diag[ends]
             diag[kn.D_BODY_RESIDUAL] = self.body_residual / self.peak_work if self.peak_work > 0 else 0.0
         return records[0], records[1]
 
@@ -380,8 +384,6 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         for tp in np.linspace(t_old, t_stop, SAMPLES + 1)[1:]:
             system.observe(observer, tp, dense(tp))
         if control.until_separation and t_bottom is None and system.free and solver.y[2 * N + 2] < 0.0:
-            if math.isnan(diag[kn.D_STOP_T]):
-                diag[kn.D_STOP_T] = t_old          # bracketed to the step only
             st, F, jmax, _ = system.forcing(solver.t, solver.y)
             if count_contacts(system.delta, jmax, tab.model.basis.mirror) == 0:
                 while k < T and t_out[k] <= t_stop:
@@ -389,8 +391,6 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
                     k += 1
                 t_reached = t_stop
                 status, reason = kn.SEPARATED, kn.FAIL_NONE
-                diag[kn.D_SEPARATION_T] = solver.t
-                diag[kn.D_SEPARATION_SPEED] = -solver.y[2 * N + 2]
                 break
         while k < T and t_out[k] <= t_stop:
             system.record(out, k, t_out[k], dense(t_out[k]))
