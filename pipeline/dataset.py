@@ -9,6 +9,7 @@ import numpy as np
 import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, default_eps_Y
+from solver.outputs import SERIES
 from solver.parameters import CHOICES
 
 from . import provenance
@@ -16,15 +17,9 @@ from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
 from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
                      TEXT_INFO, diagnostic_values, run_records)
 
-#: the energy series a Result carries beside the study's series: name -> (Result attribute,
-#: long_name, units); work and dissipated_energy are the run's totals, as in study.nc
-ENERGY_INFO = {
-    "plate_energy": ("plate_energy", "kinetic + elastic energy of the plate per unit width", "J m-1"),
-    "layer_energy": ("layer_energy", "energy stored in the layer per unit width", "J m-1"),
-    "work_over_time": ("work", "work done by the body on the ice up to each time, int F U dt", "J m-1"),
-    "dissipated_energy_over_time": ("dissipated_energy", "energy dissipated in viscoelastic ice and layer up "
-                                    "to each time (0: elastic)", "J m-1"),
-}
+#: the series a Result carries beside the study's (solver.outputs.SERIES): name -> (Result
+#: attribute, long_name, units); work and dissipated_energy are the run's totals, as in study.nc
+ENERGY_INFO = {row.name: (row.attribute, row.long_name, row.units) for row in SERIES if row.stored == "case"}
 
 
 def _attrs(long_name: str, units: str | None = None) -> dict:

@@ -7,19 +7,16 @@ pipeline."""
 import math
 
 from solver import DIAGNOSTIC_INFO, STATUS_INFO
+from solver.outputs import SERIES, TENSION_RECORD
 
-#: variable name -> (long_name, units) for the per-case series and run records
+#: variable name -> (long_name, units) for the per-case series (the solver's table
+#: solver.outputs.SERIES, and the time) and run records
 SERIES_INFO = {
     "time": ("time since first touch", "s"),
-    "contact_intervals": ("number of disjoint contact intervals on -L..L", "1"),
-    "force": ("force on the body per unit width", "N m-1"),
+    **{row.name: (row.long_name, row.units) for row in SERIES if row.stored == "study"},
 }
 #: series of a study with a free body (finite body_mass in some case): left out otherwise
-BODY_SERIES_INFO = {
-    "body_position": ("penetration s of the body below first touch: its lowest point is at he - s "
-                      "(V t for the paper's body at constant speed)", "m"),
-    "body_speed": ("downward speed U of the body (V for the paper's body)", "m s-1"),
-}
+BODY_SERIES_INFO = {row.name: (row.long_name, row.units) for row in SERIES if row.stored == "body"}
 RECORD_INFO = {
     "t_sc": ("time scale 1/omega_1 of the case", "s"),
     "stage_duration": ("impact stage of the case, b_mean / V (L^2/(6 R V) for the paper's parabola)", "s"),
@@ -35,14 +32,8 @@ TEXT_INFO = {
     "message": "what went wrong, empty when status is ok",
 }
 #: the running-maximum tension record of each surface (solver.fracture), ragged along
-#: tension_node; crack onset for any eps_Y follows from it
-TENSION_RECORD_INFO = {
-    "tension_record_time": ("time of a node of the running-maximum tension record", "s"),
-    "tension_record_value": ("peak tension over x at the node (upper: +strain, lower: -strain)", "1"),
-    "tension_record_rate": ("time derivative of the peak tension at the node", "s-1"),
-    "tension_record_x": ("position of the peak at the node (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
-    "tension_record_join": ("1: the node continues the previous one (a Hermite piece between them)", "1"),
-}
+#: tension_node; crack onset for any eps_Y follows from it (solver.outputs.TENSION_RECORD)
+TENSION_RECORD_INFO = {row.name: (row.long_name, row.units) for row in TENSION_RECORD}
 CONTACT_RECORD_INFO = {
     "contact_change_time": ("time at which the number of contact intervals changed (first entry: "
                             "first touch)", "s"),

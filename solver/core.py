@@ -22,7 +22,7 @@ from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
-from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, POSITION_SLOTS
+from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, POSITION_SLOTS, SERIES
 from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError
 from .settings import Settings, check_combination
@@ -45,6 +45,7 @@ class Result:
     fields: dict                       # name -> (T, X) array
     amplitudes: np.ndarray             # (T, N) a_n of cos(lambda_n x) [m]
     velocities: np.ndarray             # (T, N) da_n/dt [m s-1]
+    # the series over the output times (solver.outputs.SERIES: names, units, meaning)
     contact_intervals: np.ndarray      # (T,) contact intervals on -L..L
     force: np.ndarray                  # (T,) F [N m-1]
     plate_energy: np.ndarray           # (T,) [J m-1]
@@ -314,7 +315,6 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     status = kn.STATUS_NAMES[code]
     t_reached = float(diag[kn.D_T_REACHED])
     out_err = series[:, kn.S_ERR]
-    body_s = series[:, kn.S_BODY_POSITION]
     valid = np.arange(T) < n_out
     diag[list(POSITION_SLOTS)] += tab.origin        # kernel coordinates -> x on the plate
     level_x += tab.origin
@@ -349,16 +349,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     return Result(
         parameters=p, settings=s, times=times, x=x, fields=field_values,
         amplitudes=sym_a, velocities=sym_v, antisymmetric_amplitudes=anti_a, antisymmetric_velocities=anti_v,
-        contact_intervals=series[:, kn.S_CONTACTS],
-        force=series[:, kn.S_FORCE], plate_energy=series[:, kn.S_E_PLATE],
-        layer_energy=series[:, kn.S_E_LAYER], work=series[:, kn.S_WORK],
-        dissipated_energy=series[:, kn.S_DISSIPATED],
+        **{row.attribute: series[:, i] for i, row in enumerate(SERIES) if row.attribute is not None},
         valid=valid, diagnostics=diagnostics, status=status, message=message,
         time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
         forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),
         largest_step=float(diag[kn.D_H_MAX]), wall_time=wall, tension_record=records,
-        contact_record=contact_record, extra=extra, body_position=body_s,
-        body_speed=series[:, kn.S_BODY_SPEED])
+        contact_record=contact_record, extra=extra)
 
 
 def compile_kernels() -> None:

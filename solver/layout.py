@@ -1,10 +1,10 @@
 """The layouts the kernels and their adapters share, declared once: status and failure codes,
-the integrator codes, the diagnostics vector (D_*, generated from the table solver.outputs.DIAGNOSTICS,
-which gives each its name, units and meaning), the per-output-time series (S_*), the tension
-record's columns (R_*) and the body's state (B_*). The meaning of every status is docs/model.md,
+the integrator codes, the diagnostics vector (D_*), the per-output-time series (S_*) and the
+tension record's columns (R_*), each generated from its table in solver.outputs (which gives
+each its name, units and meaning), and the body's state (B_*). The meaning of every status is docs/model.md,
 "Statuses". Plain integers: numba folds them into the kernels as constants.
 """
-from .outputs import SLOTS as _SLOTS
+from .outputs import RECORD_SLOTS as _RECORD_SLOTS, SERIES_SLOTS as _SERIES_SLOTS, SLOTS as _SLOTS
 
 # status codes returned by :func:`integrate`
 OK = 0
@@ -36,14 +36,13 @@ FAIL_LOCATED = 6           # the gap closed to bottom_gap: located bottoming eve
 FAIL_ENERGY_JUMP = 7       # the energy identity jumped and no smaller step mended it
 FAIL_ENERGY_BOUND = 8      # the run ended with its energy residual above ENERGY_BOUND
 
-# columns of a tension record row (see observe_tension)
-R_T, R_VALUE, R_RATE, R_X, R_JOIN = 0, 1, 2, 3, 4
-N_REC = 5
+# columns of a tension record row (observe.tension): R_<slot>, from solver.outputs.TENSION_RECORD
+globals().update({f"R_{slot}": index for index, slot in enumerate(_RECORD_SLOTS)})
+N_REC = len(_RECORD_SLOTS)
 
-# columns of integrate's per-output-time series ``out_series``
-(S_CONTACTS, S_FORCE, S_E_PLATE, S_E_LAYER, S_WORK, S_ERR, S_BODY_POSITION, S_BODY_SPEED,
- S_DISSIPATED) = range(9)
-N_SERIES = 9
+# columns of integrate's per-output-time series ``out_series``: S_<slot>, from solver.outputs.SERIES
+globals().update({f"S_{slot}": index for index, slot in enumerate(_SERIES_SLOTS)})
+N_SERIES = len(_SERIES_SLOTS)
 # the body's state: deficits against the prescribed motion, d = V t - s and u = V - U
 B_D, B_U = 0, 1
 

@@ -1,4 +1,5 @@
-"""What a run reports, declared once: one row per diagnostic, and the fields.
+"""What a run reports, declared once: one row per diagnostic, per series over the output times,
+per column of the tension record, and the fields.
 
 ``DIAGNOSTICS`` is the diagnostics vector of the kernels (solver.layout generates its slots
 ``D_<slot>`` from the rows that have one, in this order) and the diagnostics a Result, a batch
@@ -108,6 +109,48 @@ POSITION_SLOTS = tuple(SLOTS.index(row.slot) for row in DIAGNOSTICS if row.posit
 #: diagnostic name -> (long_name, units, kernel slot or None), in the order they are stored
 DIAGNOSTIC_INFO = {row.name: (row.long_name, row.units, None if row.slot is None else SLOTS.index(row.slot))
                    for row in DIAGNOSTICS if row.name is not None}
+
+#: one series over the output times: the kernel's slot (S_<slot> in solver.layout), the stored
+#: name (None: the kernel's own), the Result's attribute, units, long name, and where it is
+#: stored: "study" (batch files and study.nc), "body" (there too, in a study with a free body),
+#: "case" (a case's Dataset only: Result.to_dataset)
+Series = namedtuple("Series", "slot name attribute units long_name stored")
+
+SERIES = (
+    Series("CONTACTS", "contact_intervals", "contact_intervals", "1", "number of disjoint contact intervals on -L..L",
+           "study"),
+    Series("FORCE", "force", "force", "N m-1", "force on the body per unit width", "study"),
+    Series("E_PLATE", "plate_energy", "plate_energy", "J m-1", "kinetic + elastic energy of the plate per unit width",
+           "case"),
+    Series("E_LAYER", "layer_energy", "layer_energy", "J m-1", "energy stored in the layer per unit width", "case"),
+    Series("WORK", "work_over_time", "work", "J m-1", "work done by the body on the ice up to each time, int F U dt",
+           "case"),
+    Series("ERR", None, None, "1", "summed local strain error estimates up to each time (the rk4 error estimate)",
+           None),
+    Series("BODY_POSITION", "body_position", "body_position", "m", "penetration s of the body below first touch: "
+           "its lowest point is at he - s (V t for the paper's body at constant speed)", "body"),
+    Series("BODY_SPEED", "body_speed", "body_speed", "m s-1", "downward speed U of the body (V for the paper's body)",
+           "body"),
+    Series("DISSIPATED", "dissipated_energy_over_time", "dissipated_energy", "J m-1", "energy dissipated in "
+           "viscoelastic ice and layer up to each time (0: elastic)", "case"),
+)
+SERIES_SLOTS = tuple(row.slot for row in SERIES)
+
+#: the columns of a tension record's rows (R_<slot> in solver.layout; solver.fracture): the stored
+#: name (with _upper or _lower), units, long name
+RecordColumn = namedtuple("RecordColumn", "slot name units long_name")
+
+TENSION_RECORD = (
+    RecordColumn("T", "tension_record_time", "s", "time of a node of the running-maximum tension record"),
+    RecordColumn("VALUE", "tension_record_value", "1", "peak tension over x at the node (upper: +strain, lower: "
+                 "-strain)"),
+    RecordColumn("RATE", "tension_record_rate", "s-1", "time derivative of the peak tension at the node"),
+    RecordColumn("X", "tension_record_x", "m", "position of the peak at the node (centred impact: x >= 0, mirrored "
+                 "at -x; off centre: signed)"),
+    RecordColumn("JOIN", "tension_record_join", "1", "1: the node continues the previous one (a Hermite piece "
+                 "between them)"),
+)
+RECORD_SLOTS = tuple(row.slot for row in TENSION_RECORD)
 
 #: field name -> (long_name, units)
 FIELD_INFO = {

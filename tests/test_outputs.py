@@ -46,3 +46,24 @@ def test_positions_are_on_the_plate():
         name = next(n for n, (_, _, slot) in DIAGNOSTIC_INFO.items() if slot == i)
         if np.isfinite(right.diagnostics[name]):
             assert abs(right.diagnostics[name] + left.diagnostics[name]) < 1e-6 * right.parameters.L, name
+
+
+def test_the_series_and_record_layouts_are_their_tables():
+    """S_<slot> and R_<slot> are the rows of solver.outputs.SERIES and TENSION_RECORD; every
+    series a Result carries is a row, and the study's and a case's variables take their names
+    and units from there."""
+    from pipeline.dataset import ENERGY_INFO
+    from pipeline.tables import BODY_SERIES_INFO, SERIES_INFO, TENSION_RECORD_INFO
+    from solver.outputs import SERIES, TENSION_RECORD
+    for index, row in enumerate(SERIES):
+        assert getattr(kn, f"S_{row.slot}") == index and row.units and row.long_name
+    assert kn.N_SERIES == len(SERIES) and kn.N_REC == len(TENSION_RECORD)
+    for index, row in enumerate(TENSION_RECORD):
+        assert getattr(kn, f"R_{row.slot}") == index
+    stored = {**SERIES_INFO, **BODY_SERIES_INFO, **{k: v[1:] for k, v in ENERGY_INFO.items()}}
+    assert {row.name for row in SERIES if row.name} == set(stored) - {"time"}
+    assert list(TENSION_RECORD_INFO) == [row.name for row in TENSION_RECORD]
+    r = solve(Parameters(Nmod=6), Settings(error_estimate=False), fields=(), t_end=0.01)
+    for row in SERIES:
+        if row.attribute:
+            assert getattr(r, row.attribute).shape == r.times.shape
