@@ -106,7 +106,6 @@ class _Observer:
     def _locate_maxima(self, t, force, delta_max):
         """Where the previous sample is a local maximum of the force or the largest delta, the
         maximum between its neighbours, on the dense output."""
-        from scipy.optimize import minimize_scalar
         self.history = (self.history + [(t, force, delta_max)])[-3:]
         if len(self.history) < 3 or self.value_at is None:
             return
@@ -114,6 +113,7 @@ class _Observer:
         for kind, attr in enumerate(("max_force", "max_delta")):
             if not (fb[kind] >= fa[kind] and fb[kind] > fc[kind]) or fb[kind] < (1 - 1e-2) * getattr(self, attr):
                 continue
+            from scipy.optimize import minimize_scalar     # (only where a sample is a candidate)
             res = minimize_scalar(lambda tt: -self.value_at(kind, tt), bounds=(a, c), method="bounded",
                                   options={"xatol": 1e-10 * (c - a), "maxiter": 200})
             value, when = (-res.fun, res.x) if -res.fun > fb[kind] else (fb[kind], b)

@@ -64,12 +64,18 @@ def maxima_work(N):
 
 
 @kernel
+def _store(mw, row, z, forcing, yb):
+    """A state's z, forcing and body into a row of the kept starts."""
+    copy_into(mw.forcing[row], forcing, mw.forcing.shape[1])
+    copy_into(mw.yb[row], yb, 2)
+    for n in range(mw.z.shape[1]):
+        mw.z[row, n] = z[n]
+
+
+@kernel
 def _keep(mw, row, t, start, carried, delta):
     """A start (at t, its carried scalars and largest delta) into row."""
-    copy_into(mw.forcing[row], start.forcing, mw.forcing.shape[1])
-    copy_into(mw.yb[row], start.yb, 2)
-    for n in range(mw.z.shape[1]):
-        mw.z[row, n] = start.z[n]
+    _store(mw, row, start.z, start.forcing, start.yb)
     sc = mw.scalars[row]
     sc[S_T], sc[S_FORCE], sc[S_WORK], sc[S_DISS] = t, carried.force, carried.work, carried.dissipated
     sc[S_POWER], sc[S_CONTACTS], sc[S_DELTA] = carried.power, float(carried.contacts), delta
@@ -77,11 +83,9 @@ def _keep(mw, row, t, start, carried, delta):
 
 @kernel
 def _copy_row(mw, source, target):
-    copy_into(mw.forcing[target], mw.forcing[source], mw.forcing.shape[1])
-    copy_into(mw.yb[target], mw.yb[source], 2)
+    """Row source of the kept starts into row target."""
+    _store(mw, target, mw.z[source], mw.forcing[source], mw.yb[source])
     copy_into(mw.scalars[target], mw.scalars[source], mw.scalars.shape[1])
-    for n in range(mw.z.shape[1]):
-        mw.z[target, n] = mw.z[source, n]
 
 
 @kernel
