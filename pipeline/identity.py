@@ -35,11 +35,20 @@ SAMPLE = "sample"
 SAMPLE_EVERY = 10
 
 
+def id_value(name: str, value):
+    """A parameter's value as a case id hashes it: a free floe's edges carry the revision of the
+    floe's results (solver/revision.py), so that a change of the floe's numerics recomputes the
+    floe's cases and no other."""
+    if name == "edges" and value == "free" and RESULTS_REVISION["floe"] > 0:
+        return f"free, results revision {RESULTS_REVISION['floe']}"
+    return value
+
+
 def id_parameters(parameters: dict) -> dict:
     """The parameters a case id hashes: those beyond the paper's model are left out at the
     value that is the paper's (H = inf), so ids from before they existed still hold."""
     from solver.parameters import PAPER_DEFAULTS
-    return {k: v for k, v in parameters.items() if not (k in PAPER_DEFAULTS and v == PAPER_DEFAULTS[k])}
+    return {k: id_value(k, v) for k, v in parameters.items() if not (k in PAPER_DEFAULTS and v == PAPER_DEFAULTS[k])}
 
 
 def _parameter_text(parameters: dict) -> str:
@@ -129,12 +138,12 @@ def grid_case_ids(study) -> list:
     normal = Parameters(**base_p).as_dict()
     # parameter fragments: '"name":value' in sorted order; grid keys vary; a value an id leaves
     # out (id_parameters: H = inf) has no fragment (None)
-    frag = {k: [('"%s":' % k + json.dumps(Parameters(**{**base_p, k: v}).as_dict()[k]))
+    frag = {k: [('"%s":' % k + json.dumps(id_value(k, Parameters(**{**base_p, k: v}).as_dict()[k])))
                 if id_parameters({k: Parameters(**{**base_p, k: v}).as_dict()[k]}) else None
                 for v in study.grid[k]] for k in pkeys}
     kept = id_parameters(normal)
     names = sorted(n for n in normal if n in kept or n in frag)
-    consts = {n: f'"{n}":' + json.dumps(normal[n]) for n in names if n not in frag}
+    consts = {n: f'"{n}":' + json.dumps(id_value(n, normal[n])) for n in names if n not in frag}
     output_text = _payload_text({}, {}, study.output)
     head, tail = output_text.split('"parameters":{}', 1)
     settings_split = tail.split('"settings":{}', 1)

@@ -332,7 +332,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         other = solve(p, looser, times=times[valid], fields=(), t_end=t_end, t_start=t_start,
                       initial_amplitudes=a0_sym, initial_velocities=v0_sym, until_separation=until_separation,
                       full_plate=tab.full_plate)
-        companion = tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes)
+        companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
+                     else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
         extra["error_estimate_wall_time"] = other.wall_time
     if s.error_estimate:                  # dop853 gives no local estimates: its time part is NaN
         diagnostics.update(error_estimates(out_a[valid], tab.strain_coef, diagnostics["energy_residual"],

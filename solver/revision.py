@@ -16,8 +16,12 @@ unchanged revision fails it; after a bump, ``make fingerprint`` records the new 
 History: paper 0 (its case ids carry no revision); gauss 2 (2026-11-25: the energy guard allows a
 step's work only from first touch; contact changes placed on the continuous plate); paper 1 and
 gauss 3 (2026-11-27: max_force and max_compression located inside the steps,
-solver.observe.layer_maxima; every other output bit for bit).
+solver.observe.layer_maxima; every other output bit for bit); floe 1 (2026-11-27: a free floe's
+results have a revision of their own, which its case ids carry beside the rule's: its modal sums
+O(N) a point from the dry modes' coefficients, its norms in closed form; the contact-resolving
+rule on a floe).
 """
 
-#: quadrature -> revision of the results of runs under it
-RESULTS_REVISION = {"paper": 1, "gauss": 3}
+#: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
+#: either rule, in addition to the rule's)
+RESULTS_REVISION = {"paper": 1, "gauss": 3, "floe": 1}

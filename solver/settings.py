@@ -145,9 +145,6 @@ class Settings:
 
 def check_combination(parameters: Parameters, settings: Settings) -> None:
     """Refuse parameters and settings that are each valid but do not go together (one line)."""
-    if parameters.edges == "free" and settings.quadrature != "paper":
-        raise ParameterError("a free floe (edges = 'free') runs the paper's quadrature for now: set quadrature = "
-                             "\"paper\" (the Gauss rule evaluates the walls' cosines)")
     if (parameters.tau > 0 or parameters.layer_tau > 0) and settings.integrator == "rk4":
         raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
                              "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")

@@ -46,8 +46,11 @@ def cases() -> dict:
             f"{rule} viscoelastic": (Parameters(tau=1e-3, layer_tau=1e-3, **few), S(), {}),
             f"{rule} wedge": (Parameters(deadrise=5.0, **few), S(), {}),
         })
-    cases["paper free floe"] = (Parameters(edges="free", L=6.0, duration=0.03, Nmod=8),
-                                Settings(quadrature="paper", error_estimate=False), {})
+    for rule in ("paper", "gauss"):
+        cases[f"{rule} free floe"] = (Parameters(edges="free", L=6.0, duration=0.03, Nmod=8),
+                                      Settings(quadrature=rule, error_estimate=False), {})
+    cases["gauss free floe off centre"] = (Parameters(edges="free", L=6.0, duration=0.01, Nmod=8, x0=0.7,
+                                                      deadrise=10.0), Settings(error_estimate=False), {})
     return cases
 
 
@@ -67,12 +70,13 @@ def _digest(result) -> str:
 
 
 def fingerprint() -> dict:
-    """case -> (its rule, the digest of its results)."""
+    """case -> (the revision that guards it: its rule, or "floe" for a free floe; the digest of
+    its results)."""
     from solver import solve
     out = {}
     for name, (p, s, kw) in cases().items():
         r = solve(p, s, fields=("strain", "layer_pressure"), **kw)
-        out[name] = [s.quadrature, _digest(r)]
+        out[name] = ["floe" if p.edges == "free" else s.quadrature, _digest(r)]
     return out
 
 

@@ -89,8 +89,9 @@ def test_plot_floe_size(tmp_path, monkeypatch):
     g = run("plot_floe_size.py", tmp_path, monkeypatch)
     upper, lower = (np.asarray(g["tension"][s]) for s in ("upper", "lower"))
     assert upper[0] < 8e-5 < upper[-1] and lower[0] < lower[-1] / 5   # the small floe barely bends
-    for surface in ("upper", "lower"):                                # the zone is part of the plate
-        assert np.all(np.asarray(g["zone"][surface]) <= np.asarray(g["tension"][surface]))
+    for surface in ("upper", "lower"):      # the zone is part of the plate (to the rounding of two
+        assert np.all(np.asarray(g["zone"][surface])    # Newton searches that stop apart by 1e-7 dx)
+                      <= np.asarray(g["tension"][surface]) * (1 + 1e-12))
     onset = np.asarray(g["onset"]["lower"])
     assert np.isfinite(onset[-1]) and 0 < onset[-1] < 20              # the large floe cracks below
     assert g["r"].parameters.edges == "free" and g["r"].status == "ok"

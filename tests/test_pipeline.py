@@ -272,6 +272,21 @@ def test_a_results_revision_recomputes_only_its_rules_cases(monkeypatch, rule):
     assert after[rule] == [c.case_id for c in study_module.load_study_text(texts[rule], "s").cases]
 
 
+def test_the_floes_results_revision_recomputes_only_the_floes_cases(monkeypatch):
+    """RESULTS_REVISION["floe"] enters the id of a free floe's case (beside its rule's), and of
+    no other: walls and floe in one grid, and the grid's fast ids are the cases' own."""
+    import pipeline.identity as identity
+    import pipeline.study as study_module
+    text = ('[base]\nNmod = 4\nduration = 0.01\n[grid]\nedges = ["walls", "free"]\nV = [2.0, 3.0]\n'
+            '[output]\ntimes = { unit = "stage", count = 3 }\n')
+    before = study_module.load_study_text(text, "s").case_ids
+    monkeypatch.setitem(identity.RESULTS_REVISION, "floe", identity.RESULTS_REVISION["floe"] + 1)
+    after = study_module.load_study_text(text, "s")
+    moved = [a != b for a, b in zip(after.case_ids, before)]
+    assert moved == [c.parameters.edges == "free" for c in after.cases] and any(moved) and not all(moved)
+    assert after.case_ids == [c.case_id for c in after.cases]
+
+
 def test_shipped_studies_are_valid():
     for path in sorted((ROOT / "studies").glob("*.toml")):
         study = load_study(path)

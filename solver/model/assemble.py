@@ -40,7 +40,7 @@ class Tables:
         self.hi = float(p.hi)
         full = p.off_centre if full_plate is None else bool(full_plate)
         if p.edges == "free":
-            self._free_floe(p, subintervals, full)
+            self._free_floe(p, subintervals, full, quadrature, quadrature_density)
             return
         self.full_plate = full
         if full:
@@ -68,10 +68,11 @@ class Tables:
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]))
 
-    def _free_floe(self, p, subintervals, full):
+    def _free_floe(self, p, subintervals, full, quadrature, quadrature_density):
         """A free floe (docs/model.md, "A free floe"): its wet modes (solver.model.floe) in the
-        node table, the paper's rule; the full floe -L..L in kernel coordinates xi = x + L, or for
-        a centred impact the half floe 0..L and the symmetric wet modes (mirror = 2)."""
+        node table; the full floe -L..L in kernel coordinates xi = x + L, or for a centred impact
+        the half floe 0..L and the symmetric wet modes (mirror = 2). The contact-resolving rule's
+        panels are sized by the largest dry wavenumber, as the cosines' by lambda_N."""
         self.full_plate = full
         self.origin = -p.L if full else 0.0
         self.dx = p.L / subintervals
@@ -89,9 +90,10 @@ class Tables:
                            mass[0])
         self.coef, self.LM, self.strain_coef = plate.modes[COEF], plate.modes[MASS], plate.modes[STRAIN]
         gauss_x, gauss_w = legendre_rule(PANEL_POINTS)
+        panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]))
         basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
-                      float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES["paper"], gauss_x, gauss_w, 0.0, 1.0,
-                      fl["packed"])
+                      float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
+                      1.0, fl["packed"])
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]))
 

@@ -41,13 +41,27 @@ import numpy as np
 from ..jit import kernel
 
 #: A floe's Basis.floe is one 1-D array (fewer arrays in the Basis tuple: numba counts a reference
-#: to each at every call that takes it): the four tables TABLE_* (N, J) one after the other, then
-#: the shapes table (4 + N, N) (floe_plane, floe_shapes view them). On the cosines it is empty.
-#: rows of the shapes table (4 + Nd, N): KINDS per dry mode (0 heave, 1 pitch, 2 symmetric, 3
-#: antisymmetric), BETAS (beta [m-1]), NORMS (factor of the raw shape), and row FACTOR holding, at
-#: column 0, the strain factor -hi/2, at column 1, L, and at column 2, x at the kernel's 0 (-L on
-#: the full floe, 0 on the half floe of a centred impact); rows 4.. the scaled wet-mode matrix Q
-KINDS, BETAS, NORMS, FACTOR = range(4)
+#: to each at every call that takes it): the four tables TABLE_* (N, J) one after the other, the
+#: shapes table (SHAPE_ROWS + 2N, N), then the HEADER numbers (floe_plane, floe_shapes and
+#: floe_header view them). On the cosines it is empty. Rows of the shapes table: KINDS per dry
+#: mode (0 heave, 1 pitch, 2 symmetric, 3 antisymmetric), BETAS (beta [m-1]), NORMS (factor of
+#: the raw shape), TRIG and HYP the elastic modes' 1 / cos(beta L) (symmetric) or 1 / sin(beta L)
+#: and 1 / (1 +- exp(-2 beta L)) (_raw3, dry_table); rows SHAPE_ROWS.. the scaled wet-mode matrix Q
+#: (row m: dry mode m), then its transpose (row k: wet mode k; floe_dry's sums run along rows)
+KINDS, BETAS, NORMS, TRIG, HYP = range(5)
+SHAPE_ROWS = 5
+#: the header: the strain factor -hi/2, L, x at the kernel's 0 (-L on the full floe, 0 on the
+#: half floe of a centred impact), the first dry mode m0 from which the wavenumbers are evenly
+#: spaced (to round-off: beta L > ASYMPTOTIC) and that spacing (pi / L on the half floe, pi / 2L
+#: on the full: dry_table)
+STRAIN_FACTOR, HALF_LENGTH, ORIGIN, FIRST_EVEN, SPACING = range(5)
+HEADER = 8
+#: exp(-HYP_NEGLIGIBLE) = 4e-18: a hyperbolic part that small is below the rounding of the
+#: trigonometric part (of order 1) and is not computed (_raw3, dry_table)
+HYP_NEGLIGIBLE = 40.0
+#: beyond beta L = ASYMPTOTIC the roots of tan(beta L) = -+tanh(beta L) are (k + 3/4) pi and
+#: (k + 5/4) pi to 2 exp(-2 beta L) < 1e-17
+ASYMPTOTIC = 20.0
 HEAVE, PITCH, SYMMETRIC, ANTISYMMETRIC = range(4)
 #: the rows of a floe's Basis.tables (4, N, J): the upper-surface strain -hi/2 Psi_n'' of each wet
 #: mode at the nodes, the hat weights int hat_j Psi_n dx [m] (half hats at the floe's edges), and
@@ -145,6 +159,13 @@ def mode_norms(kinds, betas, L, points: int = 0):
     return np.array([L * np.sum(wg * dry_mode(int(k), b, L, x) ** 2) for k, b in zip(kinds, betas)])
 
 
+def exact_norms(kinds, L):
+    """G_m = int_-L^L psi_m^2 dx [m] in closed form: 2L for heave, 2L / 3 for pitch, and 2L for
+    every elastic mode, the free-free beam's identity int psi^2 dx = (2L) psi(L)^2 / 4 with
+    psi(L) = 2 (tests/test_floe.py checks it against mode_norms' quadrature)."""
+    return np.where(np.asarray(kinds) == PITCH, 2.0 * L / 3.0, 2.0 * L)
+
+
 def wet_modes(p, count: int, antisymmetric: bool = True):
     """The wet modes of the floe of parameters p (Parameters: L, hi, rho_i, rho_w, g, rigidity)
     from heave, pitch and ``count`` symmetric and antisymmetric dry modes (without the
@@ -152,7 +173,7 @@ def wet_modes(p, count: int, antisymmetric: bool = True):
     parities): (omega [rad s-1], Q (Nd, N): the M-orthonormal eigenvectors, kinds, betas, norms)."""
     from scipy.linalg import eigh            # (here: a floe's tables only)
     kinds, betas = dry_modes(p.L, count, antisymmetric)
-    G = mode_norms(kinds, betas, p.L)
+    G = exact_norms(kinds, p.L)
     norms = 1.0 / np.sqrt(G / (2.0 * p.L))          # each dry mode of mean square 1 on the floe
     A = added_mass(kinds, betas, p.L, p.rho_w, norms)
     M = np.diag(np.full(kinds.size, p.plate_mass * 2.0 * p.L)) + A
@@ -192,38 +213,211 @@ def floe_plane(floe, N, J, k):
 
 @kernel
 def floe_shapes(floe, N):
-    """The shapes table (4 + N, N) of a floe's packed array (a view)."""
-    return floe[floe.shape[0] - (4 + N) * N:].reshape((4 + N, N))
+    """The shapes table (SHAPE_ROWS + 2N, N) of a floe's packed array (a view)."""
+    end = floe.shape[0] - HEADER
+    return floe[end - (SHAPE_ROWS + 2 * N) * N:end].reshape((SHAPE_ROWS + 2 * N, N))
 
 
-def pack_floe(tables, shapes):
-    """The packed 1-D array of the tables (4, N, J) and shapes (4 + N, N)."""
-    return np.ascontiguousarray(np.concatenate([tables.ravel(), shapes.ravel()]))
+@kernel
+def floe_header(floe):
+    """The HEADER numbers of a floe's packed array (a view)."""
+    return floe[floe.shape[0] - HEADER:]
+
+
+def pack_floe(tables, shapes, header):
+    """The packed 1-D array of the tables (4, N, J), shapes (SHAPE_ROWS + 2N, N) and header."""
+    return np.ascontiguousarray(np.concatenate([tables.ravel(), shapes.ravel(), header]))
+
+
+@kernel
+def floe_dry(floe, c, d):
+    """The wet amplitudes c (N,) as the raw dry modes' coefficients d_m = norm_m sum_k Q_mk c_k
+    (O(N^2), once per state; then each point is O(N): floe_dry_sums, dry_table). The sums run
+    along the rows of Q^T, k in order, the same bits wherever it is called."""
+    N = c.shape[0]
+    shapes = floe_shapes(floe, N)
+    for m in range(N):
+        d[m] = 0.0
+    for k in range(N):
+        ck = c[k]
+        row = shapes[SHAPE_ROWS + N + k]
+        for m in range(N):
+            d[m] += row[m] * ck
+    for m in range(N):
+        d[m] *= shapes[NORMS, m]
+
+
+@kernel
+def floe_wet(floe, p, P):
+    """P_k = sum_m Q_mk norm_m p_m: integrals against the raw dry modes p (N,) as integrals
+    against the wet modes P (N,) (the transpose of floe_dry)."""
+    N = p.shape[0]
+    shapes = floe_shapes(floe, N)
+    for k in range(N):
+        P[k] = 0.0
+    for m in range(N):
+        pm = p[m] * shapes[NORMS, m]
+        row = shapes[SHAPE_ROWS + m]
+        for k in range(N):
+            P[k] += row[k] * pm
+
+
+@kernel(inline="always")
+def _turn(c, s, k):
+    """cos(y + k pi / 2) from c = cos y and s = sin y."""
+    k = k % 4
+    return c if k == 0 else (-s if k == 1 else (-c if k == 2 else s))
+
+
+@kernel(inline="always")
+def _hyperbolic_parts(beta, L, x):
+    """(exp(beta (x - L)), exp(-beta (x + L))), each 0 where below exp(-HYP_NEGLIGIBLE)."""
+    up = beta * (x - L)
+    down = -beta * (x + L)
+    return (math.exp(up) if up > -HYP_NEGLIGIBLE else 0.0), (math.exp(down) if down > -HYP_NEGLIGIBLE else 0.0)
+
+
+@kernel
+def _raw3(shapes, m, L, x, order):
+    """Dry mode m's raw derivatives of orders order, order + 1 and order + 2 at one x in -L..L,
+    from one cosine, one sine and the exponentials that are not negligible (_raw's values to
+    round-off; the factors 1 / cos(beta L) and 1 / cosh(beta L) from the shapes table)."""
+    kind = shapes[KINDS, m]
+    if kind == 0.0:
+        return (1.0 if order == 0 else 0.0), 0.0, 0.0
+    if kind == 1.0:
+        if order == 0:
+            return x / L, 1.0 / L, 0.0
+        return (1.0 / L if order == 1 else 0.0), 0.0, 0.0
+    beta = shapes[BETAS, m]
+    return _elastic3(shapes, m, math.cos(beta * x), math.sin(beta * x), L, x, order)
+
+
+@kernel(inline="always")
+def _elastic3(shapes, m, c, s, L, x, order):
+    """_raw3 of elastic dry mode m given c = cos(beta x) and s = sin(beta x)."""
+    beta = shapes[BETAS, m]
+    ep, em = _hyperbolic_parts(beta, L, x)
+    trig, hyp = shapes[TRIG, m], shapes[HYP, m]
+    b0 = beta**order
+    b1 = b0 * beta
+    b2 = b1 * beta
+    if shapes[KINDS, m] == 2.0:       # cos(beta x) / cos(beta L) + cosh(beta x) / cosh(beta L)
+        even, odd = (ep + em) * hyp, (ep - em) * hyp
+        return (b0 * (_turn(c, s, order) * trig + (even if order % 2 == 0 else odd)),
+                b1 * (_turn(c, s, order + 1) * trig + (odd if order % 2 == 0 else even)),
+                b2 * (_turn(c, s, order + 2) * trig + (even if order % 2 == 0 else odd)))
+    even, odd = (ep - em) * hyp, (ep + em) * hyp   # sin(beta x) / sin(beta L) + sinh(beta x) / sinh(beta L)
+    return (b0 * (_turn(s, -c, order) * trig + (even if order % 2 == 0 else odd)),
+            b1 * (_turn(s, -c, order + 1) * trig + (odd if order % 2 == 0 else even)),
+            b2 * (_turn(s, -c, order + 2) * trig + (even if order % 2 == 0 else odd)))
+
+
+@kernel
+def floe_dry_sums(floe, d, x, field):
+    """floe_sums from the dry coefficients d (floe_dry): O(N) per point; from the header's
+    FIRST_EVEN on, exp(i beta_m x) by rotation (as dry_table)."""
+    N = d.shape[0]
+    shapes = floe_shapes(floe, N)
+    header = floe_header(floe)
+    L = header[HALF_LENGTH]
+    factor = 1.0 if field == 0 else header[STRAIN_FACTOR]
+    order = 0 if field == 0 else 2
+    xp = x + header[ORIGIN]
+    m0 = min(int(header[FIRST_EVEN]), N)
+    v0 = v1 = v2 = 0.0
+    for m in range(m0):
+        r0, r1, r2 = _raw3(shapes, m, L, xp, order)
+        v0 += d[m] * r0
+        v1 += d[m] * r1
+        v2 += d[m] * r2
+    if m0 < N:
+        b = shapes[BETAS, m0]
+        cur = complex(math.cos(b * xp), math.sin(b * xp))
+        rot = complex(math.cos(header[SPACING] * xp), math.sin(header[SPACING] * xp))
+        for m in range(m0, N):
+            r0, r1, r2 = _elastic3(shapes, m, cur.real, cur.imag, L, xp, order)
+            cur *= rot
+            v0 += d[m] * r0
+            v1 += d[m] * r1
+            v2 += d[m] * r2
+    return factor * v0, factor * v1, factor * v2
+
+
+@kernel
+def dry_table(floe, xk, table):
+    """table[m, k] = psi_m(x_k) (N, K): the raw dry modes at the points xk (kernel coordinates),
+    whose sums against floe_dry's coefficients are the wet modes' (modal_sum_range) and whose
+    projections floe_wet turns into the wet modes' (the contact-resolving rule on a floe). The
+    modes below m0 (the header's FIRST_EVEN) directly; from m0 on, whose wavenumbers are evenly spaced,
+    exp(i beta_m x) by rotation, one complex product an entry (its rounding grows as m eps)."""
+    N, K = table.shape
+    shapes = floe_shapes(floe, N)
+    header = floe_header(floe)
+    L = header[HALF_LENGTH]
+    origin = header[ORIGIN]
+    m0 = int(header[FIRST_EVEN])
+    for m in range(m0):
+        _dry_row(shapes, m, L, origin, xk, table[m])
+    if m0 >= N:
+        return
+    spacing = header[SPACING]
+    cur = np.empty(K, np.complex128)
+    rot = np.empty(K, np.complex128)
+    for k in range(K):
+        x = xk[k] + origin
+        cur[k] = complex(math.cos(shapes[BETAS, m0] * x), math.sin(shapes[BETAS, m0] * x))
+        rot[k] = complex(math.cos(spacing * x), math.sin(spacing * x))
+    for m in range(m0, N):
+        beta, trig, hyp = shapes[BETAS, m], shapes[TRIG, m], shapes[HYP, m]
+        row = table[m]
+        if shapes[KINDS, m] == 2.0:
+            for k in range(K):
+                row[k] = cur[k].real * trig
+        else:
+            for k in range(K):
+                row[k] = cur[k].imag * trig
+        for k in range(K):
+            cur[k] *= rot[k]
+        sign = 1.0 if shapes[KINDS, m] == 2.0 else -1.0
+        for k in range(K):
+            x = xk[k] + origin
+            if beta * (L - abs(x)) < HYP_NEGLIGIBLE:
+                ep, em = _hyperbolic_parts(beta, L, x)
+                row[k] += (ep + sign * em) * hyp
+
+
+@kernel
+def _dry_row(shapes, m, L, origin, xk, row):
+    """Dry mode m's raw values at the points xk into row (dry_table, directly)."""
+    kind, beta = shapes[KINDS, m], shapes[BETAS, m]
+    trig, hyp = shapes[TRIG, m], shapes[HYP, m]
+    K = xk.shape[0]
+    if kind == 0.0:
+        row[:] = 1.0
+    elif kind == 1.0:
+        for k in range(K):
+            row[k] = (xk[k] + origin) / L
+    else:
+        sym = kind == 2.0
+        for k in range(K):
+            x = xk[k] + origin
+            ep, em = _hyperbolic_parts(beta, L, x)
+            if sym:
+                row[k] = math.cos(beta * x) * trig + (ep + em) * hyp
+            else:
+                row[k] = math.sin(beta * x) * trig + (ep - em) * hyp
 
 
 @kernel
 def floe_sums(floe, c, x, field):
     """sum_k c_k F_k(x) and its first two x-derivatives, F_k the wet mode k's deflection (field
-    0) or upper-surface strain -hi/2 Psi_k'' (field 1), at x in kernel coordinates."""
-    N = c.shape[0]
-    shapes = floe_shapes(floe, N)
-    L = shapes[FACTOR, 1]
-    factor = 1.0 if field == 0 else shapes[FACTOR, 0]
-    order = 0 if field == 0 else 2
-    xp = x + shapes[FACTOR, 2]
-    v0 = v1 = v2 = 0.0
-    for m in range(N):
-        d = 0.0
-        for k in range(N):
-            d += shapes[4 + m, k] * c[k]
-        if d == 0.0:
-            continue
-        kind, beta = shapes[KINDS, m], shapes[BETAS, m]
-        d *= shapes[NORMS, m] * factor
-        v0 += d * _raw(kind, beta, L, xp, order)
-        v1 += d * _raw(kind, beta, L, xp, order + 1)
-        v2 += d * _raw(kind, beta, L, xp, order + 2)
-    return v0, v1, v2
+    0) or upper-surface strain -hi/2 Psi_k'' (field 1), at x in kernel coordinates: the dry
+    coefficients of c (floe_dry, O(N^2)) then floe_dry_sums (O(N)); a caller with many points at
+    one state computes the dry coefficients once."""
+    d = np.empty(c.shape[0])
+    floe_dry(floe, c, d)
+    return floe_dry_sums(floe, d, x, field)
 
 
 @kernel
@@ -279,7 +473,7 @@ def floe_tables(p, xq, full: bool):
     modes are the symmetric ones): a dict with omega (N,), mass (N,) the generalised masses 1 / s_k^2
     [kg m-1], damping (N,) each wet mode's Kelvin-Voigt c_k [s-1] and damping_matrix (N, N) the
     whole of it in the kernel's amplitudes (solver.scipy_reference's coupled check), cosq (N, J)
-    the wet modes at the nodes, tables (4, N, J) (TABLE_*), shapes (4 + N,
+    the wet modes at the nodes, tables (4, N, J) (TABLE_*), shapes (SHAPE_ROWS + 2N,
     N) (floe_sums), strain_scale (N,) the largest strain of each mode per unit amplitude, and
     the dry modes' kinds, betas and norms."""
     omega, Q, kinds, betas, norms = wet_modes(p, p.Nmod, full)
@@ -295,10 +489,21 @@ def floe_tables(p, xq, full: bool):
     tables[TABLE_SLOPE] = values[1]
     tables[TABLE_CURVATURE] = values[2]
     tables[TABLE_HAT] = _hat_weights(Qs, kinds, betas, norms, L, x)
-    shapes = np.zeros((4 + kinds.size, kinds.size))
+    N = kinds.size
+    shapes = np.zeros((SHAPE_ROWS + 2 * N, N))
     shapes[KINDS], shapes[BETAS], shapes[NORMS] = kinds, betas, norms
-    shapes[FACTOR, 0], shapes[FACTOR, 1], shapes[FACTOR, 2] = -0.5 * p.hi, L, origin
-    shapes[4:] = Qs
+    header = np.zeros(HEADER)
+    header[STRAIN_FACTOR], header[HALF_LENGTH], header[ORIGIN] = -0.5 * p.hi, L, origin
+    late = np.flatnonzero((kinds >= SYMMETRIC) & (betas * L > ASYMPTOTIC))
+    header[FIRST_EVEN] = late[0] if late.size else kinds.size
+    header[SPACING] = math.pi / (2.0 * L) if full else math.pi / L
+    elastic = kinds >= SYMMETRIC
+    bl = betas * L
+    shapes[TRIG] = np.where(kinds == SYMMETRIC, 1.0 / np.cos(bl), np.where(elastic, 1.0 / np.sin(np.where(elastic, bl, 1.0)), 0.0))
+    shapes[HYP] = np.where(kinds == SYMMETRIC, 1.0 / (1.0 + np.exp(-2.0 * bl)),
+                           np.where(elastic, 1.0 / -np.expm1(-2.0 * np.where(elastic, bl, 1.0)), 0.0))
+    shapes[SHAPE_ROWS:SHAPE_ROWS + N] = Qs
+    shapes[SHAPE_ROWS + N:] = Qs.T
     # Kelvin-Voigt ice, D -> D (1 + tau d/dt): the damping tau Q^T K_b Q of the bending stiffness
     # K_b = diag(D beta_m^4 2L) in the wet modes; mass-normalised (Q^T M Q = I) its diagonal is each
     # wet mode's c_k, and in the kernel's amplitudes a_k = b_k scale_k the whole matrix S C S^-1
@@ -306,7 +511,7 @@ def floe_tables(p, xq, full: bool):
     coupling = p.tau * bending * scale[:, None] / scale[None, :]
     return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
             "damping": p.tau * np.diag(bending).copy(), "damping_matrix": coupling,
-            "packed": pack_floe(tables, shapes), "shapes": shapes,
+            "packed": pack_floe(tables, shapes, header), "shapes": shapes,
             "strain_scale": np.max(np.abs(tables[TABLE_STRAIN]), axis=1), "kinds": kinds, "betas": betas,
             "norms": norms, "Q": Qs}
 

@@ -27,6 +27,11 @@ over the union I of the contact intervals (the caller scales them: K coef_n, mir
    delta_k from it (basis.modal_sum_range), f_k (and a viscoelastic layer's
    f max(1 + tau delta', 0)), then P = table . (w f) (basis.modal_projection).
 
+On a free floe the rule runs on the raw dry modes (solver.model.floe) instead of the cosines:
+the wet amplitudes become dry coefficients once (floe_dry), the table at the Gauss nodes is
+dry_table, the contact edges are Newton on floe_dry_sums, and the projections come back to the
+wet modes (floe_wet).
+
 A node of the rule with delta >= 1 is bottoming, as a node of the table is (status 1).
 
 Benchmarks (tests/test_quadrature.py): on a given delta(x) the rule converges spectrally to
@@ -40,6 +45,7 @@ import numpy as np
 
 from .basis import modal_projection, modal_sum_range
 from .body import body_corners, body_profile, body_slope_curvature
+from .floe import dry_table, floe_dry, floe_dry_sums, floe_wet
 from ..jit import kernel
 from .law import law_energy, law_pressure
 
@@ -73,8 +79,13 @@ EDGE_STOP = 1e-10
 
 
 @kernel
-def _gap_and_slope(a, lam1, x, s, body):
-    """(w + s - b, w' - b') at x [m]: the layer's compression times he and its slope."""
+def _gap_and_slope(a, lam1, floe, x, s, body):
+    """(w + s - b, w' - b') at x [m]: the layer's compression times he and its slope; on a
+    floe (floe not empty) a holds the dry modes' coefficients (solver.model.floe.floe_dry)."""
+    if floe.shape[0] != 0:
+        w, dw, _ = floe_dry_sums(floe, a, x, 0)
+        b1, _ = body_slope_curvature(x, body)
+        return w + s - body_profile(x, body), dw - b1
     rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
     cur = rot
     w = 0.0
@@ -88,12 +99,12 @@ def _gap_and_slope(a, lam1, x, s, body):
 
 
 @kernel
-def contact_edge(a, lam1, s, body, x0, g0, x1, g1, stop):
+def contact_edge(a, lam1, floe, s, body, x0, g0, x1, g1, stop):
     """The root of g = w + s - b in [x0, x1], g0 = g(x0) and g1 = g(x1) of opposite signs:
     Newton from the linear interpolant, a bisection of the bracket where Newton leaves it."""
     x = x0 + (x1 - x0) * g0 / (g0 - g1)
     for _ in range(60):
-        g, dg = _gap_and_slope(a, lam1, x, s, body)
+        g, dg = _gap_and_slope(a, lam1, floe, x, s, body)
         if g == 0.0:
             return x
         if (g > 0.0) == (g0 > 0.0):
@@ -116,6 +127,7 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
     J = delta.shape[0]
     dx = basis.dx
     lam1 = basis.lam1
+    floe = basis.floe
     stop = EDGE_STOP * dx
     count = 0
     j = 0
@@ -126,7 +138,7 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
         if j == 0:
             xa = 0.0
         else:
-            xa = contact_edge(a, lam1, s, body, (j - 1) * dx, he * delta[j - 1], j * dx, he * delta[j], stop)
+            xa = contact_edge(a, lam1, floe, s, body, (j - 1) * dx, he * delta[j - 1], j * dx, he * delta[j], stop)
         k = j
         while k + 1 < jmax and delta[k + 1] > 0.0:
             k += 1
@@ -135,9 +147,9 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
         else:
             dn = delta[k + 1] if k + 1 < jmax else -1.0
             if k + 1 >= jmax:      # beyond the bound delta < 0: take its value on the modes
-                dn, _ = _gap_and_slope(a, lam1, (k + 1) * dx, s, body)
+                dn, _ = _gap_and_slope(a, lam1, floe, (k + 1) * dx, s, body)
                 dn /= he
-            xb = contact_edge(a, lam1, s, body, k * dx, he * delta[k], (k + 1) * dx, he * dn, stop)
+            xb = contact_edge(a, lam1, floe, s, body, k * dx, he * delta[k], (k + 1) * dx, he * dn, stop)
         edges[2 * count] = xa
         edges[2 * count + 1] = xb
         count += 1
@@ -163,17 +175,18 @@ def corner_contacts(body, basis, s, a, he, delta, jmax, edges):
         j = int(c / dx)
         if j * dx == c:
             continue
-        g, _ = _gap_and_slope(a, basis.lam1, c, s, body)
+        g, _ = _gap_and_slope(a, basis.lam1, basis.floe, c, s, body)
         if not g > 0.0:
             continue
         # the nodes' compressions (beyond jmax, where delta is not computed, on the modes)
-        gl = he * delta[j] if j < jmax else _gap_and_slope(a, basis.lam1, j * dx, s, body)[0]
-        gr = he * delta[j + 1] if j + 1 < jmax else _gap_and_slope(a, basis.lam1, (j + 1) * dx, s, body)[0]
+        gl = he * delta[j] if j < jmax else _gap_and_slope(a, basis.lam1, basis.floe, j * dx, s, body)[0]
+        gr = he * delta[j + 1] if j + 1 < jmax else _gap_and_slope(a, basis.lam1, basis.floe, (j + 1) * dx, s,
+                                                                     body)[0]
         if gl > 0.0 or gr > 0.0:
             continue
         stop = EDGE_STOP * dx
-        edges[2 * count] = contact_edge(a, basis.lam1, s, body, j * dx, gl, c, g, stop)
-        edges[2 * count + 1] = contact_edge(a, basis.lam1, s, body, c, g, (j + 1) * dx, gr, stop)
+        edges[2 * count] = contact_edge(a, basis.lam1, basis.floe, s, body, j * dx, gl, c, g, stop)
+        edges[2 * count + 1] = contact_edge(a, basis.lam1, basis.floe, s, body, c, g, (j + 1) * dx, gr, stop)
         count += 1
     return count
 
@@ -321,11 +334,14 @@ def cosine_table(lam1, xk, c2, table):
 
 
 @kernel
-def _deltas(body, s, he, a, lam1, nodes, table):
-    """The cosine table at the nodes (row X of nodes) into table (N, K), and delta there into
-    row DELTA."""
+def _deltas(body, s, he, a, lam1, floe, nodes, table):
+    """The cosine table at the nodes (row X of nodes) into table (N, K), on a floe the raw dry
+    modes' (a: their coefficients), and delta there into row DELTA."""
     xk, dk = nodes[X], nodes[DELTA]
-    cosine_table(lam1, xk, nodes[C2], table)
+    if floe.shape[0] == 0:
+        cosine_table(lam1, xk, nodes[C2], table)
+    else:
+        dry_table(floe, xk, table)
     modal_sum_range(a, table, dk, 0, xk.shape[0])
     for k in range(xk.shape[0]):
         dk[k] = (dk[k] + s - body_profile(xk[k], body)) / he
@@ -372,7 +388,7 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
     nodes = np.empty((NODE_ROWS, K))
     table = np.empty((a.shape[0], K))
     gauss_nodes(basis, panels, nodes)
-    _deltas(body, s, he, a, basis.lam1, nodes, table)
+    _deltas(body, s, he, a, basis.lam1, basis.floe, nodes, table)
     wk, dk, rate, g = nodes[W], nodes[DELTA], nodes[RATE], nodes[G]
     if layer.tau > 0.0:
         modal_sum_range(adot, table, rate, 0, K)
@@ -409,9 +425,31 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
 def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     """The rule over the contact intervals found from delta at the nodes j < jmax, modes = (a,
     adot): (status, int f dx, the viscoelastic layer's power, he int G dx) without their factors
-    mirror K, wanted = (project, energy): P_n = int f cos(lambda_n x) dx unscaled, as
-    layer_reaction leaves it, if project; the energy (else 0) if energy. Rounds of panels: the
-    first panels, then the pieces of those near the paper law's pole."""
+    mirror K, wanted = (project, energy): P_n = int f cos(lambda_n x) dx unscaled (on a floe,
+    int f Psi_n dx), as layer_reaction leaves it, if project; the energy (else 0) if energy.
+    On a floe the rule runs on the raw dry modes: their coefficients d = Q a once (floe_dry),
+    then every point is O(N), and the projections come back to the wet modes (floe_wet)."""
+    floe = basis.floe
+    if floe.shape[0] == 0:
+        return _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted)
+    a, adot = modes
+    N = a.shape[0]
+    d = np.empty(N)
+    floe_dry(floe, a, d)
+    ddot = np.zeros(N)
+    if layer.tau > 0.0:
+        floe_dry(floe, adot, ddot)
+    Pd = np.empty(N)
+    st, force, power, stored = _gauss_sums(layer, body, basis, s, U, (d, ddot), jmax, delta, Pd, wanted)
+    if wanted[0]:
+        floe_wet(floe, Pd, P)
+    return st, force, power, stored
+
+
+@kernel
+def _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
+    """gauss_sums on the basis's own table (the cosines; a floe's raw dry modes). Rounds of
+    panels: the first panels, then the pieces of those near the paper law's pole."""
     project, energy = wanted
     a = modes[0]
     edges = np.empty(jmax + 8)
