@@ -34,6 +34,7 @@ from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, _plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
+from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
 from .observe.events import locate_event
 from .observe.layer_maxima import finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import append_row
@@ -44,9 +45,10 @@ from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_co
 #: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
 #: their stepper (its own coefficients and scratch: a search inside a step leaves the step's
 #: buffers as they were), the observers' work (tension, contacts, impact zone), the gap (largest
-#: delta, its rate and place) at the step's two ends, an event's value (3,), the tension peaks at the step's start (2, 4), and the
-#: fixed step's [target, step]
-Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima")
+#: delta, its rate and place) at the step's two ends, an event's value (3,), the tension peaks at
+#: the step's start (2, 4), the fixed step's [target, step], the force's and compression's maxima
+#: (observe.layer_maxima) and a floe's tension maxima's candidate steps (observe.dense_maxima)
+Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense")
 
 #: a trial step's verdict
 ACCEPT, RETRY, STOP = 0, 1, 2
@@ -68,8 +70,9 @@ def _step_work(N, J):
 def _workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
-    return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J), zone_work(margin),
-                     np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)), np.array([-1.0, 0.0]), maxima_work(N))
+    return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
+                     zone_work(margin, N), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
+                     np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N))
 
 
 @kernel
@@ -101,7 +104,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
         diag[D_MAX_UPPER_X + 3 * s_] = peak[2]
         diag[D_MAX_UPPER_T + 3 * s_] = t
     observe_zone(model, ws.zone, t, 0.0, (cur.eps, cur.delta, cur.a, cur.adot, jmax, np.full((2, 4), -np.inf)),
-                 diag)
+                 (tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing), tw.marks), diag)
     gap_peak(model, s, U, cur.delta, jmax, cur.a, cur.adot, ws.gap0)
     diag[D_MAX_DELTA] = ws.gap0[0]
     diag[D_MAX_DELTA_T] = t
@@ -242,10 +245,10 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 @kernel(inline="llvm")
 def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
-    observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork), ends = (jmax at t, jmax and F
-    at t + h, the stage rows of the step that reached new). Returns (contacts at t + h, records, a
-    free body left the ice)."""
-    tw, cw, peaks0, zw = observers
+    observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork, DenseMaxima), ends =
+    (jmax at t, jmax and F at t + h, the stage rows of the step that reached new). Returns
+    (contacts at t + h, records, a free body left the ice)."""
+    tw, cw, peaks0, zw, dm = observers
     jmax, jm5, F5, rows = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
     for s in range(2):
@@ -260,7 +263,9 @@ def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     if largest > diag[D_MAX_CONTACTS]:
         diag[D_MAX_CONTACTS] = largest
     observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5, tw.track[STEP_BEST:STEP_BEST + 2]),
-                 diag)
+                 (tw.A, tw.AD, tw.eps, dz, tw.marks), diag)
+    if model.basis.kind != 0.0 and h > 0.0:      # a floe: its maxima located at the run's end
+        observe_candidates(model, dm, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best, (zw.reach[2], zw.reach[3]))
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
     return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c), left
 
@@ -279,7 +284,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
-    observers, fixed, maxima = (ws.tension, ws.contact, ws.peaks0, ws.zone), ws.fixed, ws.maxima
+    observers, fixed, maxima = (ws.tension, ws.contact, ws.peaks0, ws.zone, ws.dense), ws.fixed, ws.maxima
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
@@ -382,6 +387,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     if status == OK and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
     finish_layer_maxima(stepper, maxima, sub, value, diag)
+    if model.basis.kind != 0.0:
+        finish_dense_maxima(model, ws.dense, diag)
     out.diag[D_DISSIPATED] = diss
     status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), gap0,
                                 model.layer.he, (steps, rejected, rhs_count))

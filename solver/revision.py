@@ -19,9 +19,10 @@ gauss 3 (2026-11-27: max_force and max_compression located inside the steps,
 solver.observe.layer_maxima; every other output bit for bit); floe 1 (2026-11-27: a free floe's
 results have a revision of their own, which its case ids carry beside the rule's: its modal sums
 O(N) a point from the dry modes' coefficients, its norms in closed form; the contact-resolving
-rule on a floe).
+rule on a floe); floe 2 (2026-11-27: a floe's tension maxima located on the dense output,
+solver.observe.dense_maxima).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's)
-RESULTS_REVISION = {"paper": 1, "gauss": 3, "floe": 1}
+RESULTS_REVISION = {"paper": 1, "gauss": 3, "floe": 2}

@@ -32,6 +32,7 @@ from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
 from .observe.body import observe_body
+from .observe.tension import Dense
 from .observe.zone import observe_zone, zone_work
 
 
@@ -88,8 +89,12 @@ class _Observer:
     def __init__(self, tab, zone_margin):
         self.tab, self.body = tab, tab.model.body
         self.free = self.body.inv_mass > 0.0
-        self.zone, self.zone_diag, self.zone_t = zone_work(float(zone_margin)), np.full(kn.N_DIAG, np.nan), None
+        N, J = tab.omega.size, tab.xq.size
+        self.zone, self.zone_diag, self.zone_t = zone_work(float(zone_margin), N), np.full(kn.N_DIAG, np.nan), None
         self.no_best = np.full((2, 4), -np.inf)     # (the kernels' plate-wide step maxima: not here)
+        # no dense states between two samples (the zone is sampled at DOP853's own samples)
+        self.no_inside = (np.empty((0, N)), np.empty((0, N)), np.empty(J),
+                          Dense(np.zeros(N, np.complex128), np.zeros(N), np.zeros(N), np.zeros(N)), np.ones(5))
         self.records = ([], [])
         self.running = [-np.inf, -np.inf]
         self.last = [None, None]               # each surface's previous sample row
@@ -151,7 +156,7 @@ class _Observer:
         h = 0.0 if self.zone_t is None else t - self.zone_t
         observe_zone(self.tab.model, self.zone, t - h, h, (np.ascontiguousarray(eps), delta, np.ascontiguousarray(a),
                                                            np.ascontiguousarray(v), jmax, self.no_best),
-                     self.zone_diag)
+                     self.no_inside, self.zone_diag)
         self.zone_t = t
         self.max_contacts = max(self.max_contacts, contacts)
         if force > self.max_force:

@@ -386,3 +386,24 @@ def dense_states(z0, N1, Nm, N5, plate, h, A, AD):
             a = mode_a(z, n, plate)
             A[k - 1, n] = a
             AD[k - 1, n] = mode_adot(z, a, n, plate)
+
+
+@kernel
+def dense_state_at(z0, N1, Nm, N5, plate, h, s, a, adot):
+    """a_n and a_n' at t0 + s, 0 <= s <= h, inside an accepted step: dense_states' exact solution
+    for the quadratic forcing through N1, Nm, N5, taken as one sub-step of length s from t0
+        z(s) = e^{i w s} z0 + s phi1 N1 + s^2 phi2 b1 + 2 b2 s^3 phi3   (phi_k of i w s)
+    (the located maxima of a floe's tension, solver.observe.dense_maxima)."""
+    omega = plate.modes[OMEGA]
+    for n in range(z0.shape[0]):
+        b1 = (4.0 * Nm[n] - 3.0 * N1[n] - N5[n]) / h
+        b2 = 2.0 * (N1[n] - 2.0 * Nm[n] + N5[n]) / (h * h)
+        if plate.modes[HALF_C, n] == 0.0:
+            y = omega[n] * s
+            e = complex(math.cos(y), math.sin(y))
+            p1, p2, p3 = phi_from(y, e)
+        else:
+            e, p1, p2, p3 = mode_phis(plate, n, s)
+        z = emul(e, z0[n], plate.modes[KIND, n]) + s * p1 * N1[n] + s * s * p2 * b1 + 2.0 * b2 * s * s * s * p3
+        a[n] = mode_a(z, n, plate)
+        adot[n] = mode_adot(z, a[n], n, plate)

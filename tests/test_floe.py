@@ -123,7 +123,10 @@ def test_an_off_centre_body_pitches_the_floe_and_mirroring_mirrors_everything():
     w = a.fields["deflection"]
     assert np.max(np.abs(w - b.fields["deflection"][:, ::-1])) < 1e-10 * np.max(np.abs(w))
     assert np.max(np.abs(a.fields["strain"] - b.fields["strain"][:, ::-1])) < 1e-10 * np.max(np.abs(a.fields["strain"]))
-    assert a.diagnostics["max_strain_x"] == pytest.approx(-b.diagnostics["max_strain_x"], rel=1e-9)
+    # the maximum located in time (solver.observe.dense_maxima): at a flat maximum its time, and the
+    # place that moves with it, are set to ~sqrt(eps) of the search's bracket (measured 5e-9)
+    assert a.diagnostics["max_strain"] == pytest.approx(b.diagnostics["max_strain"], rel=1e-10)
+    assert a.diagnostics["max_strain_x"] == pytest.approx(-b.diagnostics["max_strain_x"], rel=1e-7)
     # each wet mode is even or odd: the odd ones (pitch, the second slowest, among them) change sign
     top = np.max(np.abs(a.amplitudes))
     even = np.abs(a.amplitudes[-1] - b.amplitudes[-1]) < 1e-10 * top

@@ -57,7 +57,8 @@ def test_a_walled_plates_zone_leaves_out_the_wall():
 @pytest.mark.parametrize("changes", [dict(), dict(edges="free", duration=0.06)])
 def test_zone_maxima_agree_with_dop853(changes):
     """DOP853 observes the zone on its own dense output (8 samples a step, Hermite between);
-    the kernels at their step ends, with the tension observer's samples inside the step."""
+    the kernels at their step ends, with the tension observer's samples inside the step, and on
+    a floe on the dense output, located (tight: tests/test_floe_gauss.py)."""
     p = Parameters(Nmod=10, **changes)
     runs = [solve(p, Settings(**dict(FLOE, integrator=integrator, tolerance=1e-10)), fields=())
             for integrator in ("etd34", "dop853")]

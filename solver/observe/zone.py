@@ -36,23 +36,27 @@ import numpy as np
 from ..cubic import cubic_max, hermite
 from ..jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
-from ..model.basis import field_sum, newton_peak
+from ..model.basis import NEWTON_STOP, _newton_move, field_sum, newton_peak, node_strain
+from ..model.floe import floe_dry, floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
-from .tension import RESOLVED
+from ..step import dense_states
+from .tension import DENSE, RESOLVED, RIPPLE
 
 #: the observer's state: peaks (2, 4) each surface's (value, rate, x, node) of the zone's peak at
 #: the current time (node -1: an end of the zone); reach (4,) the contact's largest extent c [m] so
-#: far, the margin m [m] and the zone's ends [lo, hi] at the last step
-ZoneWork = namedtuple("ZoneWork", "peaks reach")
+#: far, the margin m [m] and the zone's ends [lo, hi] at the last step; best (2, 4) each
+#: surface's (max, time, x, at the edge) over the last step (the located maxima read them);
+#: dry (2, N) scratch for a floe's dry coefficients
+ZoneWork = namedtuple("ZoneWork", "peaks reach best dry")
 
 
 @kernel
-def zone_work(margin):
-    """A ZoneWork before the first contact (c = 0) and before the first peak."""
+def zone_work(margin, N):
+    """A ZoneWork for N modes before the first contact (c = 0) and before the first peak."""
     peaks = np.zeros((2, 4))
     peaks[:, 0] = -np.inf
     peaks[:, 3] = -1.0
-    return ZoneWork(peaks, np.array([0.0, margin, -1.0, -1.0]))
+    return ZoneWork(peaks, np.array([0.0, margin, -1.0, -1.0]), np.full((2, 4), -np.inf), np.empty((2, N)))
 
 
 @kernel
@@ -127,12 +131,81 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
 
 
 @kernel
-def observe_zone(model, zw, t0, h, ends, diag):
+def dry_peak(floe, d, x, xlo, xhi, sign):
+    """newton_peak of the upper-surface strain on a floe's dry coefficients d (floe_dry): O(N)
+    an iteration."""
+    for _ in range(8):
+        s0, s1, s2 = floe_dry_sums(floe, d, x, 1)
+        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
+        if done:
+            break
+    return x
+
+
+@kernel
+def _zone_inside(model, sign, t0, h, zone, inside, ends, best):
+    """A floe's zone peak at the dense-output states inside the step [t0, t0 + h] (computed from
+    the step's Dense unless marks says they are), the Hermite of values and rates between
+    consecutive samples on the same peak or end; best = (value, time, x, edge) of the ends,
+    returned raised by the samples. zone = (lo, hi) at the step's end; inside = (A, AD, eps
+    scratch, Dense, marks, dry (2, N) scratch); ends = the peak at t0 and at t0 + h, each
+    (value, rate, x, node). As the ends say, the peak stays at the zone's edge, or on one peak
+    followed by Newton, each sample's wet amplitudes turned into dry coefficients once (O(N) a
+    point); else the zone is searched afresh at each sample."""
+    A, AD, eps, dz, marks, dry = inside
+    K = A.shape[0] + 1
+    if marks[DENSE] == 0.0:
+        dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, A, AD)
+        marks[DENSE] = 1.0
+    basis, strain = model.basis, model.plate.modes[STRAIN]
+    floe, dx = basis.floe, basis.dx
+    lo, hi = zone
+    bv, bt, bx, bedge = best
+    p0, p1 = ends
+    v0, r0, x0, j0 = p0
+    edge_both = j0 < 0 and p1[3] < 0
+    peak_both = j0 >= 0 and p1[3] >= 0 and abs(p1[2] - x0) <= 3.0 * dx
+    hk = h / K
+    x = x0
+    for k in range(1, K + 1):
+        if k < K:
+            floe_dry(floe, A[k - 1], dry[0])
+            floe_dry(floe, AD[k - 1], dry[1])
+            if edge_both:
+                x, j = p1[2], -1.0
+            elif peak_both:
+                x, j = dry_peak(floe, dry[0], x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign), p1[3]
+            else:
+                node_strain(basis.cosq, floe, strain, A[k - 1], eps)
+                v, x, jn = zone_peak(eps, sign, basis, strain, A[k - 1], lo, hi)
+                j = float(jn)
+            v = sign * floe_dry_sums(floe, dry[0], x, 1)[0]
+            r = sign * floe_dry_sums(floe, dry[1], x, 1)[0]
+        else:
+            v, r, x, j = p1
+        if v > bv:
+            bv, bt, bx, bedge = v, t0 + k * hk, x, j < 0
+        same_peak = j >= 0 and j0 >= 0 and abs(x - x0) <= 3.0 * dx
+        if same_peak or (j < 0 and j0 < 0 and x == x0):     # the same peak or end: between them
+            c0, c1, c2, c3 = hermite(v0, v, r0, r, hk)
+            vmax, th = cubic_max(c0, c1, c2, c3)
+            if vmax > bv:
+                bv, bt, bx, bedge = vmax, t0 + (k - 1 + th) * hk, x0 + th * (x - x0), not same_peak
+        v0, r0, x0, j0 = v, r, x, j
+    return bv, bt, bx, bedge
+
+
+@kernel
+def observe_zone(model, zw, t0, h, ends, inside, diag):
     """The zone's peaks of both surfaces at the end of the accepted step [t0, t0 + h] and their
     largest values over it (module docstring); ends = (eps at the nodes, delta, a, a' at t0 + h,
     the jmax below which delta is computed, and each surface's plate-wide (max, time, x) over the
-    step, rows 0 and 1 of an array; -inf: none)."""
+    step, rows 0 and 1 of an array; -inf: none); inside = (A, AD (K - 1, N): the dense-output
+    states at t0 + k h / K, computed on demand from the Dense unless the marks (tension.DENSE)
+    say they are, an eps scratch (J,), the Dense, the marks), which a floe's zone samples in a
+    step that does not resolve its modes (K = 1, no rows: none)."""
     eps1, delta1, a1, adot1, jmax1, plate_best = ends
+    A, AD, eps, dz, marks = inside
     basis = model.basis
     xc = model.body.xc
     c = contact_extent(delta1, jmax1, basis.dx, xc)
@@ -168,6 +241,14 @@ def observe_zone(model, zw, t0, h, ends, diag):
             vmax, th = cubic_max(c0, c1, c2, c3)
             if vmax > best:
                 best, tb, xb, edge = vmax, t0 + th * h, p0[2] + th * (x1 - p0[2]), j1 < 0
+        # a floe's steps outlast its modes' periods: in a step that does not resolve them and
+        # may raise the zone's maximum, the zone on the dense output (walls: their ends)
+        zone_max = diag[D_ZONE_UPPER + 3 * s]
+        near = not max(p0[0], v1) < zone_max - RIPPLE * abs(zone_max)
+        if basis.kind != 0 and not resolved and h > 0.0 and near and A.shape[0] > 0:
+            best, tb, xb, edge = _zone_inside(model, sign, t0, h, (lo, hi), (A, AD, eps, dz, marks, zw.dry),
+                                              ((p0[0], p0[1], p0[2], p0[3]), (v1, r1, x1, float(j1))),
+                                              (best, tb, xb, edge))
         pb = plate_best[s]
         if pb[0] > best and lo <= pb[2] <= hi:
             best, tb, xb, edge = pb[0], pb[1], pb[2], False
@@ -176,6 +257,7 @@ def observe_zone(model, zw, t0, h, ends, diag):
             diag[D_ZONE_UPPER_T + 3 * s] = tb
             diag[D_ZONE_UPPER_X + 3 * s] = xb
             diag[D_ZONE_UPPER_EDGE + s] = 1.0 if edge else 0.0
+        zw.best[s, 0], zw.best[s, 1], zw.best[s, 2], zw.best[s, 3] = best, tb, xb, 1.0 if edge else 0.0
         p0[0], p0[1], p0[2], p0[3] = v1, r1, x1, j1
     zw.reach[2] = lo
     zw.reach[3] = hi
