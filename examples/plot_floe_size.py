@@ -24,7 +24,7 @@ FAST = os.environ.get("FLOE_GALLERY_FAST") == "1"
 fig, (left, middle, right) = plt.subplots(1, 3, figsize=(14, 3.8), constrained_layout=True)
 walls = Parameters(Nmod=12 if FAST else 30, duration=0.01)
 for p in (walls, walls.replace(edges="free")):
-    r = solve(p, Settings(quadrature="paper"), times=[0.01], fields=("deflection",))
+    r = solve(p, Settings(), times=[0.01], fields=("deflection",))
     left.plot(r.x, 1e3 * r.fields["deflection"][0], label=p.edges)
 left.set(xlabel="x [m]", ylabel="deflection [mm]", title="L = 6 m, t = 10 ms, V = 5 m/s")
 left.legend(fontsize=8)
@@ -35,7 +35,7 @@ zone = {"upper": [], "lower": []}
 onset = {"upper": [], "lower": []}
 for L in lengths:
     p = Parameters(L=L, Nmod=max(8, int(3.5 * L)), edges="free", duration=0.02)
-    r = solve(p, Settings(quadrature="paper", subintervals=max(200, int(170 * L))), fields=())
+    r = solve(p, Settings(subintervals=max(250, int(40 * L))), fields=())
     for surface, suffix in (("upper", ""), ("lower", "_lower")):
         tension[surface].append(r.diagnostics["max_strain" + suffix])
         zone[surface].append(r.diagnostics["impact_zone_max_strain" + suffix])
