@@ -7,9 +7,11 @@ at 16 nodes a wavelength on 1000 subintervals, tolerance 1e-12). The floe_size c
 
 Then the reference case (N = 60, run to the walls' stage end 0.12 s) on the walled plate and the
 floe, centred and off centre, under the default numerics and the paper's rule at 1000
-subintervals and 1e-8: medians of 5.
+subintervals and 1e-8: medians of 5. Then the four tension maxima of two floes (6 m, N = 20; 2
+m, N = 16; 10 ms), etd34 at 1e-9 and 1e-10 against DOP853 at 1e-12 (docs/model.md, "Maxima of
+the impact zone").
 
-    python benchmarks/floe.py          (about 3 min) -> two markdown tables on stdout
+    python benchmarks/floe.py          (about 4 min) -> three markdown tables on stdout
 """
 import sys
 import time
@@ -80,6 +82,20 @@ def reference_cost():
         print(f"| {label} | " + " | ".join(cells) + " |", flush=True)
 
 
+def maxima():
+    names = ("max_strain", "max_strain_lower", "impact_zone_max_strain", "impact_zone_max_strain_lower")
+    print("\n| floe | tolerance | " + " | ".join(names) + " |")
+    print("|---" * (2 + len(names)) + "|")
+    for label, p in (("6 m, N = 20", Parameters(Nmod=20, edges="free", L=6.0, duration=0.01)),
+                     ("2 m, N = 16, V = 2", Parameters(Nmod=16, edges="free", L=2.0, duration=0.01, V=2.0))):
+        ref = solve(p, Settings(integrator="dop853", tolerance=1e-12, error_estimate=False), fields=())
+        for tol in (1e-9, 1e-10):
+            r = solve(p, Settings(tolerance=tol, error_estimate=False), fields=())
+            print(f"| {label} | {tol:.0e} | " + " | ".join(f"{r.diagnostics[k] / ref.diagnostics[k] - 1:+.1e}"
+                                                          for k in names) + " |", flush=True)
+
+
 if __name__ == "__main__":
     main()
     reference_cost()
+    maxima()
