@@ -199,12 +199,10 @@ class Parameters:
         self._check_scales()
 
     def _check_floe(self) -> None:
-        """What a free floe needs and does not have yet (one line each)."""
+        """What a free floe needs (one line)."""
         if not self.duration > 0.0:
             raise ParameterError("a free floe (edges = 'free') needs duration > 0 [s]: its run has no end of its "
                                  "own (the walls' impact stage follows from int w dx = 0, which a floe lacks)")
-        if math.isfinite(self.H):
-            raise ParameterError("a free floe (edges = 'free') floats on deep water: H must be inf")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,

@@ -27,13 +27,12 @@ MODEL_STATUSES = {"ok", "layer_bottomed_out", "separated", "stopped"}
 #: contact-resolving rule; under the paper's its dx^2 (measured up to 1.9e-4 here)
 RESIDUAL = {"gauss": 1e-5, "paper": 1e-3}
 
-#: refusals, each with the words of its one line. Physical: rk4 integrates the paper's elastic
-#: equations, not damped modes. Not yet (issue 38): a floe on water of finite depth.
+#: refusals, each with the words of its one line; all physical: rk4 integrates the paper's
+#: elastic equations, not damped modes
 REFUSED = {("viscoelastic_ice", "rk4/gauss"): "rk4 integrates the paper's elastic plate",
            ("viscoelastic_ice", "rk4/paper"): "rk4 integrates the paper's elastic plate",
            ("viscoelastic_layer", "rk4/gauss"): "rk4 integrates the paper's elastic plate",
-           ("viscoelastic_layer", "rk4/paper"): "rk4 integrates the paper's elastic plate",
-           ("floe", "finite_depth"): "floats on deep water: H must be inf"}
+           ("viscoelastic_layer", "rk4/paper"): "rk4 integrates the paper's elastic plate"}
 #: runs that end in a numerical failure, with its status: the paper's rule under rk4's fixed
 #: step on a power-law body (p = 4) breaks the energy identity at the first step at any step
 #: and table tried (rk4_step_fraction down to 0.002, 500 to 2000 subintervals; adaptive etd34

@@ -65,11 +65,6 @@ REFUSED = [
     (DESIGN.replace('"sobol"', '"saltelli"').replace("samples = 8", "samples = 65536").replace("KEY", ""),
      "is 196608 cases, more than the 131072 a design holds"),
     (DESIGN.replace("samples = 8", "samples = 1048576").replace("KEY", ""), "samples must be an integer from 1 to 131072"),
-    # a floe on water of finite depth (not yet: deep water only)
-    (FLOE.replace('edges = "free"\n', 'edges = "free"\nH = 10.0\n'),
-     "[base]: a free floe (edges = 'free') floats on deep water: H must be inf"),
-    (FLOE.replace("[output]", "[grid]\nH = [10.0, 20.0]\n[output]"),
-     "[grid] H = 10.0: a free floe (edges = 'free') floats on deep water: H must be inf"),
 ]
 
 
