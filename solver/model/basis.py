@@ -25,7 +25,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .floe import TABLE_STRAIN, floe_plane, floe_sums
+from .floe import TABLE_STRAIN, floe_dry, floe_dry_sums, floe_plane, floe_sums
 from ..jit import kernel
 
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
@@ -366,9 +366,26 @@ def field_sum(lam1, floe, field, c, x):
 @kernel
 def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
     """The position of the peak of sign * a modal field (field_sums) near x: safeguarded Newton,
-    kept in [xlo, xhi], stopping at NEWTON_STOP of the bracket (at most 8 steps)."""
+    kept in [xlo, xhi], stopping at NEWTON_STOP of the bracket (at most 8 steps). On a floe the
+    dry coefficients of c once for all the steps (dry_newton_peak)."""
+    if floe.shape[0] != 0:
+        d = np.empty(c.shape[0])
+        floe_dry(floe, c, d)
+        return dry_newton_peak(floe, d, x, xlo, xhi, sign, field[1])
     for _ in range(8):
         s0, s1, s2 = field_sums(lam1, floe, field, c, x)
+        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
+        if done:
+            break
+    return x
+
+
+@kernel
+def dry_newton_peak(floe, d, x, xlo, xhi, sign, code):
+    """newton_peak of a floe's field of that code (0 deflection, 1 upper-surface strain) from
+    its dry coefficients d (floe_dry): O(N) a step."""
+    for _ in range(8):
+        s0, s1, s2 = floe_dry_sums(floe, d, x, code)
         x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
         if done:
             break

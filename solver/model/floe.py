@@ -219,25 +219,6 @@ def wet_modes(p, count: int, antisymmetric: bool = True):
 
 
 @kernel
-def _raw(kind, beta, L, x, order):
-    """One raw dry mode's derivative of the given order at one x in -L..L (as dry_mode)."""
-    if kind == 0.0:
-        return 1.0 if order == 0 else 0.0
-    if kind == 1.0:
-        return x / L if order == 0 else (1.0 / L if order == 1 else 0.0)
-    bo = beta**order
-    ep = math.exp(beta * (x - L))
-    em = math.exp(-beta * (x + L))
-    e2 = math.exp(-2.0 * beta * L)
-    arg = beta * x + order * 0.5 * math.pi
-    if kind == 2.0:
-        hyp = (ep + em) if order % 2 == 0 else (ep - em)
-        return bo * (math.cos(arg) / math.cos(beta * L) + hyp / (1.0 + e2))
-    hyp = (ep - em) if order % 2 == 0 else (ep + em)
-    return bo * (math.sin(arg) / math.sin(beta * L) + hyp / (1.0 - e2))
-
-
-@kernel
 def floe_plane(floe, N, J, k):
     """Table k (TABLE_*) of a floe's packed array, (N, J) (a view)."""
     return floe[k * N * J:(k + 1) * N * J].reshape((N, J))
@@ -312,7 +293,7 @@ def _hyperbolic_parts(beta, L, x):
 @kernel
 def _raw3(shapes, m, L, x, order):
     """Dry mode m's raw derivatives of orders order, order + 1 and order + 2 at one x in -L..L,
-    from one cosine, one sine and the exponentials that are not negligible (_raw's values to
+    from one cosine, one sine and the exponentials that are not negligible (dry_mode's values to
     round-off; the factors 1 / cos(beta L) and 1 / cosh(beta L) from the shapes table)."""
     kind = shapes[KINDS, m]
     if kind == 0.0:
@@ -505,8 +486,8 @@ def floe_tables(p, xq, full: bool):
     modes are the symmetric ones): a dict with omega (N,), mass (N,) the generalised masses 1 / s_k^2
     [kg m-1], damping (N,) each wet mode's Kelvin-Voigt c_k [s-1] and damping_matrix (N, N) the
     whole of it in the kernel's amplitudes (solver.scipy_reference's coupled check), cosq (N, J)
-    the wet modes at the nodes, tables (4, N, J) (TABLE_*), shapes (SHAPE_ROWS + 2N,
-    N) (floe_sums), strain_scale (N,) the largest strain of each mode per unit amplitude, and
+    the wet modes at the nodes, packed: the tables (4, N, J) (TABLE_*), shapes (SHAPE_ROWS + 2N,
+    N) and header in one array (floe_sums), strain_scale (N,) the largest strain of each mode per unit amplitude, and
     the dry modes' kinds, betas and norms."""
     omega, Q, kinds, betas, norms = wet_modes(p, p.Nmod, full)
     L = p.L
@@ -543,7 +524,7 @@ def floe_tables(p, xq, full: bool):
     coupling = p.tau * bending * scale[:, None] / scale[None, :]
     return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
             "damping": p.tau * np.diag(bending).copy(), "damping_matrix": coupling,
-            "packed": pack_floe(tables, shapes, header), "shapes": shapes,
+            "packed": pack_floe(tables, shapes, header),
             "strain_scale": np.max(np.abs(tables[TABLE_STRAIN]), axis=1), "kinds": kinds, "betas": betas,
             "norms": norms, "Q": Qs}
 

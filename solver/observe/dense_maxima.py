@@ -29,10 +29,10 @@ import numpy as np
 
 from ..jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_ZONE_UPPER, D_ZONE_UPPER_T, D_ZONE_UPPER_X
+from ..model.basis import dry_newton_peak
 from ..model.floe import floe_dry, floe_dry_sums
 from ..step import dense_state_at
 from .tension import TENSION_SAMPLES
-from .zone import dry_peak
 
 #: candidate steps kept per quantity
 SLOTS = 2
@@ -125,7 +125,7 @@ def _value_at(model, dm, q, slot, s):
     floe_dry(floe, dm.a, dm.dry)
     x = sc[XB]
     if sc[EDGE] == 0.0:
-        x = dry_peak(floe, dm.dry, x, max(sc[LO], x - 3.0 * dx), min(sc[HI], x + 3.0 * dx), sign)
+        x = dry_newton_peak(floe, dm.dry, x, max(sc[LO], x - 3.0 * dx), min(sc[HI], x + 3.0 * dx), sign, 1)
     return sign * floe_dry_sums(floe, dm.dry, x, 1)[0], x
 
 

@@ -36,7 +36,7 @@ import numpy as np
 from ..cubic import cubic_max, hermite
 from ..jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
-from ..model.basis import NEWTON_STOP, _newton_move, field_sum, newton_peak, node_strain
+from ..model.basis import dry_newton_peak, field_sum, newton_peak, node_strain
 from ..model.floe import floe_dry, floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
@@ -131,18 +131,6 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
 
 
 @kernel
-def dry_peak(floe, d, x, xlo, xhi, sign):
-    """newton_peak of the upper-surface strain on a floe's dry coefficients d (floe_dry): O(N)
-    an iteration."""
-    for _ in range(8):
-        s0, s1, s2 = floe_dry_sums(floe, d, x, 1)
-        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
-        if done:
-            break
-    return x
-
-
-@kernel
 def _zone_inside(model, sign, t0, h, zone, inside, ends, best):
     """A floe's zone peak at the dense-output states inside the step [t0, t0 + h] (computed from
     the step's Dense unless marks says they are), the Hermite of values and rates between
@@ -174,7 +162,7 @@ def _zone_inside(model, sign, t0, h, zone, inside, ends, best):
             if edge_both:
                 x, j = p1[2], -1.0
             elif peak_both:
-                x, j = dry_peak(floe, dry[0], x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign), p1[3]
+                x, j = dry_newton_peak(floe, dry[0], x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign, 1), p1[3]
             else:
                 node_strain(basis.cosq, floe, strain, A[k - 1], eps)
                 v, x, jn = zone_peak(eps, sign, basis, strain, A[k - 1], lo, hi)
@@ -244,8 +232,8 @@ def observe_zone(model, zw, t0, h, ends, inside, diag):
         # a floe's steps outlast its modes' periods: in a step that does not resolve them and
         # may raise the zone's maximum, the zone on the dense output (walls: their ends)
         zone_max = diag[D_ZONE_UPPER + 3 * s]
-        near = not max(p0[0], v1) < zone_max - RIPPLE * abs(zone_max)
-        if basis.kind != 0 and not resolved and h > 0.0 and near and A.shape[0] > 0:
+        if (basis.kind != 0 and not resolved and h > 0.0 and A.shape[0] > 0
+                and not max(p0[0], v1) < zone_max - RIPPLE * abs(zone_max)):
             best, tb, xb, edge = _zone_inside(model, sign, t0, h, (lo, hi), (A, AD, eps, dz, marks, zw.dry),
                                               ((p0[0], p0[1], p0[2], p0[3]), (v1, r1, x1, float(j1))),
                                               (best, tb, xb, edge))
