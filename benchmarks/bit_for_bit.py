@@ -90,8 +90,8 @@ for name, (p, s, kw) in cases.items():
         continue
     d = {"status": r.status, "steps": r.steps, "amplitudes": r.amplitudes, "velocities": r.velocities,
          "contact_intervals": r.contact_intervals, "force": r.force, "plate_energy": r.plate_energy,
-         "layer_energy": r.layer_energy, "work": r.work, "upper_record": r.tension_record["upper"],
-         "lower_record": r.tension_record["lower"], "contact_record": r.contact_record,
+         "layer_energy": r.layer_energy, "work": r.work, "contact_record": r.contact_record,
+         **{name + "_record": rec for name, rec in r.tension_record.items()},
          **{"field " + k: v for k, v in r.fields.items()},
          **{"diagnostic " + k: v for k, v in r.diagnostics.items()}}
     if "located_crack_onset" in r.extra:

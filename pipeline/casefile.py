@@ -33,8 +33,8 @@ from solver.parameters import CHOICES
 from . import provenance
 from .case import Case, x_fractions
 from .identity import SCHEMA_VERSION
-from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
-                     TEXT_INFO, diagnostic_values, run_records)
+from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, RECORD_LONG_NAME, RECORD_NAMES,
+                     TENSION_RECORD_INFO, TEXT_INFO, diagnostic_values, run_records)
 
 class CaseWriteError(OSError):
     """A batch file could not be written (disk full, permissions): the study stops (exit 74)."""
@@ -86,7 +86,7 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
     for key, value in p.as_dict().items():
         out[key] = value
     out["solver_settings"] = json.dumps(case.settings.as_dict())
-    out["tension_records"] = [np.empty((0, 5)) if none else np.asarray(result.tension_record[s]) for s in SURFACES]
+    out["tension_records"] = [np.empty((0, 5)) if none else np.asarray(result.tension_record[s]) for s in RECORD_NAMES]
     contacts = None if none else result.contact_record
     out["contact_record"] = np.empty((0, 2)) if contacts is None else np.asarray(contacts)
     return out
@@ -128,9 +128,10 @@ def batch_dataset(cases: list, arrays: list) -> dict:
     for key, (long_name, units) in PARAMETER_INFO.items():
         values = np.array([a[key] for a in arrays], dtype=object if key in CHOICES else None)
         data[key] = (("case",), values, _attrs(long_name, None if key in CHOICES else units))
-    counts = np.array([[r.shape[0] for r in a["tension_records"]] for a in arrays], dtype=np.int64).reshape(n, 2)
-    data["tension_record_count"] = (("case", "surface"), counts,
-                                    {**_attrs("nodes of the case's tension record on the surface", "1"),
+    counts = np.array([[r.shape[0] for r in a["tension_records"]] for a in arrays],
+                      dtype=np.int64).reshape(n, len(RECORD_NAMES))
+    data["tension_record_count"] = (("case", "tension_record"), counts,
+                                    {**_attrs("nodes of the case's tension record", "1"),
                                      "sample_dimension": "tension_node"})
     rows = np.concatenate([r for a in arrays for r in a["tension_records"]] or [np.empty((0, 5))])
     for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
@@ -144,8 +145,7 @@ def batch_dataset(cases: list, arrays: list) -> dict:
         data[name] = (("contact_change",), rows[:, col], _attrs(long_name, units))
     t_long, t_units = time_coordinate_attrs(first.times_spec["unit"])
     coords = {"case": ("case", np.array([c.case_id for c in cases], dtype=object), _attrs("case id")),
-              "surface": ("surface", np.array(SURFACES, dtype=object),
-                          _attrs("ice surface: upper (tension = +strain), lower (tension = -strain)")),
+              "tension_record": ("tension_record", np.array(RECORD_NAMES, dtype=object), _attrs(RECORD_LONG_NAME)),
               "t": ("t", first.requested_times(), _attrs(t_long, t_units)),
               "x": ("x", x_fractions(first.x_points),
                     _attrs("position along the plate as a fraction of the case's half-length L", "1"))}
@@ -282,7 +282,7 @@ def ragged_offsets(counts: np.ndarray) -> np.ndarray:
 
 
 def tension_records(ds, index=(), starts=None) -> dict:
-    """surface -> (n, 5) record rows of one case of a batch file or study.nc.
+    """record name (solver.outputs.RECORDS) -> (n, 5) record rows of one case of a batch file or study.nc.
 
     index: the case's position along the case dimensions (a batch's (i,), or study.nc's grid
     index); starts: the offsets of every (case..., surface) entry (default: from the counts,
@@ -291,7 +291,7 @@ def tension_records(ds, index=(), starts=None) -> dict:
     if starts is None:
         starts = _values(ds["tension_record_start"]) if "tension_record_start" in ds else ragged_offsets(counts)
     out = {}
-    for i, surface in enumerate(SURFACES):
+    for i, surface in enumerate(RECORD_NAMES):
         n, s = int(counts[tuple(index) + (i,)]), int(starts[tuple(index) + (i,)])
         if n <= 0:
             out[surface] = np.empty((0, 5))

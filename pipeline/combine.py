@@ -36,8 +36,8 @@ from .identity import SCHEMA_VERSION
 from .ledger import BATCHES, write_sidecar
 from .reduce import ERROR_INFO, reduce_batch
 from .study import Study
-from .tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES,
-                     TENSION_RECORD_INFO, TEXT_INFO)
+from .tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, RECORD_LONG_NAME,
+                     RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO)
 
 #: the runner writes study.nc's per-case variables in slabs of about this many bytes
 FLUSH_BYTES = 16 * 2**20
@@ -74,10 +74,10 @@ def per_case_variables(study: Study) -> list:
             out.append((name, (), "f", {"long_name": long_name, "units": units}))
         out.append(("reference_case_id", (), "s", {"long_name": "id of the reference run"}))
     if study.output["records"]:
-        out.append(("tension_record_count", ("surface",), "i",
-                    {"long_name": "nodes of the case's tension record on the surface", "units": "1",
+        out.append(("tension_record_count", ("tension_record",), "i",
+                    {"long_name": "nodes of the case's tension record", "units": "1",
                      "sample_dimension": "tension_node"}))
-        out.append(("tension_record_start", ("surface",), "i",
+        out.append(("tension_record_start", ("tension_record",), "i",
                     {"long_name": "index along tension_node of the first of those nodes", "units": "1"}))
         out.append(("contact_change_entries", (), "i",
                     {"long_name": "entries of the case's contact record", "units": "1",
@@ -143,7 +143,7 @@ class StudyWriter:
         nc.createDimension("t", len(t_coord))
         if study.output["fields"]:
             nc.createDimension("x", len(x_fraction))
-        nc.createDimension("surface", len(SURFACES))
+        nc.createDimension("tension_record", len(RECORD_NAMES))
         nc.createDimension("eps_Y", len(study.output["eps_Y"]))
         if study.output["records"]:
             nc.createDimension("tension_node", None)
@@ -188,9 +188,9 @@ class StudyWriter:
             else:
                 x[:] = x_fraction
                 x.setncatts({"long_name": "position as a fraction of the case's L (L varies)", "units": "1"})
-        surface = nc.createVariable("surface", str, ("surface",))
-        surface[:] = np.array(SURFACES, dtype=object)
-        surface.long_name = "ice surface: upper (tension = +strain), lower (tension = -strain)"
+        record = nc.createVariable("tension_record", str, ("tension_record",))
+        record[:] = np.array(RECORD_NAMES, dtype=object)
+        record.long_name = RECORD_LONG_NAME
         from solver import EPS_Y_INFO
         eps = nc.createVariable("eps_Y", "f8", ("eps_Y",))
         eps[:] = study.output["eps_Y"]
@@ -298,7 +298,7 @@ class StudyWriter:
                       "message": np.full(k, "no valid result", dtype=object)}
             for name, tail, kind, _ in self.variables:
                 if kind == "i":
-                    filler[name] = np.zeros((k,) + (len(SURFACES),) * len(tail), dtype=np.int64)
+                    filler[name] = np.zeros((k,) + (len(RECORD_NAMES),) * len(tail), dtype=np.int64)
                 elif kind == "s" and name not in filler:
                     filler[name] = np.full(k, "", dtype=object)
             for name, values in filler.items():

@@ -9,13 +9,13 @@ import numpy as np
 import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, default_eps_Y
-from solver.outputs import SERIES
+from solver.outputs import SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
 
 from . import provenance
 from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
-from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, SURFACES, TENSION_RECORD_INFO,
-                     TEXT_INFO, diagnostic_values, run_records)
+from .tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO, TENSION_RECORD_INFO, TEXT_INFO,
+                     diagnostic_values, run_records)
 
 #: the series a Result carries beside the study's (solver.outputs.SERIES): name -> (Result
 #: attribute, long_name, units); work and dissipated_energy are the run's totals, as in study.nc
@@ -59,11 +59,12 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     eps = np.asarray(default_eps_Y() if eps_Y is None else eps_Y, dtype=float).reshape(-1)
     for name, values in onset_from_records(result.tension_record, eps).items():
         data[name] = (("eps_Y",), values, _attrs(*CRACK_INFO[name]))
-    for surface in SURFACES:                             # the event records, one table per surface
-        rows = np.asarray(result.tension_record[surface], dtype=float).reshape(-1, 5)
-        dim = f"tension_node_{surface}"
+    for record, (_, _, follows) in TENSION_RECORDS.items():     # the event records, one table each
+        rows = np.asarray(result.tension_record[record], dtype=float).reshape(-1, 5)
+        dim = f"tension_node_{record}"
         for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
-            data[f"{name}_{surface}"] = ((dim,), rows[:, col], _attrs(f"{long_name} ({surface} surface)", units))
+            data[f"{name}_{record}"] = ((dim,), rows[:, col], _attrs(f"{long_name} (the record of the {follows})",
+                                                                      units))
     contacts = np.asarray(result.contact_record if result.contact_record is not None else np.empty((0, 2)),
                           dtype=float).reshape(-1, 2)
     for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):

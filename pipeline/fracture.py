@@ -1,8 +1,11 @@
 """Crack onset against the yield strain, from stored records: no solver run.
 
-Every batch file and ``study.nc`` (unless written with ``[output] records = false``) holds each case's running-maximum tension record on both
-surfaces (``tension_record_*``, docs/model.md "Crack onset"). :func:`crack_onset` turns it
-into the first time and place at which the tension reaches each yield strain::
+Every batch file and ``study.nc`` (unless written with ``[output] records = false``) holds each
+case's running-maximum tension records, on both surfaces, over the whole plate and within the
+impact zone (``tension_record_*`` along the ``tension_record`` dimension, docs/model.md "Crack
+onset"). :func:`crack_onset` turns them into the first time and place at which the tension
+reaches each yield strain, plate-wide (``crack_onset_*``) and in the impact zone
+(``impact_zone_crack_onset_*``)::
 
     import xarray as xr
     from pipeline.fracture import crack_onset
@@ -22,26 +25,45 @@ import xarray as xr
 from solver import EPS_Y_INFO, crack_onset as _from_record, default_eps_Y
 
 from .casefile import ragged_offsets, tension_records
-from .tables import SURFACES, TENSION_RECORD_INFO
+from solver.outputs import TENSION_RECORDS
 
-#: variable -> (long_name, units), each along eps_Y
+from .tables import RECORD_NAMES, TENSION_RECORD_INFO
+
+#: variable -> (long_name, units), each along eps_Y: from each record of solver.outputs.TENSION_RECORDS,
+#: the first time and place its tension reaches eps_Y (plate-wide, and within the impact zone)
 CRACK_INFO = {
-    "crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y (NaN: not "
-                         "within the run)", "s"),
-    "crack_onset_x": ("position of the upper-surface crack onset (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
-    "crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y (NaN: "
-                               "not within the run)", "s"),
-    "crack_onset_x_lower": ("position of the lower-surface crack onset (centred impact: x >= 0, mirrored at -x; off centre: signed)", "m"),
+    "crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y anywhere on the plate "
+                         "(NaN: not within the run)", "s"),
+    "crack_onset_x": ("position of the upper-surface crack onset (centred impact: x >= 0, mirrored at -x; off "
+                      "centre: signed)", "m"),
+    "crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y anywhere on the plate "
+                               "(NaN: not within the run)", "s"),
+    "crack_onset_x_lower": ("position of the lower-surface crack onset (centred impact: x >= 0, mirrored at -x; "
+                            "off centre: signed)", "m"),
+    "impact_zone_crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y within the "
+                                     "impact zone (NaN: not within the run)", "s"),
+    "impact_zone_crack_onset_x": ("position of the upper-surface crack onset within the impact zone (centred "
+                                  "impact: x >= 0; off centre: signed)", "m"),
+    "impact_zone_crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y within "
+                                           "the impact zone (NaN: not within the run)", "s"),
+    "impact_zone_crack_onset_x_lower": ("position of the lower-surface crack onset within the impact zone "
+                                        "(centred impact: x >= 0; off centre: signed)", "m"),
 }
 
 
+def onset_names(record: str) -> tuple:
+    """(time, place) variable names of the crack onset a record gives (solver.outputs.TENSION_RECORDS)."""
+    surface, region, _ = TENSION_RECORDS[record]
+    prefix, suffix = ("" if region == "plate" else "impact_zone_"), ("" if surface == "upper" else "_lower")
+    return f"{prefix}crack_onset_time{suffix}", f"{prefix}crack_onset_x{suffix}"
+
+
 def onset_from_records(records: dict, eps_Y) -> dict:
-    """name -> array over eps_Y, for one case's records (surface -> (n, 5) rows)."""
+    """name -> array over eps_Y, for one case's records (record name -> (n, 5) rows)."""
     out = {}
-    for surface, suffix in zip(SURFACES, ("", "_lower")):
-        t, x = _from_record(records[surface], np.asarray(eps_Y, dtype=float))
-        out["crack_onset_time" + suffix] = t
-        out["crack_onset_x" + suffix] = x
+    for record in RECORD_NAMES:
+        time_name, x_name = onset_names(record)
+        out[time_name], out[x_name] = _from_record(records[record], np.asarray(eps_Y, dtype=float))
     return out
 
 
@@ -51,7 +73,8 @@ def eps_Y_coord(eps_Y) -> tuple:
 
 
 def crack_onset(source, eps_Y=None) -> xr.Dataset:
-    """Crack onset time and place on both surfaces for a list of yield strains.
+    """Crack onset time and place on both surfaces, plate-wide and within the impact zone, for a
+    list of yield strains.
 
     Parameters
     ----------
@@ -60,8 +83,8 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
 
     Returns
     -------
-    xarray.Dataset with ``crack_onset_time`` [s], ``crack_onset_x`` [m] and their ``_lower``
-    versions, over the source's case dimensions (a study's grid keys, or ``case``) and eps_Y.
+    xarray.Dataset with ``crack_onset_time`` [s], ``crack_onset_x`` [m], their ``_lower``
+    versions and their ``impact_zone_`` versions (the impact zone's), over the source's case dimensions (a study's grid keys, or ``case``) and eps_Y.
     """
     eps = np.sort(np.atleast_1d(np.asarray(default_eps_Y() if eps_Y is None else eps_Y, dtype=float)))
     if eps.ndim != 1 or not np.all((eps > 0) & (eps < 1)):

@@ -22,8 +22,9 @@ from .errors import StudyError
 
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
 #: (9, 2026-11-25: the parameters edges and duration, the diagnostic gravity_time_ratio; 10: the
-#: impact zone's maxima and contact_extent, the setting impact_zone_margin)
-SCHEMA_VERSION = 10
+#: impact zone's maxima and contact_extent, the setting impact_zone_margin; 11, 2026-11-27: the
+#: impact zone's tension records beside the plate-wide ones, along the tension_record dimension)
+SCHEMA_VERSION = 11
 
 
 #: [solver] error_estimate = "sample": the companion run of the error estimate (0.79x the

@@ -10,7 +10,7 @@ import numpy as np
 
 from .casefile import DamagedFile, read_batch_arrays, tension_records
 from .fracture import CRACK_INFO, onset_from_records
-from .tables import CONTACT_RECORD_INFO, SURFACES, TENSION_RECORD_INFO
+from .tables import CONTACT_RECORD_INFO, RECORD_NAMES, TENSION_RECORD_INFO
 
 ERROR_INFO = {
     "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
@@ -67,7 +67,7 @@ def reduce_arrays(ds: dict, positions: np.ndarray, eps_Y: list, names: list, rec
     if records:
         counts = ds["tension_record_count"]
         starts = (np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
-        pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(SURFACES))]
+        pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(RECORD_NAMES))]
         out["tension_record_count"] = counts[positions]
         for name in TENSION_RECORD_INFO:
             col = ds[name]

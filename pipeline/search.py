@@ -7,7 +7,8 @@ of one key at which an event first happens, by bisection on runs of the same run
     key = "V"                  # the key searched (a continuous parameter, not in [base] or [grid])
     bracket = [0.5, 40.0]      # the event must differ between its ends
     log = true                 # bisect in log(V); tolerance is then relative
-    event = "bottoming"        # "bottoming" | "crack_onset" | "crack_onset_lower" (at each eps_Y)
+    event = "bottoming"        # "bottoming" | "crack_onset" | "crack_onset_lower" | "impact_zone_crack_onset"
+                               # | "impact_zone_crack_onset_lower" (crack onset: at each eps_Y)
     eps_Y = [8e-5, 1e-3]       # for crack onset: one search per yield strain
     tolerance = 0.01           # the final bracket: hi/lo - 1 (log) or hi - lo (linear)
     scan = 9                   # the first round: 9 values over the bracket, its ends included
@@ -39,7 +40,11 @@ import numpy as np
 from .errors import StudyError, check_table
 from .identity import SAMPLE
 
-EVENTS = ("bottoming", "crack_onset", "crack_onset_lower")
+#: event -> the variable whose finite value says it happened (crack onset: at each eps_Y)
+EVENTS = {"bottoming": "bottoming_time", "crack_onset": "crack_onset_time",
+          "crack_onset_lower": "crack_onset_time_lower",
+          "impact_zone_crack_onset": "impact_zone_crack_onset_time",
+          "impact_zone_crack_onset_lower": "impact_zone_crack_onset_time_lower"}
 SEARCH_KEYS = {"key", "bracket", "log", "event", "eps_Y", "tolerance", "scan"}
 #: points of the first round's scan over the bracket (its ends included), by default
 SCAN = 9

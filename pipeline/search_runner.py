@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import StudyError
-from .search import MAX_ROUNDS, Target, runs_per_search
+from .search import EVENTS, MAX_ROUNDS, Target, runs_per_search
 
 
 def _event(ds, i: int, search: dict, eps) -> bool | None:
@@ -21,9 +21,9 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
     status = str(ds["status"].values[i])
     if status not in (*COMPLETE, "layer_bottomed_out"):
         return None
+    name = EVENTS[search["event"]]
     if search["event"] == "bottoming":
-        return bool(np.isfinite(ds["bottoming_time"].values[i]))
-    name = "crack_onset_time" if search["event"] == "crack_onset" else "crack_onset_time_lower"
+        return bool(np.isfinite(ds[name].values[i]))
     k = int(np.argmin(np.abs(np.log(ds["eps_Y"].values / eps))))
     return bool(np.isfinite(ds[name].values[i, k]))
 

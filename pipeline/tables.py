@@ -7,7 +7,7 @@ pipeline."""
 import math
 
 from solver import DIAGNOSTIC_INFO, STATUS_INFO
-from solver.outputs import SERIES, TENSION_RECORD
+from solver.outputs import RECORDS, SERIES, TENSION_RECORD
 
 #: variable name -> (long_name, units) for the per-case series (the solver's table
 #: solver.outputs.SERIES, and the time) and run records
@@ -39,7 +39,10 @@ CONTACT_RECORD_INFO = {
                             "first touch)", "s"),
     "contact_change_count": ("number of contact intervals on -L..L from that time on", "1"),
 }
-SURFACES = ("upper", "lower")
+#: the tension records of a case, the labels of the tension_record dimension (solver.outputs.TENSION_RECORDS)
+RECORD_NAMES = RECORDS
+RECORD_LONG_NAME = ("tension record: the peak tension of the upper surface (+strain) or the lower (-strain), over "
+                    "the whole plate (upper, lower) or within the impact zone (impact_zone_upper, impact_zone_lower)")
 #: statuses of a run that covered what it was asked to: ok, and a free body's ends
 COMPLETE = ("ok", "separated", "stopped")
 #: statuses of a case that ended by the model itself (not ok), and numerical failures

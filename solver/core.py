@@ -22,7 +22,7 @@ from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
-from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, POSITION_SLOTS, SERIES
+from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, POSITION_SLOTS, RECORDS, SERIES
 from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError
 from .settings import Settings, check_combination
@@ -63,7 +63,7 @@ class Result:
     smallest_step: float               # [s]
     largest_step: float                # [s]
     wall_time: float                   # [s] of the integration (without the error estimate's companion)
-    tension_record: dict = field(default_factory=dict)  # "upper", "lower" -> (n, 5) rows, see solver.fracture
+    tension_record: dict = field(default_factory=dict)  # solver.outputs.RECORDS -> (n, 5) rows, solver.fracture
     contact_record: np.ndarray = None  # (n, 2) rows (t [s], contact intervals from then on)
     body_position: np.ndarray = None   # (T,) penetration s of the body, V t for the paper's body [m]
     body_speed: np.ndarray = None      # (T,) downward speed U of the body, V for the paper's [m s-1]
@@ -90,13 +90,16 @@ class Result:
         """The time scale 1/omega_1 [s], by the name study.nc gives it (= time_scale)."""
         return self.parameters.time_scale
 
-    def crack_onset(self, eps_Y, surface: str = "upper"):
+    def crack_onset(self, eps_Y, surface: str = "upper", region: str = "plate"):
         """First time [s] and place [m] at which the tension on a surface ("upper": +eps,
-        "lower": -eps) reaches each yield strain eps_Y, from the run's tension record (NaN:
-        never within the run). See :func:`solver.fracture.crack_onset`."""
+        "lower": -eps) reaches each yield strain eps_Y, anywhere on the plate (region "plate") or
+        within the impact zone ("impact_zone"), from the run's tension record (NaN: never within
+        the run). See :func:`solver.fracture.crack_onset`."""
         if surface not in ("upper", "lower"):
             raise ParameterError(f"surface must be 'upper' or 'lower', got {surface!r}")
-        return crack_onset(self.tension_record[surface], eps_Y)
+        if region not in ("plate", "impact_zone"):
+            raise ParameterError(f"region must be 'plate' or 'impact_zone', got {region!r}")
+        return crack_onset(self.tension_record[surface if region == "plate" else f"impact_zone_{surface}"], eps_Y)
 
     def to_dataset(self, eps_Y=None):
         """This case as a labelled ``xarray.Dataset``: the same names, units and long names as a
@@ -298,12 +301,13 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
                            s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin)
     started = _time.perf_counter()
-    code, n_out, (up, n_up, lo, n_lo, cont, n_cont), fail = _integrator(s.integrator, method)(
+    code, n_out, (up, n_up, lo, n_lo, cont, n_cont, zu, n_zu, zl, n_zl), fail = _integrator(s.integrator, method)(
         tab, control, times, a0, v0, levels, Outputs(out_a, out_adot, series, diag, level_t, level_x))
+    raw = zip(RECORDS, ((up, n_up), (lo, n_lo), (zu, n_zu), (zl, n_zl)))
     if s.integrator == "dop853":
-        records = {"upper": up, "lower": lo}
+        records = {name: rec[:n] for name, (rec, n) in raw}
     else:       # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
-        records = {name: rec[thin_record(rec)] for name, rec in (("upper", up[:n_up]), ("lower", lo[:n_lo]))}
+        records = {name: rec[:n][thin_record(rec[:n])] for name, (rec, n) in raw}
     contact_record = cont[:n_cont].copy()
     # under the Gauss rule a death between nodes may be placed after its step (solver.observe.
     # contacts._between_nodes): not after the run's end

@@ -91,7 +91,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
         return st, force, jmax, lp, 0, records
     contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
     cur.acc[2] = layer_energy(model, cur.a, s, cur.delta, jmax) if model.basis.rule == 1 else math.nan
-    rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
+    rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
     rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
     node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], cur.a, cur.eps)
@@ -103,12 +103,14 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
         diag[D_MAX_UPPER + 3 * s_] = peak[0]
         diag[D_MAX_UPPER_X + 3 * s_] = peak[2]
         diag[D_MAX_UPPER_T + 3 * s_] = t
-    observe_zone(model, ws.zone, t, 0.0, (cur.eps, cur.delta, cur.a, cur.adot, jmax, np.full((2, 4), -np.inf)),
-                 (tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing), tw.marks), diag)
+    rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, ws.zone, t, 0.0, (cur.eps, cur.delta, cur.a, cur.adot, jmax,
+                                                                       np.full((2, 4), -np.inf), cur.yb, cur.yb),
+                                              (tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing),
+                                               tw.marks), (rec_zu, n_zu, rec_zl, n_zl), diag)
     gap_peak(model, s, U, cur.delta, jmax, cur.a, cur.adot, ws.gap0)
     diag[D_MAX_DELTA] = ws.gap0[0]
     diag[D_MAX_DELTA_T] = t
-    return 0, force, jmax, lp, contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c)
+    return 0, force, jmax, lp, contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl)
 
 
 @kernel
@@ -250,7 +252,7 @@ def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
     (contacts at t + h, records, a free body left the ice)."""
     tw, cw, peaks0, zw, dm = observers
     jmax, jm5, F5, rows = ends
-    rec_up, n_up, rec_lo, n_lo, rec_c, n_c = records
+    rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
     for s in range(2):
         copy_into(peaks0[s], tw.track[PEAKS + s], 4)
     tw.marks[DENSE] = 0.0 if h > 0.0 else 1.0     # computed on demand by the tension observer
@@ -262,12 +264,13 @@ def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
                                                        (rec_c, n_c))
     if largest > diag[D_MAX_CONTACTS]:
         diag[D_MAX_CONTACTS] = largest
-    observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5, tw.track[STEP_BEST:STEP_BEST + 2]),
-                 (tw.A, tw.AD, tw.eps, dz, tw.marks), diag)
+    rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5,
+                                                                 tw.track[STEP_BEST:STEP_BEST + 2], cur.yb, new.yb),
+                                              (tw.A, tw.AD, tw.eps, dz, tw.marks), (rec_zu, n_zu, rec_zl, n_zl), diag)
     if model.basis.kind != 0.0 and h > 0.0:      # a floe: its maxima located at the run's end
         observe_candidates(model, dm, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best, (zw.reach[2], zw.reach[3]))
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
-    return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c), left
+    return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl), left
 
 
 @kernel
@@ -276,8 +279,9 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     landing on every t_out (sorted, in [t_start, t_end]); a0, adot0: a_n [m] and a_n' [m s-1] at
     t_start; levels: tension levels to locate exactly on sub-steps (verification; usually
     empty); out: the Outputs to fill. Returns (status, the number of output times filled,
-    records = (upper, n_upper, lower, n_lower, contacts, n_contacts)): the tension records of
-    both surfaces (rows R_T..R_JOIN, first n valid) and the contact record (rows (t, count))."""
+    records = (upper, n_upper, lower, n_lower, contacts, n_contacts, zone upper, n, zone lower,
+    n)): the tension records of both surfaces plate-wide and in the impact zone (rows
+    R_T..R_JOIN, first n valid) and the contact record (rows (t, count))."""
     N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
     start_diagnostics(diag, control.t_start)
     ws = _workspace(method, model, N, J, control.zone_margin)
@@ -290,7 +294,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
     t = control.t_start
     none = np.int64(0)                  # (not a literal 0: numba would compile the observers twice)
-    records = (np.empty((256, N_REC)), none, np.empty((256, N_REC)), none, np.empty((64, 2)), none)
+    records = (np.empty((256, N_REC)), none, np.empty((256, N_REC)), none, np.empty((64, 2)), none,
+               np.empty((256, N_REC)), none, np.empty((256, N_REC)), none)
     st, force, jmax, lp, contacts, records = _initial(model, ws, cur, t, a0, adot0, records, diag)
     if st != 0:
         diag[D_T_REACHED] = t

@@ -152,6 +152,20 @@ TENSION_RECORD = (
 )
 RECORD_SLOTS = tuple(row.slot for row in TENSION_RECORD)
 
+#: the running-maximum tension records a run keeps (docs/model.md, "Crack onset"): name ->
+#: (surface, region, what it follows); each gives crack onset for any eps_Y (solver.fracture), as
+#: crack_onset_time / _x with the surface's suffix ("", "_lower") and the region's prefix ("",
+#: "impact_zone_")
+TENSION_RECORDS = {
+    "upper": ("upper", "plate", "peak tension (+strain) of the upper surface over the whole plate (at a wall, a "
+              "walled plate's confinement)"),
+    "lower": ("lower", "plate", "peak tension (-strain) of the lower surface over the whole plate"),
+    "impact_zone_upper": ("upper", "impact_zone", "peak tension of the upper surface within the impact zone (the "
+                          "contact's farthest reach so far plus impact_zone_margin)"),
+    "impact_zone_lower": ("lower", "impact_zone", "peak tension of the lower surface within the impact zone"),
+}
+RECORDS = tuple(TENSION_RECORDS)
+
 #: field name -> (long_name, units)
 FIELD_INFO = {
     "deflection": ("ice deflection w, positive upwards", "m"),

@@ -159,7 +159,7 @@ def helper_jobs():
     work, rows = _field(ws, "work"), _field(_field(ws, "work"), "rows")
     carried = typeof(Carried(0.0, 0.0, 0.0, 0.0, 0))
     start = typeof(Start(np.empty(1, np.complex128), np.empty(1), np.empty(1)))
-    records = typeof((np.empty((1, 1)), 0) * 3)
+    records = typeof((np.empty((1, 1)), 0) * 5)       # (tension upper, lower; contacts; zone upper, lower)
     observers = types.Tuple([_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")])
     return [
         (_observe, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, rows)), records, diag)),

@@ -92,10 +92,12 @@ class _Observer:
         N, J = tab.omega.size, tab.xq.size
         self.zone, self.zone_diag, self.zone_t = zone_work(float(zone_margin), N), np.full(kn.N_DIAG, np.nan), None
         self.no_best = np.full((2, 4), -np.inf)     # (the kernels' plate-wide step maxima: not here)
+        self.no_body = np.zeros(2)                  # (the body between samples: not needed without them)
         # no dense states between two samples (the zone is sampled at DOP853's own samples)
         self.no_inside = (np.empty((0, N)), np.empty((0, N)), np.empty(J),
                           Dense(np.zeros(N, np.complex128), np.zeros(N), np.zeros(N), np.zeros(N)), np.ones(5))
         self.records = ([], [])
+        self.zone_records = [np.empty((64, kn.N_REC)), np.int64(0), np.empty((64, kn.N_REC)), np.int64(0)]
         self.running = [-np.inf, -np.inf]
         self.last = [None, None]               # each surface's previous sample row
         self.max_contacts = self.max_force = self.max_delta = 0.0
@@ -154,9 +156,11 @@ class _Observer:
                 self.running[k] = value
             self.last[k] = row
         h = 0.0 if self.zone_t is None else t - self.zone_t
-        observe_zone(self.tab.model, self.zone, t - h, h, (np.ascontiguousarray(eps), delta, np.ascontiguousarray(a),
-                                                           np.ascontiguousarray(v), jmax, self.no_best),
-                     self.no_inside, self.zone_diag)
+        self.zone_records = list(observe_zone(self.tab.model, self.zone, t - h, h,
+                                              (np.ascontiguousarray(eps), delta, np.ascontiguousarray(a),
+                                               np.ascontiguousarray(v), jmax, self.no_best, self.no_body,
+                                               self.no_body),
+                                              self.no_inside, tuple(self.zone_records), self.zone_diag))
         self.zone_t = t
         self.max_contacts = max(self.max_contacts, contacts)
         if force > self.max_force:
@@ -175,7 +179,8 @@ class _Observer:
             self.body_residual = max(self.body_residual, abs(body_residual(tab.model.body, t, deficits, work)))
 
     def finish(self, diag):
-        """The diagnostics into diag (the kernels' slots); returns the records (upper, lower)."""
+        """The diagnostics into diag (the kernels' slots); returns the records (upper, lower, the
+        impact zone's upper, lower)."""
         records = []
         for k in range(2):
             rec = np.asarray(self.records[k], dtype=float).reshape(-1, kn.N_REC)
@@ -199,7 +204,8 @@ class _Observer:
             ends = [kn.D_STOP_T, kn.D_MAX_PENETRATION, kn.D_SEPARATION_T, kn.D_SEPARATION_SPEED]
             diag[ends] = self.body_diag[ends]
             diag[kn.D_BODY_RESIDUAL] = self.body_residual / self.peak_work if self.peak_work > 0 else 0.0
-        return records[0], records[1]
+        zu, n_zu, zl, n_zl = self.zone_records
+        return records[0], records[1], zu[:n_zu].copy(), zl[:n_zl].copy()
 
 
 class _System:
@@ -336,8 +342,8 @@ def _summary(out, n_out, status, reason, t_reached, counts):
 def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_damping=False):
     """The interface of :func:`solver.loop.integrate` on DOP853: fills out (Outputs; the error
     column NaN: DOP853 gives no local error estimates back; levels are not located: level_t stays
-    NaN) and returns (status, n_out, records, failure), records = (upper, n, lower, n, contacts, 0)
-    (no contact record), failure what stopped it or "". A free body's run that asks to end at
+    NaN) and returns (status, n_out, records, failure), records = (upper, n, lower, n, contacts, 0,
+    zone upper, n, zone lower, n) (no contact record), failure what stopped it or "". A free body's run that asks to end at
     separation ends at the first step after which it is off the ice, moving up. coupled_damping:
     see _System (to measure what the kernels' diagonal damping of a floe leaves out)."""
     try:
@@ -409,6 +415,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
             diag[kn.D_BOTTOM_SPEED] = tab.model.layer.he * gap[1]
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = np.inf, t_bottom
             break
-    up, lo = observer.finish(diag)
+    up, lo, zu, zl = observer.finish(diag)
     _summary(out, k, status, reason, t_reached, (system.nfev, steps))
-    return status, k, (up, up.shape[0], lo, lo.shape[0], np.empty((0, 2)), 0), failure
+    return status, k, (up, up.shape[0], lo, lo.shape[0], np.empty((0, 2)), 0, zu, zu.shape[0], zl, zl.shape[0]), \
+        failure

@@ -74,7 +74,7 @@ def test_combined_file_is_labelled_and_carries_provenance(regression_run):
     ds = xr.open_dataset(regression_run / "study.nc")
     try:
         assert {k: v for k, v in ds.sizes.items() if k not in ("tension_node", "contact_change")} == \
-            {"V": 2, "hi": 2, "t": 6, "x": 25, "surface": 2, "eps_Y": 42}
+            {"V": 2, "hi": 2, "t": 6, "x": 25, "tension_record": 4, "eps_Y": 42}
         assert ds["strain"].dims == ("V", "hi", "t", "x")
         for name in list(ds.data_vars) + list(ds.coords):
             var = ds[name]
@@ -94,10 +94,13 @@ def test_combined_file_is_labelled_and_carries_provenance(regression_run):
         for name in ("max_strain", "max_abs_strain", "max_strain_lower", "max_contact_intervals",
                      "max_force", "bottoming_time", "energy_residual", "run_time"):
             assert ds[name].dims == ("V", "hi"), name
-        for name in ("crack_onset_time", "crack_onset_x", "crack_onset_time_lower", "crack_onset_x_lower"):
+        for name in ("crack_onset_time", "crack_onset_x", "crack_onset_time_lower", "crack_onset_x_lower",
+                     "impact_zone_crack_onset_time", "impact_zone_crack_onset_x", "impact_zone_crack_onset_time_lower",
+                     "impact_zone_crack_onset_x_lower"):
             assert ds[name].dims == ("V", "hi", "eps_Y"), name
         assert ds["tension_record_time"].dims == ("tension_node",)        # ragged (CF contiguous)
-        assert ds["tension_record_count"].dims == ("V", "hi", "surface")
+        assert ds["tension_record_count"].dims == ("V", "hi", "tension_record")
+        assert list(ds["tension_record"].values) == ["upper", "lower", "impact_zone_upper", "impact_zone_lower"]
         assert ds["contact_change_time"].dims == ("contact_change",)
         assert int(ds["tension_record_count"].sum()) == ds.sizes["tension_node"]
         assert int(ds["contact_change_entries"].sum()) == ds.sizes["contact_change"]
@@ -129,7 +132,8 @@ def test_a_study_that_differs_only_in_eps_Y_computes_nothing(regression_run, tmp
         assert list(ds["eps_Y"].values) == [5e-5, 8e-5, 2e-4]
         np.testing.assert_array_equal(ds["crack_onset_time"].sel(eps_Y=8e-5), first["crack_onset_time"].sel(eps_Y=8e-5))
         again = crack_onset(out / "study.nc", [2e-4, 5e-5])
-        np.testing.assert_array_equal(again["crack_onset_time"].sel(eps_Y=2e-4), ds["crack_onset_time"].sel(eps_Y=2e-4))
+        for name in ("crack_onset_time", "impact_zone_crack_onset_time", "impact_zone_crack_onset_x_lower"):
+            np.testing.assert_array_equal(again[name].sel(eps_Y=2e-4), ds[name].sel(eps_Y=2e-4))
         # and from the batch file that holds the case, the same numbers
         case_id = str(ds["case_id"].sel(V=5.0, hi=0.5).item())
         for path in batch_files(out):

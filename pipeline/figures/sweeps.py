@@ -13,6 +13,7 @@ import xarray as xr
 
 from solver import PAPER_EPS_Y
 
+from ..analysis import CRACK_OUTPUTS
 from ..tables import COMPLETE
 from .common import (line_styles, log_spaced, save, tick_label, key_label, case_keys, case_labels,
                      spaced_labels, auto_log_y, yield_line, paper_eps_Y, walled, at_wall, margin, sweep_line,
@@ -24,8 +25,10 @@ DIAGNOSTICS = [
     ("max_strain_lower", "max tensile strain, lower surface (plate-wide)"),
     ("impact_zone_max_strain", "max tensile strain, upper surface (impact zone)"),
     ("impact_zone_max_strain_lower", "max tensile strain, lower surface (impact zone)"),
-    ("crack_onset_time", "crack onset, upper [ms]"),
-    ("crack_onset_time_lower", "crack onset, lower [ms]"),
+    ("crack_onset_time", "crack onset, upper [ms] (plate-wide)"),
+    ("crack_onset_time_lower", "crack onset, lower [ms] (plate-wide)"),
+    ("impact_zone_crack_onset_time", "crack onset, upper [ms] (impact zone)"),
+    ("impact_zone_crack_onset_time_lower", "crack onset, lower [ms] (impact zone)"),
     ("max_contact_intervals", "max contact intervals"),
     ("max_force", "max force [N/m]; ▲: unbounded (bottomed out)"),
     ("max_compression", "max layer compression δ"),
@@ -43,7 +46,8 @@ MAP_DIAGNOSTICS = [
     ("max_strain", "max tensile strain, upper (plate-wide)", True),
     ("max_strain_lower", "max tensile strain, lower (plate-wide)", True),
     ("impact_zone_max_strain", "max tensile strain, upper (impact zone)", True),
-    ("crack_onset_time", "crack onset, upper [ms]", False),
+    ("crack_onset_time", "crack onset, upper [ms] (plate-wide)", False),
+    ("impact_zone_crack_onset_time", "crack onset, upper [ms] (impact zone)", False),
     ("max_contact_intervals", "max contact intervals", False),
     ("max_compression", "max layer compression δ", False),
     ("run_time", "solver wall time [s]", True),
@@ -73,7 +77,7 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
                              figsize=(3.6 * len(columns) + 1.5, 2.4 * len(shown) + 1.2),
                              constrained_layout=True)
     for r, (row, (name, title, log)) in enumerate(zip(axes, shown)):
-        var = ds[name].sel(eps_Y=eps_y) * 1e3 if name == "crack_onset_time" else ds[name]
+        var = ds[name].sel(eps_Y=eps_y) * 1e3 if name in CRACK_OUTPUTS else ds[name]
         panels = [var.sel({**rest, **({third: c} if third else {})}).transpose(second, first).values.astype(float)
                   for c in columns]
         finite = np.concatenate([p[np.isfinite(p)].ravel() for p in panels])
@@ -94,7 +98,7 @@ def diagnostics_maps(ds: xr.Dataset, dims: list, path: Path) -> Path:
             ax.plot(xx, yy, "x", color="w", ms=3, mew=0.6)
             if r == 0:
                 ax.set_title(key_label(third, column) if third else "", fontsize=10)
-        fig.colorbar(mesh, ax=row[-1], label=title if name != "crack_onset_time" else f"{title}, εY = {eps_y:g}")
+        fig.colorbar(mesh, ax=row[-1], label=title if name not in CRACK_OUTPUTS else f"{title}, εY = {eps_y:g}")
     for ax in axes[-1]:
         ticks = np.unique(np.linspace(0, ds.sizes[first] - 1, 4).round().astype(int))
         ax.set_xticks(ticks, [tick_label(v) for v in ds[first].values[ticks]])
@@ -132,8 +136,7 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     if len(others) and int(np.prod([ds.sizes[d] for d in others])) > MAX_LINES:
         return diagnostics_maps(ds, dims, path)
     eps_y = paper_eps_Y(ds)
-    ds = ds.assign({name: ds[name].sel(eps_Y=eps_y) * 1e3
-                    for name in ("crack_onset_time", "crack_onset_time_lower")})
+    ds = ds.assign({name: ds[name].sel(eps_Y=eps_y) * 1e3 for name in CRACK_OUTPUTS if name in ds})
     panels = [entry for entry in DIAGNOSTICS if entry[0] in ds]      # (before schema 10: no zone)
     fig, axes = plt.subplots(-(-len(panels) // 3), 3, figsize=(13, 3.3 * -(-len(panels) // 3)),
                              constrained_layout=True)
@@ -221,8 +224,9 @@ def diagnostics_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
 
 
 def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
-    """Crack-onset time [ms] against eps_Y (log axis), upper and lower surface: one line per
-    value of the first key, one panel row per combination of the others (at most 6 rows)."""
+    """Crack-onset time [ms] against eps_Y (log axis), upper and lower surface, plate-wide (solid)
+    and within the impact zone (dashed, where the study has it): one colour per value of the
+    first key, one panel row per combination of the others (at most 6 rows)."""
     eps = ds["eps_Y"].values
     if dims == ["case"]:
         first, others = "case", []
@@ -237,10 +241,14 @@ def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
     colors = [c for c, _ in line_styles(ds.sizes[first])]
     for row, combo in zip(axes, rows):
         where = dict(zip(others, combo))
-        for ax, name, surface in ((row[0], "crack_onset_time", "upper"), (row[1], "crack_onset_time_lower", "lower")):
-            sel = ds[name].sel(where)
-            for i, (color, label) in enumerate(zip(colors, labels)):
-                ax.loglog(eps, sel.isel({first: i}).values * 1e3, "-", color=color, label=label, lw=1.8)
+        for ax, suffix, surface in ((row[0], "", "upper"), (row[1], "_lower", "lower")):
+            for prefix, style, width, region in (("", "-", 1.8, "plate-wide"), ("impact_zone_", "--", 1.4, "impact zone")):
+                if prefix + "crack_onset_time" + suffix not in ds:        # (before schema 11: no zone)
+                    continue
+                sel = ds[prefix + "crack_onset_time" + suffix].sel(where)
+                for i, (color, label) in enumerate(zip(colors, labels)):
+                    ax.loglog(eps, sel.isel({first: i}).values * 1e3, style, color=color, lw=width,
+                              label=f"{label} ({region})" if len(labels) == 1 else (label if not prefix else None))
             ax.axvline(PAPER_EPS_Y, color="k", lw=0.8, ls="--")
             ax.set_ylabel("crack onset [ms]")
             ax.set_title(f"{surface} surface" + (", " + ", ".join(key_label(k, v) for k, v in where.items())
@@ -250,7 +258,8 @@ def crack_onset_figure(ds: xr.Dataset, dims: list, path: Path) -> Path:
         ax.set_xlabel("yield strain εY")
     handles, lab = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles[:12], lab[:12], loc="outside lower center", ncol=min(6, len(lab)), fontsize=9)
-    title = "First time the tension reaches εY (dashed: the paper's 8e-5); a line ends where εY is not reached"
+    title = ("First time the tension reaches εY: solid anywhere on the plate, dashed within the impact zone "
+             "(vertical: the paper's 8e-5);\na line ends where εY is not reached")
     if len(combos) > len(rows):
         title += f"\n(first {len(rows)} of {len(combos)} combinations of {', '.join(others)})"
     fig.suptitle(title, fontsize=11)

@@ -39,35 +39,37 @@ SLOTS = 2
 #: quantities: the plate-wide upper and lower surfaces' tension maxima, the impact zone's
 QUANTITIES = 4
 #: columns of DenseMaxima.scalars: the estimate, the step's t0 and h, the estimate's time and
-#: place, the zone's ends, 1 when the estimate sat at the zone's edge
-ESTIMATE, T0, H, TB, XB, LO, HI, EDGE = range(8)
+#: place, the zone's ends at the step's end, where the estimate sat (0 inside the zone, 1 its
+#: upper end, 2 its lower end) and that end's speed
+ESTIMATE, T0, H, TB, XB, LO, HI, EDGE, SPEED = range(9)
+SCALARS = 9
 #: golden-section iterations: the bracket shrinks to 0.618^48 = 1e-10 of two sample spacings
 GOLDEN_STEPS = 48
 GOLDEN = 0.5 * (5.0 ** 0.5 - 1.0)
 
 #: candidates (QUANTITIES, SLOTS, ...): z0 (N,) complex, forcing (3, N) (N1, Nm, N5), scalars
-#: (ESTIMATE..EDGE); a, adot, dry (N,) and values (8,) scratch
+#: (ESTIMATE..SPEED); a, adot, dry (N,) and values (SCALARS,) scratch
 DenseMaxima = namedtuple("DenseMaxima", "z0 forcing scalars a adot dry values")
 
 
 @kernel
 def dense_maxima_work(N):
     """A DenseMaxima for N modes with no candidates."""
-    scalars = np.full((QUANTITIES, SLOTS, 8), np.nan)
+    scalars = np.full((QUANTITIES, SLOTS, SCALARS), np.nan)
     scalars[:, :, ESTIMATE] = -np.inf
     return DenseMaxima(np.zeros((QUANTITIES, SLOTS, N), np.complex128), np.zeros((QUANTITIES, SLOTS, 3, N)),
-                       scalars, np.empty(N), np.empty(N), np.empty(N), np.empty(8))
+                       scalars, np.empty(N), np.empty(N), np.empty(N), np.empty(SCALARS))
 
 
 @kernel
 def _store(dm, q, slot, dz, values):
-    """A step's dense inputs dz and its scalars values (8,) into candidate slot of q."""
+    """A step's dense inputs dz and its scalars values (SCALARS,) into candidate slot of q."""
     for n in range(dz.z0.shape[0]):
         dm.z0[q, slot, n] = dz.z0[n]
         dm.forcing[q, slot, 0, n] = dz.N1[n]
         dm.forcing[q, slot, 1, n] = dz.Nm[n]
         dm.forcing[q, slot, 2, n] = dz.N5[n]
-    for i in range(8):
+    for i in range(SCALARS):
         dm.scalars[q, slot, i] = values[i]
 
 
@@ -78,14 +80,14 @@ def _shift(dm, q, source, target):
         dm.z0[q, target, n] = dm.z0[q, source, n]
         for r in range(3):
             dm.forcing[q, target, r, n] = dm.forcing[q, source, r, n]
-    for i in range(8):
+    for i in range(SCALARS):
         dm.scalars[q, target, i] = dm.scalars[q, source, i]
 
 
 @kernel
 def keep_candidate(dm, q, dz, values):
-    """The step of dense inputs dz and scalars values = (estimate, t0, h, time, x, lo, hi, edge)
-    as a candidate of q where its estimate ranks among the SLOTS largest."""
+    """The step of dense inputs dz and scalars values = (estimate, t0, h, time, x, lo, hi, edge,
+    speed) as a candidate of q where its estimate ranks among the SLOTS largest."""
     e = values[ESTIMATE]
     if not e > dm.scalars[q, SLOTS - 1, ESTIMATE]:
         return
@@ -99,8 +101,8 @@ def keep_candidate(dm, q, dz, values):
 @kernel
 def observe_candidates(model, dm, t0, h, dz, plate_best, zone_best, zone):
     """A floe's accepted step [t0, t0 + h] as a candidate of each quantity: plate_best (2, 3)
-    each surface's plate-wide (max, time, x) over it, zone_best (2, 4) the zone's (max, time, x,
-    edge), zone = (lo, hi) at its end."""
+    each surface's plate-wide (max, time, x) over it, zone_best (2, 5) the zone's (max, time, x,
+    edge, speed), zone = (lo, hi) at its end."""
     lo, hi = zone
     values = dm.values
     for q in range(QUANTITIES):
@@ -111,6 +113,7 @@ def observe_candidates(model, dm, t0, h, dz, plate_best, zone_best, zone):
             e, tb, xb, edge, ql, qh = zone_best[s, 0], zone_best[s, 1], zone_best[s, 2], zone_best[s, 3], lo, hi
         values[0], values[1], values[2], values[3] = e, t0, h, tb
         values[4], values[5], values[6], values[7] = xb, ql, qh, edge
+        values[8] = 0.0 if q < 2 else zone_best[s, 4]
         keep_candidate(dm, q, dz, values)
 
 
@@ -126,6 +129,9 @@ def _value_at(model, dm, q, slot, s):
     x = sc[XB]
     if sc[EDGE] == 0.0:
         x = dry_newton_peak(floe, dm.dry, x, max(sc[LO], x - 3.0 * dx), min(sc[HI], x + 3.0 * dx), sign, 1)
+    else:                                # an end of the zone, moving at its speed then (the zone
+        x += sc[SPEED] * (s - (sc[TB] - sc[T0]))    # at the step's end bounds it)
+        x = min(x, sc[HI]) if sc[EDGE] == 1.0 else max(x, sc[LO])
     return sign * floe_dry_sums(floe, dm.dry, x, 1)[0], x
 
 
