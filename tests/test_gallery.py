@@ -94,7 +94,29 @@ def test_plot_floe_size(tmp_path, monkeypatch):
                       <= np.asarray(g["tension"][surface]) * (1 + 1e-12))
     onset = np.asarray(g["onset"]["lower"])
     assert np.isfinite(onset[-1]) and 0 < onset[-1] < 20              # the large floe cracks below
+    for surface in ("upper", "lower"):          # the zone reaches a strain no earlier than the floe
+        zone, plate = (np.asarray(g[name][surface]) for name in ("zone_onset", "onset"))
+        both = np.isfinite(zone)
+        assert np.all(np.isfinite(plate[both])) and np.all(zone[both] >= plate[both] * (1 - 1e-12))
     assert g["r"].parameters.edges == "free" and g["r"].status == "ok"
+
+
+def test_plot_floe_crack_speed(tmp_path, monkeypatch):
+    """Each search found its speed; thicker ice needs a faster impact; and the answer holds: a
+    run at the final bracket's lower end leaves the impact zone's lower surface below 8e-5, one at
+    its upper end cracks it (the study's own runs, solved again here)."""
+    from solver import Parameters, Settings, solve
+    g = run("plot_floe_crack_speed.py", tmp_path, monkeypatch)
+    found, study = g["found"], g["study"]
+    assert set(np.asarray(found["search_status"]).ravel()) == {"found"}
+    v = found["critical_V"]
+    assert np.all(v.sel(hi=1.0) > 2 * v.sel(hi=0.3))
+    base = study["base"]
+    for end, cracks in (("critical_V_lower", False), ("critical_V_upper", True)):
+        V = float(found[end].sel(hi=0.3, L=2.0))
+        r = solve(Parameters(**base, hi=0.3, L=2.0, V=V), Settings(error_estimate=False), fields=(),
+                  until_separation=True)
+        assert np.isfinite(r.crack_onset(8e-5, "lower", "impact_zone")[0]) == cracks, end
 
 
 def test_plot_viscoelastic(tmp_path, monkeypatch):
