@@ -221,6 +221,17 @@ def _finite_difference_added_mass(L, H, psi, n):
     return np.sum(np.where(on, hx, 0.0) * phi * psi(x))
 
 
+def test_the_bessel_table_is_scipys():
+    """floe.bessel_table (recurrences: forward where x >= n, Miller's backward elsewhere) against
+    scipy.special.jv for n = 0..200, x from 1e-4 to 1600 (the depth correction's range at
+    H / L = 1/80): within 3.5e-14 measured, at 1/40 of jv's time."""
+    from scipy import special
+    from solver.model.floe import bessel_table
+    x = np.concatenate([np.geomspace(1e-4, 5.0, 300), np.linspace(5.0, 1600.0, 3000), [200.0, 199.5, 200.5]])
+    table = bessel_table(200, x)
+    assert np.max(np.abs(table - special.jv(np.arange(201)[:, None], x[None, :]))) < 1e-13
+
+
 def test_added_mass_on_finite_depth():
     """The floe's added mass on water of depth H (floe.added_mass, floe.depth_correction):
     as H -> inf the deep water's matrix (1/H^2: 2.0e-3 of heave at H / L = 10, 2.1e-5 at 100);

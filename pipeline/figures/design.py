@@ -16,8 +16,8 @@ from ..tables import COMPLETE
 from .common import log_spaced, save, tick_label, auto_log_y, paper_eps_Y, design_axis, plt
 
 #: what the design figure colours its points by, and the panel of each against each key
-DESIGN_OUTPUTS = [("max_strain", "max tensile strain (upper)"), ("max_force", "max force [N/m]"),
-                  ("crack_onset_time", "crack onset [ms]")]
+DESIGN_OUTPUTS = [("max_strain", "max tensile strain (upper, plate-wide)"), ("max_force", "max force [N/m]"),
+                  ("crack_onset_time", "crack onset, upper, plate-wide [ms]")]
 
 
 

@@ -19,7 +19,7 @@ DROP_PANELS = [
     ("max_penetration", "deepest penetration of the body [m]"),
     ("restitution", "rebound speed / impact speed V"),
     ("separation_time", "contact time: separation [ms]"),
-    ("crack_onset_time", "crack onset, upper [ms]"),
+    ("crack_onset_time", "crack onset, upper, plate-wide [ms]"),
 ]
 
 
