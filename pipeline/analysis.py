@@ -29,13 +29,14 @@ at all: the analysis is refused for them, with their number, rather than compute
 """
 from __future__ import annotations
 
+from solver.outputs import CRACK_ONSET_TIMES
+
 from .errors import StudyError, check_table
 
 METHODS = {"sobol": "saltelli", "morris": "morris"}       # analysis -> the design it needs
 ANALYSIS_KEYS = {"method", "outputs", "eps_Y", "conf_level", "resamples", "seed"}
 #: outputs that take a yield strain
-CRACK_OUTPUTS = ("crack_onset_time", "crack_onset_time_lower", "impact_zone_crack_onset_time",
-                 "impact_zone_crack_onset_time_lower")
+CRACK_OUTPUTS = CRACK_ONSET_TIMES
 #: event times: NaN means the event did not happen within the run
 EVENT_TIMES = (*CRACK_OUTPUTS, "bottoming_time", "stop_time", "separation_time",
                "max_strain_time", "max_strain_lower_time", "max_force_time")

@@ -25,37 +25,26 @@ import xarray as xr
 from solver import EPS_Y_INFO, crack_onset as _from_record, default_eps_Y
 
 from .casefile import ragged_offsets, tension_records
-from solver.outputs import TENSION_RECORDS
+from solver.outputs import TENSION_RECORDS, onset_names
 
 from .tables import RECORD_NAMES, TENSION_RECORD_INFO
 
-#: variable -> (long_name, units), each along eps_Y: from each record of solver.outputs.TENSION_RECORDS,
-#: the first time and place its tension reaches eps_Y (plate-wide, and within the impact zone)
-CRACK_INFO = {
-    "crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y anywhere on the plate "
-                         "(NaN: not within the run)", "s"),
-    "crack_onset_x": ("position of the upper-surface crack onset (centred impact: x >= 0, mirrored at -x; off "
-                      "centre: signed)", "m"),
-    "crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y anywhere on the plate "
-                               "(NaN: not within the run)", "s"),
-    "crack_onset_x_lower": ("position of the lower-surface crack onset (centred impact: x >= 0, mirrored at -x; "
-                            "off centre: signed)", "m"),
-    "impact_zone_crack_onset_time": ("first time the upper-surface tension (+strain) reaches eps_Y within the "
-                                     "impact zone (NaN: not within the run)", "s"),
-    "impact_zone_crack_onset_x": ("position of the upper-surface crack onset within the impact zone (centred "
-                                  "impact: x >= 0; off centre: signed)", "m"),
-    "impact_zone_crack_onset_time_lower": ("first time the lower-surface tension (-strain) reaches eps_Y within "
-                                           "the impact zone (NaN: not within the run)", "s"),
-    "impact_zone_crack_onset_x_lower": ("position of the lower-surface crack onset within the impact zone "
-                                        "(centred impact: x >= 0; off centre: signed)", "m"),
-}
+def _crack_info() -> dict:
+    """variable -> (long_name, units), each along eps_Y: from each record of
+    solver.outputs.TENSION_RECORDS, the first time and place its tension reaches eps_Y."""
+    info = {}
+    for record in RECORD_NAMES:
+        surface, region, _ = TENSION_RECORDS[record]
+        where = "anywhere on the plate" if region == "plate" else "within the impact zone"
+        tension = "upper-surface tension (+strain)" if surface == "upper" else "lower-surface tension (-strain)"
+        time_name, x_name = onset_names(record)
+        info[time_name] = (f"first time the {tension} reaches eps_Y {where} (NaN: not within the run)", "s")
+        info[x_name] = (f"position of the {surface}-surface crack onset {where} (centred impact: x >= 0, mirrored "
+                        f"at -x; off centre: signed)", "m")
+    return info
 
 
-def onset_names(record: str) -> tuple:
-    """(time, place) variable names of the crack onset a record gives (solver.outputs.TENSION_RECORDS)."""
-    surface, region, _ = TENSION_RECORDS[record]
-    prefix, suffix = ("" if region == "plate" else "impact_zone_"), ("" if surface == "upper" else "_lower")
-    return f"{prefix}crack_onset_time{suffix}", f"{prefix}crack_onset_x{suffix}"
+CRACK_INFO = _crack_info()
 
 
 def onset_from_records(records: dict, eps_Y) -> dict:

@@ -37,14 +37,13 @@ import math
 
 import numpy as np
 
+from solver.outputs import CRACK_ONSET_TIMES
+
 from .errors import StudyError, check_table
 from .identity import SAMPLE
 
 #: event -> the variable whose finite value says it happened (crack onset: at each eps_Y)
-EVENTS = {"bottoming": "bottoming_time", "crack_onset": "crack_onset_time",
-          "crack_onset_lower": "crack_onset_time_lower",
-          "impact_zone_crack_onset": "impact_zone_crack_onset_time",
-          "impact_zone_crack_onset_lower": "impact_zone_crack_onset_time_lower"}
+EVENTS = {"bottoming": "bottoming_time", **{name.replace("_time", ""): name for name in CRACK_ONSET_TIMES}}
 SEARCH_KEYS = {"key", "bracket", "log", "event", "eps_Y", "tolerance", "scan"}
 #: points of the first round's scan over the bracket (its ends included), by default
 SCAN = 9

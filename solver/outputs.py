@@ -166,6 +166,17 @@ TENSION_RECORDS = {
 }
 RECORDS = tuple(TENSION_RECORDS)
 
+
+def onset_names(record: str) -> tuple:
+    """(time, place) names of the crack onset a record of TENSION_RECORDS gives."""
+    surface, region, _ = TENSION_RECORDS[record]
+    prefix, suffix = ("" if region == "plate" else "impact_zone_"), ("" if surface == "upper" else "_lower")
+    return f"{prefix}crack_onset_time{suffix}", f"{prefix}crack_onset_x{suffix}"
+
+
+#: the crack-onset times, one per record (each along eps_Y)
+CRACK_ONSET_TIMES = tuple(onset_names(record)[0] for record in RECORDS)
+
 #: field name -> (long_name, units)
 FIELD_INFO = {
     "deflection": ("ice deflection w, positive upwards", "m"),

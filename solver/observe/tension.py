@@ -95,6 +95,29 @@ def global_state(model, eps, sign, a, adot, track):
 
 
 @kernel
+def ensure_dense(model, h, dz, A, AD, marks):
+    """The step's dense-output states into A, AD (solver.step.dense_states), once a step: unless
+    marks[DENSE] says an observer computed them already."""
+    if marks[DENSE] == 0.0:
+        dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, A, AD)
+        marks[DENSE] = 1.0
+
+
+@kernel
+def append_chain(t0, h, samples, rec, n, joinable):
+    """The samples (rows (value, rate, x, ...) at t0 + k h / K, k = 0..K) as consecutive record
+    rows (t, value, rate, x, join): the first only where the previous step's last row is not
+    there to join (joinable). Returns (rec, n)."""
+    K = samples.shape[0] - 1
+    hk = h / K
+    if not joinable:
+        rec, n = append_row(rec, n, t0, samples[0, 0], samples[0, 1], samples[0, 2], 0.0)
+    for k in range(1, K + 1):
+        rec, n = append_row(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
+    return rec, n
+
+
+@kernel
 def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
     receives the (max, time, x) of the Hermite pieces between samples; the samples are stored
@@ -110,10 +133,7 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
             best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
     if not best[0] > run_max:
         return rec, n, False
-    if not joinable:
-        rec, n = append_row(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
-    for k in range(1, K + 1):
-        rec, n = append_row(rec, n, t0 + k * hk, samples[k, 0], samples[k, 1], samples[k, 2], 1.0)
+    rec, n = append_chain(t0, h, samples[:K + 1], rec, n, joinable)
     return rec, n, True
 
 
@@ -143,9 +163,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
             rec, n = append_row(rec, n, t0, p0[0], p0[1], p0[2], 0.0)
         rec, n = append_row(rec, n, t0 + h, p1[0], p1[1], p1[2], 1.0)
         return rec, n, True
-    if tw.marks[DENSE] == 0.0:                   # the step's dense states, once per step
-        dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A, tw.AD)
-        tw.marks[DENSE] = 1.0
+    ensure_dense(model, h, dz, tw.A, tw.AD, tw.marks)
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
     field, dx, L = (model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length

@@ -46,10 +46,8 @@ from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_U
 from ..model.basis import dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
 from ..model.floe import floe_dry, floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
-from ..step import dense_states
 from .reach import contact_extent, zone_ends, zone_track
-from .record import append_row
-from .tension import DENSE, RESOLVED, RIPPLE, TENSION_SAMPLES
+from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_dense
 
 #: the observer's state: peaks (2, 5) each surface's (value, rate, x, node, slope) of the zone's
 #: peak at the current time (node -1: the zone's upper end, -2 its lower end); reach (5,) the
@@ -226,10 +224,7 @@ def _store_chain(t0, h, chain, rec, n, marks, s):
     if not top > marks[s]:
         marks[2 + s] = 0.0
         return rec, n
-    if marks[2 + s] == 0.0:
-        rec, n = append_row(rec, n, t0, chain[0, 0], chain[0, 1], chain[0, 2], 0.0)
-    for k in range(1, K + 1):
-        rec, n = append_row(rec, n, t0 + k * hk, chain[k, 0], chain[k, 1], chain[k, 2], 1.0)
+    rec, n = append_chain(t0, h, chain, rec, n, marks[2 + s] == 1.0)
     marks[s] = top
     marks[2 + s] = 1.0
     return rec, n
@@ -257,6 +252,19 @@ def _moving(p, zone, h, row):
 
 
 @kernel
+def _track(args, lo, hi):
+    """The step's dense states (once a step) and the zone at its samples (zone_track) into
+    track, its ends kept within [lo, hi]; args = (model, t0, h, the reach's (c at t0, the
+    extent at t0 and at t0 + h, the margin), the body's deficits at t0 and t0 + h, (A, AD, eps
+    scratch, Dense, marks), track)."""
+    model, t0, h, reach, bodies, (A, AD, eps, dz, marks), track = args
+    ensure_dense(model, h, dz, A, AD, marks)
+    zone_track(model, t0, h, reach, bodies, A, eps, track)
+    for k in range(A.shape[0] + 2):
+        track[k, 0], track[k, 1] = max(track[k, 0], lo), min(track[k, 1], hi)
+
+
+@kernel
 def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     """The zone's peaks of both surfaces at the end of the accepted step [t0, t0 + h], their
     largest values over it and their running-maximum records (module docstring); ends = (eps at
@@ -272,8 +280,9 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     A, AD, eps, dz, marks = inside
     rec_up, n_up, rec_lo, n_lo = records
     basis = model.basis
-    c0 = zw.reach[0]
+    reach0 = zw.reach[0]
     c = contact_extent(delta1, jmax1, basis.dx, model.body.xc)
+    track = (model, t0, h, (reach0, zw.reach[4], c, zw.reach[1]), (yb0, yb1), (A, AD, eps, dz, marks), zw.track)
     omega = model.plate.modes[OMEGA]
     # a step that resolves every mode (as the tension observer's criterion): the Hermite of the
     # ends holds between them; in a longer one the modes oscillate within the step and the
@@ -282,12 +291,9 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     resolved = 0.0 < h and omega[omega.shape[0] - 1] * h <= RESOLVED
     K = A.shape[0] + 1
     # (only while the contact's front is near its reach: a receded one cannot raise it)
-    tracked = h > 0.0 and K > 1 and not resolved and max(c, zw.reach[4]) >= c0 - 2.0 * basis.dx
+    tracked = h > 0.0 and K > 1 and not resolved and max(c, zw.reach[4]) >= reach0 - 2.0 * basis.dx
     if tracked:
-        if marks[DENSE] == 0.0:
-            dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, A, AD)
-            marks[DENSE] = 1.0
-        zone_track(model, t0, h, (c0, zw.reach[4], c, zw.reach[1]), (yb0, yb1), A, eps, zw.track)
+        _track(track, -basis.length, 2.0 * basis.length)        # (unbounded: the zone may grow)
         zw.reach[0] = max(zw.reach[0], zw.track[K, 5])
     if c > zw.reach[0]:
         zw.reach[0] = c
@@ -310,21 +316,16 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
         same_peak = p1[3] >= 0 and p0[3] >= 0 and abs(p1[2] - p0[2]) <= 3.0 * basis.dx
         chain = zw.pair                             # the ends, unless the zone is sampled between
         if resolved and (same_peak or same_end):
-            c0_, c1_, c2_, c3_ = hermite(p0[0], p1[0], zw.pair[0, 1], p1[1], h)
-            vmax, th = cubic_max(c0_, c1_, c2_, c3_)
+            c0, c1, c2, c3 = hermite(p0[0], p1[0], zw.pair[0, 1], p1[1], h)
+            vmax, th = cubic_max(c0, c1, c2, c3)
             if vmax > best:
                 best, tb, xb = vmax, t0 + th * h, p0[2] + th * (p1[2] - p0[2])
                 edge, speed = max(0.0, -p1[3]), edge_speed(p1[3], zone, h)
         elif h > 0.0 and K > 1 and not max(p0[0], p1[0]) < zw.marks[s] - RIPPLE * abs(zw.marks[s]):
             # a step that does not resolve the modes (a floe's outlast their periods), or in which
             # the peak changes, and that may raise the record: the zone on the dense output
-            if marks[DENSE] == 0.0:
-                dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, A, AD)
-                marks[DENSE] = 1.0
             if not tracked:                         # the zone at the samples, once a step (within
-                zone_track(model, t0, h, (c0, zw.reach[4], c, zw.reach[1]), (yb0, yb1), A, eps, zw.track)
-                for k in range(K + 1):              # the zone at the step's end, already used)
-                    zw.track[k, 0], zw.track[k, 1] = max(zw.track[k, 0], lo), min(zw.track[k, 1], hi)
+                _track(track, lo, hi)               # the zone at the step's end, already used)
                 tracked = True
             chain = zw.chain[:K + 1]
             p1[1] = fixed_rate
