@@ -10,7 +10,7 @@ From the shell: ``floe-impact run|status|show`` (= ``python -m pipeline``).
 """
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from .api import open_sensitivity, open_study, run_study, study_text
+from .api import open_emulator, open_sensitivity, open_study, run_study, study_text
 from .errors import ResultsIOError, StudyError
 from .lock import StudyLocked
 
@@ -19,5 +19,5 @@ try:
 except PackageNotFoundError:                    # a source tree that was not installed
     __version__ = "unknown"
 
-__all__ = ["ResultsIOError", "StudyError", "StudyLocked", "open_sensitivity", "open_study", "run_study",
-           "study_text"]
+__all__ = ["ResultsIOError", "StudyError", "StudyLocked", "open_emulator", "open_sensitivity", "open_study",
+           "run_study", "study_text"]

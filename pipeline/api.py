@@ -21,7 +21,7 @@ from pathlib import Path
 from .errors import EXIT_OK, ResultsIOError, StudyError
 from .lock import refuse_if_locked
 
-__all__ = ["run_study", "open_study", "open_sensitivity", "study_text", "load"]
+__all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "study_text", "load"]
 
 
 def study_text(study: dict) -> str:
@@ -172,3 +172,24 @@ def open_sensitivity(results):
         raise ResultsIOError(f"{out_dir} holds no sensitivity.nc (does the study have an [analysis], and has "
                              f"it run to its end?)")
     return xr.open_dataset(path)
+
+
+def open_emulator(results):
+    """The polynomial-chaos emulator of a study whose ``[analysis]`` is ``method = "pce"``: each
+    output predicted anywhere in the design's box, with its cross-validated error estimate
+    (pipeline.emulator; numpy alone, no OpenTURNS needed).
+
+    Parameters
+    ----------
+    results : str or pathlib.Path
+        A results directory, or a study name (then ``results/<name>``).
+
+    Returns
+    -------
+    pipeline.emulator.Emulator
+        ``.predict(output, **key_values) -> Prediction(value, error)``; ``.outputs``, ``.keys``,
+        ``.box``, ``.q2``.
+    """
+    from .emulator import Emulator
+    with open_sensitivity(results) as indices:
+        return Emulator(indices.load())

@@ -6,6 +6,7 @@ command line into :class:`RunOptions` and maps what it returns or raises to an e
 """
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import sys
@@ -375,6 +376,8 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
     finally:
         tmp.unlink(missing_ok=True)
     print(f"wrote {target}", file=sys.stderr)
+    for label, reason in json.loads(indices.attrs.get("refusals", "{}")).items():
+        print(f"warning: no indices for {label}: {reason}", file=sys.stderr)
     doubtful = doubtful_outputs(indices)
     if doubtful:
         print(f"warning: the Sobol' indices of {', '.join(doubtful)} lie outside [0, 1] beyond their intervals: "

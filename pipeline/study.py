@@ -257,6 +257,7 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         raise StudyError(f"[plots] kinds must be a list from {', '.join(KINDS)}")
     if design and "kinds" not in plots_table:
         plots = ["design"] + (["sensitivity"] if analysis else [])
+        plots += ["emulator"] if analysis.get("method") == "pce" else []
     if search and "kinds" not in plots_table:
         plots = []                                 # the search draws search.png itself
     study = Study(name=name, path=path, text=text, description=description, base=base,

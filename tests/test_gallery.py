@@ -145,6 +145,18 @@ def test_plot_sensitivity(tmp_path, monkeypatch):
     assert np.all(np.isfinite(indices["ST"].values))
 
 
+@pytest.mark.slow   # 128 runs and their expansion: about 30 s; the docs build runs it at full settings
+def test_plot_emulator(tmp_path, monkeypatch):
+    """The emulator at speeds the design never ran: within 3 of its error estimates of the solver."""
+    pytest.importorskip("openturns")
+    g = run("plot_emulator.py", tmp_path, monkeypatch)
+    sel = g["indices"].sel(output="crack_onset_time@8e-05")
+    assert int(sel["refused"]) == 0 and float(sel["q2"]) > 0.9
+    assert np.all(sel["ST_low"].values <= sel["ST"].values) and np.all(sel["ST"].values <= sel["ST_high"].values)
+    predicted = g["emulator"].predict("crack_onset_time@8e-05", V=g["CHECK_V"], **g["POINT"])
+    assert np.all(np.abs(predicted.value - g["computed"]) <= 3 * predicted.error)
+
+
 @pytest.mark.slow   # issue 35: make test within 5 min; kept in make test-slow
 def test_plot_search(tmp_path, monkeypatch):
     found = run("plot_search.py", tmp_path, monkeypatch)["found"]

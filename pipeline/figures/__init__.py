@@ -6,7 +6,7 @@ out_dir) -> (paths written, note or "")``, in the module of its family:
 
 - ``sweeps``: the diagnostics against the swept keys, crack onset against the yield strain;
 - ``drop``: a dropped body against its mass;  ``paper``: the paper's Fig. 2;
-- ``design``: a design's points, its sensitivity indices, a search's critical values;
+- ``design``: a design's points, its sensitivity indices and emulator, a search's critical values;
 - ``reports``: the numerics studies' reports (work_precision, extremes).
 
 The study file's validation and the runner read the registry; it imports no matplotlib (the
@@ -37,6 +37,7 @@ KINDS = {
     "drop": Kind(("drop.png",), "drop.draw"),
     "design": Kind(("design.png",), "design.draw_design", for_design=True),
     "sensitivity": Kind(("sensitivity.png",), "design.draw_sensitivity", for_design=True),
+    "emulator": Kind(("emulator.png",), "design.draw_emulator", for_design=True),
 }
 
 

@@ -88,26 +88,64 @@ def sensitivity_figure(indices: xr.Dataset, path: Path) -> Path:
     for ax, out in zip(axes[0], outputs):
         sel = indices.sel(output=out)
         if sobol:
-            ax.bar(x - 0.2, sel["S1"], 0.4, yerr=sel["S1_conf"], capsize=3, color="#0072B2", label="S1 (first order)")
-            ax.bar(x + 0.2, sel["ST"], 0.4, yerr=sel["ST_conf"], capsize=3, color="#D55E00", label="ST (total)")
-            ax.set_ylim(min(0.0, float(np.nanmin(sel["S1"] - sel["S1_conf"]))) - 0.02, 1.05)
+            lows = [sel[f"{n}_low"] if f"{n}_low" in sel else sel[n] - sel[f"{n}_conf"] for n in ("S1", "ST")]
+            highs = [sel[f"{n}_high"] if f"{n}_high" in sel else sel[n] + sel[f"{n}_conf"] for n in ("S1", "ST")]
+            for shift, name, lo, hi, colour, label in ((-0.2, "S1", lows[0], highs[0], "#0072B2", "S1 (first order)"),
+                                                       (0.2, "ST", lows[1], highs[1], "#D55E00", "ST (total)")):
+                value = np.asarray(sel[name], dtype=float)
+                ax.bar(x + shift, value, 0.4, yerr=[value - np.asarray(lo), np.asarray(hi) - value], capsize=3,
+                       color=colour, label=label)
+            low = np.asarray(lows[0], dtype=float)
+            ax.set_ylim(min(0.0, float(np.nanmin(low)) if np.isfinite(low).any() else 0.0) - 0.02, 1.05)
             ax.axhline(0.0, color="k", lw=0.6)
+            if "refused" in sel and int(sel["refused"]):
+                ax.text(0.5, 0.5, "\n".join(textwrap.wrap(f"refused: Q2 = {float(sel['q2']):.2f}", 24)),
+                        transform=ax.transAxes, ha="center", va="center", fontsize=9, color="#D55E00")
         else:
             ax.bar(x, sel["mu_star"], 0.6, yerr=sel["mu_star_conf"], capsize=3, color="#0072B2", label="mu*")
             ax.plot(x, sel["sigma"], "D", color="#D55E00", label="sigma")
         censored = float(sel["censored"])
-        ax.set_title(out + (f"\n({100 * censored:.0f}% censored)" if censored else ""), fontsize=10)
+        fit = f"\nQ2 = {float(sel['q2']):.3f}, degree {int(sel['degree'])}" if "q2" in sel else ""
+        ax.set_title(out + (f"\n({100 * censored:.0f}% censored)" if censored else "") + fit, fontsize=10)
         ax.set_xticks(x, keys)
         ax.grid(alpha=0.3, axis="y")
     handles, labels = axes[0, 0].get_legend_handles_labels()
     fig.legend(handles, labels, loc="outside lower center", ncol=2, fontsize=9)
     analysis = json.loads(indices.attrs.get("analysis", "{}"))
+    what = "sampling and truncation" if analysis.get("method") == "pce" else "bootstrap"
     fig.suptitle(f"{analysis.get('method', '')} sensitivity over {indices.attrs.get('samples', '')} cases "
-                 f"({100 * float(indices.attrs.get('conf_level', 0.95)):.0f}% intervals)", fontsize=11)
+                 f"({100 * float(indices.attrs.get('conf_level', 0.95)):.0f}% intervals: {what})", fontsize=11)
     save(fig, path, dpi=120)
     plt.close(fig)
     return path
 
+
+
+def emulator_figure(indices: xr.Dataset, path: Path) -> Path:
+    """The polynomial-chaos emulator of each output against the solver on runs it did not see:
+    each run's prediction by the expansion fitted without its cross-validation fold, against
+    the run's value, with the 1:1 line and the error estimate (the cross-validated RMSE)."""
+    outputs = list(indices["output"].values)
+    fig, axes = plt.subplots(1, len(outputs), figsize=(3.4 * len(outputs) + 0.6, 3.6), squeeze=False,
+                             constrained_layout=True)
+    for ax, out in zip(axes[0], outputs):
+        sel = indices.sel(output=out)
+        value, held = np.asarray(sel["value"], dtype=float), np.asarray(sel["held_out"], dtype=float)
+        ax.scatter(value, held, s=9, color="#0072B2", alpha=0.7)
+        ends = np.array([np.nanmin(value), np.nanmax(value)])
+        rmse = float(sel["rmse"])
+        ax.plot(ends, ends, color="k", lw=0.8)
+        if np.isfinite(rmse):
+            ax.fill_between(ends, ends - rmse, ends + rmse, color="#999999", alpha=0.3, lw=0, label="± error estimate")
+        state = " (indices refused)" if int(sel["refused"]) else ""
+        ax.set_title(f"{out}\nQ2 = {float(sel['q2']):.3f}, RMSE = {rmse:.3g}{state}", fontsize=9)
+        ax.set(xlabel="computed", ylabel="emulator, held out")
+        ax.grid(alpha=0.3)
+    fig.suptitle(f"polynomial-chaos emulator over {indices.attrs.get('samples', '')} runs: each run predicted by the "
+                 f"expansion fitted without it (5-fold cross-validation)", fontsize=10)
+    save(fig, path, dpi=120)
+    plt.close(fig)
+    return path
 
 
 def search_figure(ds: xr.Dataset, dims: list, search: dict, path: Path) -> Path:
@@ -172,3 +210,14 @@ def draw_sensitivity(ds: xr.Dataset, dims: list, out_dir: Path) -> tuple:
         return [], "sensitivity figure needs the [analysis]'s sensitivity.nc: skipped"
     with xr.open_dataset(source) as indices:
         return [sensitivity_figure(indices.load(), out_dir / "sensitivity.png")], ""
+
+
+def draw_emulator(ds: xr.Dataset, dims: list, out_dir: Path) -> tuple:
+    """From the pce [analysis]'s sensitivity.nc beside study.nc (``ds`` is not read)."""
+    source = out_dir / "sensitivity.nc"
+    if not source.exists():
+        return [], "emulator figure needs the [analysis]'s sensitivity.nc: skipped"
+    with xr.open_dataset(source) as indices:
+        if "held_out" not in indices:
+            return [], "emulator figure needs [analysis] method = \"pce\": skipped"
+        return [emulator_figure(indices.load(), out_dir / "emulator.png")], ""
