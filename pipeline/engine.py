@@ -124,6 +124,10 @@ def _ctrl_c_held(ignore: bool):
             raise KeyboardInterrupt
 
 
+#: the only interface a local run's scheduler, workers and dashboard listen on
+LOOPBACK = "127.0.0.1"
+
+
 def _local_cluster_client(workers: int):
     environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environ.update(SINGLE_THREAD_ENV)
@@ -139,9 +143,12 @@ def _local_cluster_client(workers: int):
                 # heartbeat to a scheduler already gone when a full disk stops the study), a
                 # traceback the user cannot act on
                 # dashboard_address=None still binds the scheduler's HTTP server to 8787 and warns
-                # when another process holds that port; ":0" takes any free port, silently
+                # when another process holds that port; port 0 takes any free port, silently.
+                # Every listener on the loopback only (issue 40): ":0" served the dashboard, its
+                # worker pages and logs, on all interfaces, to anyone who could reach the machine
                 cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                       dashboard_address=":0", silence_logs=logging.CRITICAL)
+                                       host=LOOPBACK, dashboard_address=f"{LOOPBACK}:0",
+                                       silence_logs=logging.CRITICAL)
         except KeyboardInterrupt:
             if cluster is not None:
                 cluster.close()
