@@ -252,3 +252,19 @@ def test_a_bad_pce_analysis_is_refused_in_one_line(text, words):
     with pytest.raises(pipeline.StudyError) as err:
         load_study_text(text, "pce")
     assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_the_shipped_study_asks_the_saltelli_question_of_at_most_500_runs():
+    """studies/sensitivity_pce.toml and studies/sensitivity.toml: the same keys, bounds, base and
+    settings; the surrogate's design is at most 500 runs (docs/user_guide.md compares the two)."""
+    import tomllib
+    from pathlib import Path
+    root = Path(__file__).resolve().parents[1] / "studies"
+    pce = load_study_text((root / "sensitivity_pce.toml").read_text(), "sensitivity_pce")
+    assert pce.n_cases <= 500 and pce.analysis["method"] == "pce"
+    tables = [tomllib.loads((root / f"{name}.toml").read_text()) for name in ("sensitivity_pce", "sensitivity")]
+    for table in ("base", "solver"):
+        assert tables[0][table] == tables[1][table], table
+    assert tables[0]["design"]["keys"] == tables[1]["design"]["keys"]
+    assert set(tables[0]["analysis"]["outputs"]) <= set(tables[1]["analysis"]["outputs"])
+    assert tables[0]["analysis"]["eps_Y"] == tables[1]["analysis"]["eps_Y"]
