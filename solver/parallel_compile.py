@@ -28,7 +28,6 @@ and ``integrate``'s whole program is optimised once, in this process (``make bit
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import hashlib
 import os
 import signal
@@ -171,19 +170,10 @@ def helper_jobs():
     ]
 
 
-def _die_with_parent():
-    """Linux: this process gets SIGTERM when the process that started it ends."""
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(1, signal.SIGTERM)                 # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        pass
-
-
 def run_helper() -> None:
-    """The helper process: its subtrees, then the crack-onset kernels."""
+    """The helper process (started by ``helper``, which made it die with its parent): its
+    subtrees, then the crack-onset kernels."""
     from .fracture import compile_crack_onset
-    _die_with_parent()
     with claiming():
         for function, argtypes in helper_jobs():
             function.link_dispatcher.compile(argtypes)
@@ -248,8 +238,15 @@ def helper():
         yield
         return
     package = __name__.rpartition(".")[0]              # "solver", as this process imported it
-    code = (f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parents[1])!r}); "
-            f"from {package}.parallel_compile import run_helper; run_helper()")
+    # the helper asks to die with this process before its imports (seconds on a loaded machine):
+    # a parent killed while the helper still imported numba left it compiling, orphaned, once in
+    # a full suite beside a long study; then it checks that its parent is still this process
+    code = ("import os, signal, sys\n"
+            "try:\n    import ctypes; ctypes.CDLL(None).prctl(1, signal.SIGTERM)   # PR_SET_PDEATHSIG\n"
+            "except (OSError, AttributeError):\n    pass\n"
+            f"if os.getppid() != {os.getpid()}:\n    sys.exit(0)\n"
+            f"sys.path.insert(0, {str(Path(__file__).resolve().parents[1])!r})\n"
+            f"from {package}.parallel_compile import run_helper\nrun_helper()\n")
     with tempfile.TemporaryFile() as log:
         process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=log)
