@@ -7,7 +7,8 @@ ice thickness hi) and an ``[analysis]`` of Sobol' indices: the first-order index
 share of an output's variance due to one key alone, the total index ST the share in which the
 key takes part at all. Here a small design (64 base samples, 448 cases, 12 modes), so that the
 gallery builds in a minute: its intervals are wide. ``studies/sensitivity.toml`` is the full
-version (4096 base samples, 28 672 cases, 30 min here); the user guide gives its indices and their cost.
+version (4096 base samples, 28 672 cases, about 68 min on 2 workers here); the user guide gives
+its indices and their cost, beside the same indices from a polynomial chaos of 256 runs.
 """
 import os
 

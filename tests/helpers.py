@@ -147,9 +147,9 @@ def assert_same_results(out, reference):
         np.testing.assert_array_equal(ds["strain"].values, ref["strain"].values)
         np.testing.assert_array_equal(ds["max_strain"].values, ref["max_strain"].values)
 
-def kill_runner_then_resume(study_file, undisturbed, out, delay):
-    """SIGKILL the runner and its workers ``delay`` s into a run of 8 cases, resume it: no finished
-    batch rewritten, no case lost or computed twice, the undisturbed results."""
+def kill_runner_then_resume(study_file, undisturbed, out, delay, cases=8):
+    """SIGKILL the runner and its workers ``delay`` s into a run of ``cases`` cases, resume it: no
+    finished batch rewritten, no case lost or computed twice, the undisturbed results."""
     proc = start_runner(study_file, out)
     time.sleep(delay)
     os.killpg(proc.pid, signal.SIGKILL)                 # the runner and its workers, at once
@@ -159,9 +159,9 @@ def kill_runner_then_resume(study_file, undisturbed, out, delay):
     n_done = len({cid for ids in finished.values() for cid in ids})
     code, _, err = run_cli("run", study_file, "--out", out, "--no-plots")
     assert code == 0, err
-    assert f"{8 - n_done} to run, {n_done} already done" in err   # 0 lost, 0 computed twice
+    assert f"{cases - n_done} to run, {n_done} already done" in err   # 0 lost, 0 computed twice
     for path, stamp in stamps.items():
         assert path.stat().st_mtime_ns == stamp, f"{path.name}: a finished batch was rewritten"
     after = finished_batches(out)
-    assert sum(len(ids) for ids in after.values()) == 8, "a case was computed twice"
+    assert sum(len(ids) for ids in after.values()) == cases, "a case was computed twice"
     assert_same_results(out, undisturbed)

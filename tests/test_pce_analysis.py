@@ -184,7 +184,7 @@ times = { unit = "stage", count = 3 }
 def test_a_pce_study_writes_indices_emulator_and_figures_and_extends(tmp_path):
     """32 runs, then the design extended to 64: only the new 32 run, the indices are recomputed
     from all 64, and the emulator answers at a case run afterwards within 3 error estimates."""
-    from tests.helpers import run_cli
+    from helpers import run_cli
     out = tmp_path / "pce"
     ds = pipeline.run_study(STUDY, out=out, name="pce", workers=1, quiet=True)
     assert ds.sizes["sample"] == 32
@@ -268,3 +268,19 @@ def test_the_shipped_study_asks_the_saltelli_question_of_at_most_500_runs():
     assert tables[0]["design"]["keys"] == tables[1]["design"]["keys"]
     assert set(tables[0]["analysis"]["outputs"]) <= set(tables[1]["analysis"]["outputs"])
     assert tables[0]["analysis"]["eps_Y"] == tables[1]["analysis"]["eps_Y"]
+
+
+@pytest.mark.slow       # the machinery of tests/test_faults.py, on a pce study
+def test_a_killed_pce_study_loses_nothing_and_gives_the_same_indices(tmp_path):
+    """kill -9 of the runner and its workers mid-study, then the same command: no case lost or
+    computed twice, study.nc as undisturbed, and the same indices bit for bit (same machine)."""
+    from helpers import kill_runner_then_resume, run_cli
+    text = STUDY.replace("samples = 32", "samples = 16").replace("fields = []", 'fields = ["strain"]')
+    study_file = tmp_path / "pce.toml"
+    study_file.write_text(text)
+    code, _, err = run_cli("run", study_file, "--out", tmp_path / "undisturbed", "--no-plots")
+    assert code == 0, err
+    kill_runner_then_resume(study_file, tmp_path / "undisturbed", tmp_path / "killed", delay=4.0, cases=16)
+    with pipeline.open_sensitivity(tmp_path / "killed") as got, pipeline.open_sensitivity(tmp_path / "undisturbed") as want:
+        for name in ("q2", "S1", "ST", "ST_low", "ST_high", "coefficient"):
+            np.testing.assert_array_equal(got[name].values, want[name].values)
