@@ -21,7 +21,8 @@ from pipeline.ledger import LEDGER, Ledger
 from pipeline.study_files import load_study
 from helpers import ROOT, assert_same_study, batch_files, run_cli
 
-#: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.05
+#: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.5
+#: (0.05 cut one case a batch when the suite loaded the machine: a case took over 0.05 s)
 STUDY = """
 description = "scale tests"
 [base]
@@ -39,7 +40,7 @@ end = "last_output"
 
 
 def run(study_file, out, *extra):
-    return run_cli("run", study_file, "--out", out, "--no-plots", "--batch-seconds", "0.05", *extra)
+    return run_cli("run", study_file, "--out", out, "--no-plots", "--batch-seconds", "0.5", *extra)
 
 
 @pytest.fixture(scope="module")
