@@ -20,6 +20,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .sensitivity import unit_scale
 from .surrogate import evaluate
 
 
@@ -76,8 +77,7 @@ class Emulator:
             if outside.any():
                 raise EmulatorError(f"{k} = {a[outside][0]:g} is outside the design's box [{lo:g}, {hi:g}]: the "
                                     f"expansion is valid only where it was fitted")
-            unit = np.log(a / lo) / np.log(hi / lo) if log else (a - lo) / (hi - lo)
-            U[:, j] = 2.0 * unit - 1.0
+            U[:, j] = 2.0 * unit_scale(a, lo, hi, log) - 1.0
         multi, coefficient = self._terms[output]
         value = evaluate(multi, coefficient, U).reshape(shape)
         return Prediction(value, np.full(shape, self.error[output]))

@@ -53,7 +53,7 @@ def analyze(ds, design: dict, analysis: dict):
                          f"({', '.join(sorted(set(status[broken])))}): no sensitivity indices (run again, or "
                          f"with --rerun-failed)")
     keys = list(design["keys"])
-    X = np.column_stack([_unit(np.asarray(ds[k].values, dtype=float), *design["keys"][k]) for k in keys])
+    X = np.column_stack([unit_scale(np.asarray(ds[k].values, dtype=float), *design["keys"][k]) for k in keys])
     rows, labels, censored = [], [], []
     for name in analysis["outputs"]:
         for eps in (analysis["eps_Y"] if name in CRACK_OUTPUTS else [None]):
@@ -92,8 +92,9 @@ def doubtful_outputs(indices) -> list:
     return [str(o) for o, f in zip(indices["output"].values, flags) if f]
 
 
-def _unit(values: np.ndarray, lo: float, hi: float, log: bool) -> np.ndarray:
-    """A key's values back on [0, 1] (Morris reads its trajectories' steps from them)."""
+def unit_scale(values: np.ndarray, lo: float, hi: float, log: bool) -> np.ndarray:
+    """A key's values back on [0, 1] (Morris reads its trajectories' steps from them; the
+    expansion is fitted and the emulator evaluated on them)."""
     return (np.log(values / lo) / np.log(hi / lo)) if log else (values - lo) / (hi - lo)
 
 
