@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs study status test test-slow test-portable bench bench-quadrature bench-scale bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
+.PHONY: help setup docs study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -59,6 +59,11 @@ NO_AVX512 := X86_V4 AVX512_ICL AVX512_SPR
 test-portable: setup  ## the numerics-bearing tests as on other CPUs: numpy without AVX-512 + numba for haswell; numpy's SSE baseline + numba generic
 	NPY_DISABLE_CPU_FEATURES="$(NO_AVX512)" NUMBA_CPU_NAME=haswell $(PY) -m pytest -q -n 2 --dist loadfile $(PORTABLE_TESTS)
 	NPY_DISABLE_CPU_FEATURES="X86_V3 $(NO_AVX512)" NUMBA_CPU_NAME=generic $(PY) -m pytest -q -n 2 --dist loadfile $(PORTABLE_TESTS)
+
+test-cluster: setup  ## a one-node SLURM from Debian's packages (root; installed if missing), then the tests marked cluster: studies through --cluster slurm (a job cancelled, workers retiring, a Ctrl-C), a killed dask worker, a stand-in PBS
+	tests/cluster/slurm.sh up
+	$(PY) -m pytest -q -m cluster --durations=5 tests/test_batch_system.py tests/test_cluster.py; status=$$?; \
+	tests/cluster/slurm.sh down; exit $$status
 
 test-slow: setup  ## only the long tests (marked slow)
 	$(PY) -m pytest -q -n 2 --dist loadfile -m slow --durations=10

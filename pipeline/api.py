@@ -50,7 +50,7 @@ def load(study, name: str | None = None):
 
 
 def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *, name: str | None = None,
-              batch_seconds: float = 1.0, rerun_failed: bool = False, plots: bool = True,
+              cluster: str | None = None, jobs: int = 0, tls: tuple | None = None, batch_seconds: float = 1.0, rerun_failed: bool = False, plots: bool = True,
               force: bool = False, quiet: bool = False):
     """Run a study and return its combined results as an ``xarray.Dataset`` (``study.nc``).
 
@@ -63,11 +63,20 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
         The results directory; default ``results/<name>``. Finished cases found there are kept
         and not computed again (resume).
     workers : int
-        Local dask worker processes (ignored with ``scheduler``).
+        Local dask worker processes (ignored with ``scheduler`` or ``cluster``).
     scheduler : str, optional
         Address of a running ``dask.distributed`` scheduler to run the cases on.
     name : str, optional
         The name of a study given as text or a dict (default ``"study"``).
+    cluster : {"slurm", "pbs"}, optional
+        Run the workers as ``jobs`` jobs of this batch system (dask-jobqueue, the extra
+        ``floe-impact[hpc]``), with TLS and a worker lifetime below the walltime; queue, account,
+        memory and walltime come from dask's jobqueue configuration. Every job is cancelled when
+        the run ends.
+    jobs : int
+        With ``cluster``: the worker jobs kept running (a job that ends is replaced).
+    tls : tuple of str, optional
+        With a ``tls://`` scheduler: (CA file, certificate, key) of this client.
     batch_seconds : float
         Solver time per batch file.
     rerun_failed : bool
@@ -102,7 +111,8 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     study = load(study, name)
     out_dir = Path(out) if out is not None else Path("results") / study.name
     refuse_if_locked(out_dir)
-    options = RunOptions(workers=workers, scheduler=scheduler, batch_seconds=batch_seconds,
+    options = RunOptions(workers=workers, scheduler=scheduler, tls=tls, cluster=cluster, jobs=jobs,
+                         batch_seconds=batch_seconds,
                          rerun_failed=rerun_failed, no_plots=not plots, force=force)
     sink = io.StringIO()
     with contextlib.redirect_stderr(sink) if quiet else contextlib.nullcontext():

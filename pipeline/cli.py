@@ -43,6 +43,13 @@ def _parser():
     run.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
     run.add_argument("--scheduler", default=os.environ.get("DASK_SCHEDULER_ADDRESS"),
                      help="address of an existing dask scheduler (default $DASK_SCHEDULER_ADDRESS)")
+    run.add_argument("--tls-ca-file", help="with --scheduler tls://...: the cluster's CA certificate (PEM)")
+    run.add_argument("--tls-cert", help="with --scheduler tls://...: this client's certificate (PEM)")
+    run.add_argument("--tls-key", help="with --scheduler tls://...: this client's private key (PEM)")
+    run.add_argument("--cluster", choices=["slurm", "pbs"],
+                     help="run the workers as jobs of this batch system (dask-jobqueue; floe-impact[hpc]); "
+                          "queue, account, memory, walltime from dask's jobqueue configuration")
+    run.add_argument("--jobs", type=int, default=0, help="with --cluster: worker jobs kept running")
     run.add_argument("--dry-run", action="store_true",
                      help="print what a run would compute and write; run nothing")
     run.add_argument("--all", action="store_true", help="with --dry-run: list every case to run")
@@ -79,7 +86,9 @@ def command_run(args) -> int:
         raise StudyError(f"the study has {study.n_cases} cases (more than {LARGE_STUDY}); "
                          f"add --yes to run it")
     out_dir = Path(args.out) if args.out else Path("results") / study.name
-    options = RunOptions(workers=args.workers, scheduler=args.scheduler, batch_seconds=args.batch_seconds,
+    tls = (args.tls_ca_file, args.tls_cert, args.tls_key)
+    options = RunOptions(workers=args.workers, scheduler=args.scheduler, tls=tls if any(tls) else None,
+                         cluster=args.cluster, jobs=args.jobs, batch_seconds=args.batch_seconds,
                          rerun_failed=args.rerun_failed, no_plots=args.no_plots, force=args.force,
                          dry_run=args.dry_run, all=args.all)
     return run_study(study, out_dir, options)

@@ -30,10 +30,12 @@ SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_N
                      "NUMBA_NUM_THREADS": "1"}
 
 
-def probe_scheduler(address: str, timeout: float = 5.0) -> None:
-    """A plain TCP connection to the scheduler, so a wrong address fails in seconds: the port
-    must accept, and the server must speak first, as a dask scheduler does (its handshake);
-    an HTTP server, say, waits for a request and is refused after ``timeout``."""
+def probe_scheduler(address: str, timeout: float = 5.0, tls: tuple | None = None) -> None:
+    """A plain connection to the scheduler, so a wrong address fails in seconds: the port must
+    accept, and the server must speak first, as a dask scheduler does (its handshake); an HTTP
+    server, say, waits for a request and is refused after ``timeout``. A ``tls://`` scheduler
+    gets a TLS handshake with ``tls`` = (CA file, certificate, key), or with dask's
+    ``distributed.comm.tls`` configuration: credentials it refuses are refused here."""
     import socket
     from urllib.parse import urlparse
 
@@ -45,27 +47,64 @@ def probe_scheduler(address: str, timeout: float = 5.0) -> None:
         raise StudyError(f"scheduler address {address!r} is not of the form tcp://host:port ({err})") from None
     if parsed.scheme not in ("tcp", "tls") or not host or not port:
         raise StudyError(f"scheduler address {address!r} is not of the form tcp://host:port")
+    if tls and parsed.scheme != "tls":
+        raise StudyError(f"TLS credentials were given but the scheduler address {address!r} is not tls://")
     try:
         with socket.create_connection((host, port), timeout=timeout) as sock:
-            if parsed.scheme == "tls":                  # TLS: the client speaks first
-                return
             sock.settimeout(timeout)
-            first = sock.recv(16)
+            if parsed.scheme == "tls":
+                first = _tls_first_bytes(sock, host, tls, address)
+            else:
+                first = sock.recv(16)
     except socket.timeout:
         raise StudyError(f"{address!r} accepts connections but does not answer like a dask scheduler "
-                         f"within {timeout:g} s") from None
+                         f"within {timeout:g} s" + ("" if parsed.scheme == "tls" else
+                                                    " (a tls:// scheduler? give tls://... and its credentials)")) from None
     except OSError as err:
         raise StudyError(f"cannot reach the dask scheduler at {address!r}: {err.strerror or err}") from None
     if not first:
-        raise StudyError(f"{address!r} closed the connection: not a dask scheduler")
+        raise StudyError(f"{address!r} closed the connection: not a dask scheduler, or it refused this client")
+
+
+def security_for(tls: tuple | None):
+    """dask's Security for a client: from (CA file, certificate, key), or dask's configuration."""
+    from distributed.security import Security
+    if not tls:
+        return Security()                       # distributed.comm.tls.* of dask's configuration, if any
+    ca_file, cert, key = tls
+    return Security(tls_ca_file=ca_file, tls_client_cert=cert, tls_client_key=key, require_encryption=True)
+
+
+def _tls_first_bytes(sock, host: str, tls: tuple | None, address: str) -> bytes:
+    """Handshake as a dask client would, and read the scheduler's first bytes: a scheduler that
+    does not accept these credentials ends the connection here (TLS 1.3 says so after the
+    handshake, at the first read)."""
+    import ssl
+
+    from .errors import StudyError
+    context = security_for(tls).get_connection_args("client").get("ssl_context")
+    if context is None:
+        raise StudyError(f"{address!r} is a tls:// scheduler: give its credentials (--tls-ca-file, --tls-cert, "
+                         f"--tls-key, or dask's distributed.comm.tls configuration)")
+    try:
+        with context.wrap_socket(sock, server_hostname=host) as secure:
+            return secure.recv(16)
+    except ssl.SSLError as err:
+        raise StudyError(f"the TLS handshake with the dask scheduler at {address!r} failed ({err.reason or err}): "
+                         f"these credentials are not the cluster's") from None
 
 
 @contextmanager
-def cluster_client(workers: int, scheduler: str | None):
-    """A dask Client: on a new LocalCluster, or connected to ``scheduler``."""
+def cluster_client(workers: int, scheduler: str | None, tls: tuple | None = None, batch=None):
+    """A dask Client: on a new LocalCluster, connected to ``scheduler`` (with the TLS
+    credentials ``tls``), or on worker jobs of a batch system (``batch``, a
+    pipeline.batch_system.Jobs: its cluster is closed, every job cancelled, on exit)."""
+    if batch is not None:
+        yield from _batch_cluster_client(batch)
+        return
     if scheduler:
         try:
-            client = Client(scheduler, timeout="10s")
+            client = Client(scheduler, timeout="10s", security=security_for(tls))
         except (OSError, TimeoutError) as err:
             from .errors import StudyError
             raise StudyError(f"cannot reach the dask scheduler at {scheduler!r} within 10 s "
@@ -159,6 +198,15 @@ def _local_cluster_client(workers: int):
         finally:
             client.close()
             cluster.close()
+
+
+def _batch_cluster_client(batch):
+    from .batch_system import batch_cluster, wait_for_a_worker
+    with batch_cluster(batch.system, batch.jobs, batch.directory) as cluster, Client(cluster) as client:
+        print(f"submitted {batch.jobs} worker jobs ({batch.system}); scheduler at {cluster.scheduler_address}",
+              file=sys.stderr, flush=True)
+        wait_for_a_worker(client, cluster, batch.system, batch.directory)
+        yield client
 
 
 class Progress:
@@ -324,15 +372,18 @@ def kernels_ready(handle) -> None:
 
 
 def run_pending(client, study, items: list, signature: list, batches_dir, on_batch,
-                progress: Progress | None = None, batch_seconds: float = BATCH_SECONDS, reduce=None) -> list:
+                progress: Progress | None = None, batch_seconds: float = BATCH_SECONDS, reduce=None,
+                expected_workers: int = 0) -> list:
     """Run the cases ``items`` ([case_id, position]) in batches on the client's workers.
 
     ``on_batch(entry, batch)`` is called in the runner for every batch file written (the
-    runner records it in the ledger and streams its "reduced" data, if any, into study.nc). Returns the records of cases whose task failed without a file
-    (infrastructure failures: they stay pending)."""
+    runner records it in the ledger and streams its "reduced" data, if any, into study.nc).
+    ``expected_workers``: the workers still to join (batch jobs in the queue), counted from the
+    start in the batch sizes and the tasks in flight. Returns the records of cases whose task
+    failed without a file (infrastructure failures: they stay pending)."""
     if not items:
         return []
-    n_workers = max(1, len(client.scheduler_info()["workers"]))
+    n_workers = max(1, len(client.scheduler_info()["workers"]), expected_workers)
     batcher = Batcher(items, signature, n_workers, batch_seconds)
     limit = 2 * n_workers
     futures = as_completed()

@@ -25,6 +25,9 @@ class RunOptions:
 
     workers: int = 2                 # local worker processes
     scheduler: str | None = None     # address of an existing dask scheduler (then no local workers)
+    tls: tuple | None = None         # (CA file, certificate, key) for a tls:// scheduler
+    cluster: str | None = None       # a batch system ("slurm", "pbs") whose jobs are the workers
+    jobs: int = 0                    # with cluster: worker jobs kept running
     batch_seconds: float = 1.0       # solver time per batch of cases, one file each
     rerun_failed: bool = False       # compute again the cases that failed before
     no_plots: bool = False           # skip the figures
@@ -45,9 +48,7 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
     if not 0.0 < options.batch_seconds <= 3600.0:
         raise StudyError(f"--batch-seconds must be in (0, 3600], got {options.batch_seconds}")
     out_dir = Path(out_dir)
-    if options.scheduler:                              # unreachable: bad input, refused before writing
-        from .engine import probe_scheduler
-        probe_scheduler(options.scheduler)
+    _check_placement(options, out_dir)                 # unreachable: bad input, refused before writing
     if session is None:                                # not a search's round: said once, by the search
         from .consistency import validity_warnings
         for line in validity_warnings(study):
@@ -76,6 +77,32 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
         return _run_locked(options, study, out_dir, session)
     finally:
         lock.__exit__()
+
+
+def _check_placement(options, out_dir: Path) -> None:
+    """Where the workers run: an existing scheduler, a batch system's jobs, or local processes;
+    a wrong or unreachable one is refused before anything is written (StudyError)."""
+    if options.cluster and options.scheduler:
+        raise StudyError("give --cluster or --scheduler, not both")
+    if options.tls:
+        if not options.scheduler:
+            raise StudyError("--tls-ca-file, --tls-cert and --tls-key are for --scheduler tls://...")
+        if len(options.tls) != 3 or not all(options.tls):
+            raise StudyError("give all three of --tls-ca-file, --tls-cert and --tls-key")
+        for path in options.tls:
+            if not Path(path).is_file():
+                raise StudyError(f"TLS file {path} does not exist")
+    if options.scheduler:
+        from .engine import probe_scheduler
+        probe_scheduler(options.scheduler, tls=options.tls)
+    elif options.cluster:
+        if not 1 <= options.jobs <= 10_000:
+            raise StudyError(f"--cluster needs --jobs N (worker jobs, 1 .. 10000), got {options.jobs}")
+        from .batch_system import check
+        from .session import jobs_directory
+        check(options.cluster, jobs_directory(out_dir))
+    elif options.jobs:
+        raise StudyError("--jobs is for --cluster slurm|pbs")
 
 
 def _prepare_dirs(out_dir: Path) -> Path:
@@ -248,14 +275,14 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
     if items and study.n_cases > 1000 and "error_estimate" not in study.solver and "error_estimate" not in study.grid:
         print("note: every case also runs the error estimate's companion (0.79x the integration, measured); "
               "[solver] error_estimate = \"sample\" runs it on about 1 case in 10", file=sys.stderr)
-    from .session import Session
     from .combine import open_writer, stream_spec
+    from .session import session_for
     items_run = list(items)
     identity = _identity(out_dir)
     import contextlib
     workers = _workers_for(options.workers, len(items), batches)
-    local_workers = session is None and not options.scheduler      # ours, ended when the with ends
-    with contextlib.nullcontext(session) if session is not None else Session(workers, options.scheduler) \
+    local_workers = session is None and not options.scheduler and not options.cluster   # ended with the with
+    with contextlib.nullcontext(session) if session is not None else session_for(options, workers, out_dir) \
             as session:
         for attempt in range(3):
             writer = None

@@ -59,13 +59,13 @@ def run_search(study, out_dir: Path, options, run_study) -> int:
     import dataclasses
 
     from .errors import EXIT_OK
-    from .session import Session
+    from .session import session_for
     search = study.search
     targets = [Target(i, eps, search) for i in range(study.n_cases) for eps in (search["eps_Y"] or [None])]
     points = [_point_values(study, i) for i in range(study.n_cases)]
     runs = Runs(study, points, out_dir / "evaluations", run_study,
                 dataclasses.replace(options, no_plots=True, dry_run=False, all=False))
-    with Session(options.workers, options.scheduler) as session:     # one cluster for every round
+    with session_for(options, options.workers, out_dir) as session:     # one cluster for every round
         for round_ in range(MAX_ROUNDS):
             wanted = {id(t): t.wanted(search) for t in targets}
             if not any(wanted.values()):

@@ -1,0 +1,366 @@
+"""Issue 40: a study's workers as batch jobs (``--cluster slurm|pbs --jobs N``; pipeline/batch_system.py).
+
+Default suite: the walltime and lifetime arithmetic, the PBS job script as dask-jobqueue renders
+it, and every wrong or unreachable batch system refused in one line, exit 2, nothing written.
+
+``make test-cluster`` (marker ``cluster``): a one-node SLURM on this machine (tests/cluster/slurm.sh,
+from Debian's packages) runs a study through ``--cluster slurm``, with one worker job cancelled
+mid-study, with workers that retire at their lifetime, and interrupted by a Ctrl-C; each completes
+with nothing lost or counted twice and study.nc bit for bit as a local run's. A stand-in PBS
+(qsub runs the job script as a process) takes the same code path end to end.
+"""
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from helpers import ROOT, assert_same_study, run_cli
+from pipeline.ledger import Ledger
+
+pytest.importorskip("dask_jobqueue")
+
+#: 60 cases of 16 modes, about 0.2 s each: a study of ~6 s wall on 2 workers
+STUDY = """
+description = "batch-system tests"
+[base]
+Nmod = 16
+[grid]
+V = [3.0, 4.0, 5.0, 6.0, 7.0]
+hi = [0.3, 0.4, 0.5, 0.6]
+K = [4e6, 6e6, 8e6]
+[output]
+times = { unit = "t_sc", step = 0.5, stop = 3.0 }
+fields = ["strain"]
+x_points = 11
+end = "last_output"
+"""
+
+
+def _study(tmp_path, name="jobs", text=STUDY):
+    path = tmp_path / f"{name}.toml"
+    path.write_text(text)
+    return path
+
+
+# --- default suite: arithmetic, rendering, refusals -------------------------------------------
+
+def test_walltimes_and_the_lifetime_below_them():
+    from pipeline.batch_system import lifetime_arguments, walltime_seconds
+    assert walltime_seconds("00:30:00") == 1800
+    assert walltime_seconds("1-02:00:00") == 93600
+    assert walltime_seconds("45") == 2700                 # minutes alone, as sbatch -t reads them
+    assert walltime_seconds("0:20") == 20                 # MM:SS
+    assert lifetime_arguments("01:00:00") == ["--lifetime", "3060s", "--lifetime-stagger", "180s"]
+    lifetime, stagger = (int(a[:-1]) for a in lifetime_arguments("00:30:00")[1::2])
+    assert lifetime + stagger < 1800 * 0.95              # retired before the job is killed
+    from pipeline.errors import StudyError
+    for bad in ("1h", "", "0:00", "a:b"):
+        with pytest.raises(StudyError, match="walltime"):
+            walltime_seconds(bad)
+
+
+def test_the_pbs_job_script_as_dask_jobqueue_renders_it(tmp_path):
+    """--cluster pbs goes through the code path of --cluster slurm; no PBS here, so its job script
+    is checked as rendered: the site's queue, account, walltime and memory from dask's jobqueue
+    configuration, one single-threaded worker, TLS, a lifetime below the walltime."""
+    import dask
+    from distributed.security import Security
+
+    from pipeline.batch_system import job_script
+    config = {"jobqueue.pbs.queue": "short", "jobqueue.pbs.account": "ice-lab",
+              "jobqueue.pbs.walltime": "02:00:00", "jobqueue.pbs.memory": "4GB"}
+    with dask.config.set(config):
+        script = job_script("pbs", tmp_path / "jobs", Security.temporary())
+    lines = script.splitlines()
+    assert lines[0] == "#!/usr/bin/env bash"
+    for directive in ("#PBS -q short", "#PBS -A ice-lab", "#PBS -l walltime=02:00:00", "#PBS -N floe-impact"):
+        assert directive in lines, script
+    assert "#PBS -l select=1:ncpus=1:mem=3815MB" in lines, script                   # 4 GB in MiB
+    for export in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS"):
+        assert f"export {export}=1" in lines
+    command = lines[-1]
+    assert " tls://<scheduler-address>:8786 " in command
+    assert "--nthreads 1" in command and "--protocol tls://" in command
+    assert "--lifetime 6120s --lifetime-stagger 360s" in command            # 0.85 and 0.05 of 2 h
+    for flag in ("--tls-ca-file", "--tls-cert", "--tls-key"):
+        assert flag in command
+
+
+def test_the_slurm_job_script(tmp_path):
+    import dask
+
+    from pipeline.batch_system import job_script
+    with dask.config.set({"jobqueue.slurm.queue": "compute", "jobqueue.slurm.walltime": "00:30:00"}):
+        script = job_script("slurm", tmp_path / "jobs")
+    assert "#SBATCH -p compute" in script and "#SBATCH -t 00:30:00" in script
+    assert "#SBATCH --cpus-per-task=1" in script
+    assert f"#SBATCH -e {tmp_path / 'jobs'}" in script                  # its logs beside the results
+    assert "--lifetime 1530s --lifetime-stagger 90s" in script
+
+
+def _fake_commands(directory: Path, **scripts) -> dict:
+    """Executables of these names and bodies in ``directory``, and an environment whose PATH
+    finds them first."""
+    directory.mkdir(exist_ok=True)
+    for name, body in scripts.items():
+        path = directory / name
+        path.write_text("#!/usr/bin/env bash\n" + body + "\n")
+        path.chmod(0o755)
+    return {"PATH": f"{directory}{os.pathsep}{os.environ['PATH']}"}
+
+
+def _refused(tmp_path, monkeypatch, *args, env=None, match):
+    for key, value in (env or {}).items():
+        monkeypatch.setenv(key, value)
+    out = tmp_path / "out"
+    code, _, err = run_cli("run", _study(tmp_path), "--out", out, "--no-plots", *args)
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert code == 2, err
+    assert len(lines) == 1 and match in lines[0], err
+    assert not out.exists(), "a refused run wrote into its results directory"
+    return lines[0]
+
+
+UNREACHABLE = 'echo "squeue: error: Unable to contact slurm controller (connect failure)" >&2; exit 1'
+
+
+@pytest.mark.parametrize("args, scripts, match", [
+    (["--cluster", "slurm"], {}, "--cluster needs --jobs N"),
+    (["--cluster", "slurm", "--jobs", "0"], {}, "--cluster needs --jobs N"),
+    (["--jobs", "2"], {}, "--jobs is for --cluster"),
+    (["--cluster", "slurm", "--jobs", "2", "--scheduler", "tcp://127.0.0.1:1"], {}, "not both"),
+    (["--cluster", "lsf", "--jobs", "2"], {}, "invalid choice: 'lsf'"),
+    (["--cluster", "slurm", "--jobs", "2"], {"squeue": UNREACHABLE, "sbatch": "exit 0"},
+     "the batch system does not answer (squeue -h -o %i: squeue: error: Unable to contact slurm controller"),
+    (["--cluster", "slurm", "--jobs", "2"],
+     {"squeue": "exit 0", "sbatch": 'echo "sbatch: error: invalid partition specified: nope" >&2; exit 1'},
+     "sbatch refuses the worker job: sbatch: error: invalid partition specified: nope"),
+    (["--cluster", "pbs", "--jobs", "2"], {"qsub": "exit 0", "qstat": 'echo "Connection refused" >&2; exit 2'},
+     "the batch system does not answer (qstat: Connection refused)"),
+])
+def test_a_wrong_or_unreachable_batch_system_is_one_line(tmp_path, monkeypatch, args, scripts, match):
+    env = _fake_commands(tmp_path / "bin", **scripts) if scripts else None
+    _refused(tmp_path, monkeypatch, *args, env=env, match=match)
+
+
+def test_no_batch_system_on_path(tmp_path, monkeypatch):
+    python_only = tmp_path / "python-only"
+    python_only.mkdir()
+    (python_only / "python").symlink_to(sys.executable)
+    _refused(tmp_path, monkeypatch, "--cluster", "slurm", "--jobs", "2", env={"PATH": str(python_only)},
+             match="--cluster slurm: sbatch is not on PATH; run on the cluster's login node")
+
+
+def test_a_bad_walltime_in_the_configuration(tmp_path, monkeypatch):
+    env = _fake_commands(tmp_path / "bin", squeue="exit 0", sbatch="exit 0")
+    import dask
+    with dask.config.set({"jobqueue.slurm.walltime": "two hours"}):
+        _refused(tmp_path, monkeypatch, "--cluster", "slurm", "--jobs", "2", env=env,
+                 match="walltime 'two hours' is not of the form HH:MM:SS")
+
+
+def test_importing_dask_jobqueue_leaves_the_runners_ctrl_c_alone(monkeypatch):
+    """dask_jobqueue 0.9 sets SIGINT to sys.exit() on import: a Ctrl-C ended a --cluster run with
+    exit 0 and no message. The runner's handler must survive the import."""
+    import signal
+
+    from pipeline import batch_system, interrupts
+    for name in [m for m in sys.modules if m.split(".")[0] == "dask_jobqueue"]:
+        monkeypatch.delitem(sys.modules, name)                  # imported afresh, restored after
+    previous = signal.signal(signal.SIGINT, interrupts._on_sigint)
+    try:
+        batch_system._cluster_class("slurm")
+        assert signal.getsignal(signal.SIGINT) is interrupts._on_sigint
+    finally:
+        signal.signal(signal.SIGINT, previous)
+
+
+def test_without_the_hpc_extra(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "dask_jobqueue", None)                  # import fails
+    _refused(tmp_path, monkeypatch, "--cluster", "slurm", "--jobs", "2",
+             match="--cluster slurm needs dask-jobqueue: pip install 'floe-impact[hpc]'")
+
+
+# --- make test-cluster: a real SLURM, and a stand-in PBS -----------------------------------------
+
+def _slurm_is_up() -> bool:
+    if shutil.which("sinfo") is None:
+        return False
+    answer = subprocess.run(["sinfo", "-h", "-o", "%T"], capture_output=True, text=True)
+    return answer.returncode == 0 and any(state in answer.stdout for state in ("idle", "mix", "alloc"))
+
+
+slurm = pytest.mark.skipif(not _slurm_is_up(), reason="no SLURM answers here (make test-cluster starts one)")
+
+
+def _our_jobs() -> list:
+    answer = subprocess.run(["squeue", "-h", "-n", "floe-impact", "-o", "%i %T"], capture_output=True, text=True)
+    return [line.split() for line in answer.stdout.splitlines() if line.strip()]
+
+
+def _assert_no_jobs_left(timeout=60):
+    """Every job of the run cancelled: listed COMPLETING a while (slurmd ends its processes),
+    then gone."""
+    end = time.monotonic() + timeout
+    while _our_jobs() and time.monotonic() < end:
+        time.sleep(0.5)
+    assert _our_jobs() == [], "jobs left in the queue after the run"
+
+
+def _start(study_file, out, *args, env=None):
+    return subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
+                             "--no-plots", *map(str, args)], cwd=ROOT, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            env={**os.environ, **(env or {})})
+
+
+def _wait_for_entries(out: Path, n: int, proc, timeout=180):
+    end = time.monotonic() + timeout
+    while len(Ledger.load(out).entries) < n:
+        assert proc.poll() is None, proc.communicate()
+        assert time.monotonic() < end, "the study did not progress"
+        time.sleep(0.1)
+
+
+def _assert_each_case_once(study_file, out):
+    """The ledger records every case of the study exactly once (nothing lost, nothing twice)."""
+    from pipeline.study_files import load_study
+    study = load_study(study_file)
+    recorded = [row[0] for entry in Ledger.load(out).entries for row in entry["cases"]]
+    assert sorted(recorded) == sorted(study.run_ids)
+
+
+@pytest.fixture(scope="module")
+def local_reference(tmp_path_factory):
+    """The same study on local workers: what every batch-system run must equal bit for bit."""
+    tmp = tmp_path_factory.mktemp("local")
+    study_file = _study(tmp)
+    code, _, err = run_cli("run", study_file, "--out", tmp / "out", "--no-plots", "--workers", "2")
+    assert code == 0 or "did not end ok" in err, err
+    return tmp / "out"
+
+
+@pytest.mark.cluster
+@slurm
+def test_a_cancelled_slurm_job_loses_nothing(tmp_path, local_reference):
+    """scancel of one worker job mid-study (a pre-emption): its batch runs again on the other
+    worker, a new job replaces it, the study completes; the ledger holds every case once and
+    study.nc equals the local run's bit for bit. While the study runs, a dask client without the
+    run's TLS credentials is refused by its scheduler."""
+    study_file = _study(tmp_path)
+    out = tmp_path / "out"
+    proc = _start(study_file, out, "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.2")
+    _wait_for_entries(out, 4, proc)
+    jobs = _our_jobs()
+    assert len(jobs) == 2 and all(state == "RUNNING" for _, state in jobs), jobs
+    subprocess.run(["scancel", jobs[0][0]], check=True)
+    _assert_a_client_without_credentials_is_refused(out)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode in (0, 1), err
+    assert "submitted 2 worker jobs (slurm); scheduler at tls://" in err
+    _assert_each_case_once(study_file, out)
+    assert_same_study(out, local_reference)
+    _assert_no_jobs_left()
+    logs = sorted(p.name for p in (out / "jobs").glob("*.err"))
+    assert len(logs) >= 3, logs                       # the cancelled job was replaced
+    assert not list((out / "jobs").glob(".dask-jobqueue.worker.*")), "TLS keys left behind"
+
+
+def _assert_a_client_without_credentials_is_refused(out: Path):
+    """A dask client that reaches the run's scheduler without its credentials gets nowhere:
+    in plain TCP, or in TLS with credentials of its own (a stranger's fresh CA)."""
+    log = next((out / "jobs").glob("*.err")).read_text()
+    address = next(word for line in log.splitlines() if "Registered to:" in line
+                   for word in line.split() if word.startswith("tls://"))
+    code = ("import sys\nfrom distributed import Client\nfrom distributed.security import Security\n"
+            f"for address, security in (({address.replace('tls://', 'tcp://')!r}, None), "
+            f"({address!r}, Security.temporary())):\n"
+            "    try:\n        Client(address, security=security, timeout='5s')\n"
+            "    except Exception as err:\n        print('refused', address, type(err).__name__)\n"
+            "    else:\n        print('CONNECTED', address); sys.exit(1)\n")
+    answer = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert answer.returncode == 0 and answer.stdout.count("refused") == 2, (answer.stdout, answer.stderr)
+
+
+@pytest.mark.cluster
+@slurm
+def test_slurm_workers_retire_before_their_walltime_and_are_replaced(tmp_path):
+    """A study longer than the workers' lifetime: with a walltime of 15 s each worker retires at
+    11-13 s (0.85 of it, staggered by 1 s), its job ends, a new job replaces it, and the study
+    completes as a local run does."""
+    text = STUDY.replace("K = [4e6, 6e6, 8e6]", "K = [4e6, 5e6, 6e6, 7e6, 8e6, 9e6]\nR = [1.0, 1.5]")
+    study_file = _study(tmp_path, "retiring", text)
+    started = time.monotonic()
+    proc = _start(study_file, tmp_path / "out", "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.3",
+                  env={"DASK_JOBQUEUE__SLURM__WALLTIME": "0:15"})
+    _, err = proc.communicate(timeout=400)
+    wall = time.monotonic() - started
+    assert proc.returncode in (0, 1), err
+    _assert_each_case_once(study_file, tmp_path / "out")
+    logs = sorted((tmp_path / "out" / "jobs").glob("*.err"))
+    retired = [p.name for p in logs if "Reason: worker-lifetime-reached" in p.read_text()]
+    assert len(retired) >= 2 and len(logs) >= 4, ([p.name for p in logs], retired, f"{wall:.0f} s")
+    local = tmp_path / "local"
+    code, _, err = run_cli("run", study_file, "--out", local, "--no-plots", "--workers", "2")
+    assert_same_study(tmp_path / "out", local)
+    _assert_no_jobs_left()
+
+
+@pytest.mark.cluster
+@slurm
+def test_a_ctrl_c_cancels_the_jobs_and_the_same_command_resumes(tmp_path, local_reference):
+    study_file = _study(tmp_path)
+    out = tmp_path / "out"
+    proc = _start(study_file, out, "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.2")
+    _wait_for_entries(out, 3, proc)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    _assert_no_jobs_left()
+    done = len(Ledger.load(out).entries)
+    assert done >= 3
+    proc = _start(study_file, out, "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.2")
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode in (0, 1), err
+    assert "already done" in err
+    _assert_each_case_once(study_file, out)
+    assert_same_study(out, local_reference)
+
+
+@pytest.mark.cluster
+@slurm
+def test_a_partition_slurm_does_not_have_is_one_line(tmp_path, monkeypatch):
+    import dask
+    with dask.config.set({"jobqueue.slurm.queue": "no-such-partition"}):
+        line = _refused(tmp_path, monkeypatch, "--cluster", "slurm", "--jobs", "2", match="sbatch refuses the worker job")
+    assert "invalid partition" in line.lower(), line
+
+
+#: a stand-in PBS: qsub runs the job script as a process of its own and prints its id, qstat
+#: lists the live ones, qdel kills one's process group
+PBS = {
+    # the script is copied first: dask-jobqueue removes its file as soon as qsub returns
+    "qsub": 'job=$(mktemp --suffix=.fake-pbs.sh); cp "$1" "$job"; '
+            'setsid bash "$job" > "$job.log" 2>&1 < /dev/null & echo "$!.fake-pbs"',
+    "qstat": 'echo "Job id  Name  User"; for pid in $(pgrep -f "fake-pbs\\.sh$"); do echo "$pid.fake-pbs R"; done',
+    "qdel": 'kill -TERM -- "-${1%%.*}" 2>/dev/null; exit 0',
+}
+
+
+@pytest.mark.cluster
+def test_pbs_takes_the_same_path_end_to_end(tmp_path, local_reference):
+    """--cluster pbs with a stand-in qsub/qstat/qdel that runs each job script as a local process:
+    the same code path as SLURM's (TLS, lifetime, logs, the jobs cancelled at the end)."""
+    env = _fake_commands(tmp_path / "bin", **PBS)
+    study_file = _study(tmp_path)
+    proc = _start(study_file, tmp_path / "out", "--cluster", "pbs", "--jobs", "2", "--batch-seconds", "0.2", env=env)
+    _, err = proc.communicate(timeout=300)
+    assert proc.returncode in (0, 1), err
+    assert "submitted 2 worker jobs (pbs); scheduler at tls://" in err
+    _assert_each_case_once(study_file, tmp_path / "out")
+    assert_same_study(tmp_path / "out", local_reference)
