@@ -148,6 +148,23 @@ def test_a_wrong_or_unreachable_batch_system_is_one_line(tmp_path, monkeypatch, 
     _refused(tmp_path, monkeypatch, *args, env=env, match=match)
 
 
+def test_a_dry_run_checks_the_batch_system_and_submits_nothing(tmp_path, monkeypatch):
+    """--dry-run with --cluster: the checks run (sbatch --test-only gets the job script on its
+    stdin), nothing is submitted, nothing is written."""
+    calls = tmp_path / "calls"
+    env = _fake_commands(tmp_path / "bin", squeue="exit 0",
+                         sbatch=f'echo "sbatch $*" >> {calls}; cat > {calls}.script; exit 0')
+    for key, value in env.items():
+        monkeypatch.setenv(key, value)
+    code, out, err = run_cli("run", _study(tmp_path), "--out", tmp_path / "out", "--cluster", "slurm", "--jobs", "4",
+                             "--dry-run")
+    assert code == 0, err
+    assert "nothing was run (--dry-run)" in out
+    assert calls.read_text() == "sbatch --test-only\n"
+    assert "--lifetime" in Path(f"{calls}.script").read_text()
+    assert not (tmp_path / "out").exists()
+
+
 def test_no_batch_system_on_path(tmp_path, monkeypatch):
     python_only = tmp_path / "python-only"
     python_only.mkdir()
@@ -364,3 +381,32 @@ def test_pbs_takes_the_same_path_end_to_end(tmp_path, local_reference):
     assert "submitted 2 worker jobs (pbs); scheduler at tls://" in err
     _assert_each_case_once(study_file, tmp_path / "out")
     assert_same_study(tmp_path / "out", local_reference)
+
+
+@pytest.mark.cluster
+def test_jobs_that_fail_on_the_node_are_one_line_naming_their_log(tmp_path):
+    """A job script that fails before its worker starts (here the site's prologue exits): once
+    every job has ended with no worker joined, the run stops with one line, exit 2, instead of
+    waiting for ever."""
+    env = _fake_commands(tmp_path / "bin", **PBS)
+    env["DASK_JOBQUEUE__PBS__JOB_SCRIPT_PROLOGUE"] = '["echo python not found on this node >&2; exit 3"]'
+    proc = _start(_study(tmp_path), tmp_path / "out", "--cluster", "pbs", "--jobs", "2", env=env)
+    _, err = proc.communicate(timeout=120)
+    errors = [line for line in err.splitlines() if line.startswith("error:")]
+    assert proc.returncode == 2, err
+    assert len(errors) == 1 and "ended before a worker reached the scheduler" in errors[0], err
+
+
+@pytest.mark.cluster
+@slurm
+def test_an_error_mid_study_cancels_the_jobs(tmp_path):
+    """The results directory removed mid-study (make clean): the run stops, exit 74, and its
+    jobs are cancelled."""
+    out = tmp_path / "out"
+    proc = _start(_study(tmp_path), out, "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.2")
+    _wait_for_entries(out, 3, proc)
+    shutil.rmtree(out)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 74, err
+    assert "was removed or replaced during the run" in err
+    _assert_no_jobs_left()
