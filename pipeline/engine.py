@@ -378,8 +378,8 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
 
     ``on_batch(entry, batch)`` is called in the runner for every batch file written (the
     runner records it in the ledger and streams its "reduced" data, if any, into study.nc).
-    ``expected_workers``: the workers still to join (batch jobs in the queue), counted from the
-    start in the batch sizes and the tasks in flight. Returns the records of cases whose task
+    ``expected_workers``: the workers the run expects (its batch jobs, some perhaps still in the
+    queue), counted from the start in the batch sizes and the tasks in flight. Returns the records of cases whose task
     failed without a file (infrastructure failures: they stay pending)."""
     if not items:
         return []
