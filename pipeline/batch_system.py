@@ -14,7 +14,7 @@ walltime, job directives, the network interface) comes from dask's jobqueue conf
   0.05): a worker retires before its job is killed, its batch is run again elsewhere, and a new
   job replaces it (:func:`keep_jobs`), so a study may last longer than one job.
 - **The job's logs** in ``jobs/`` unless the configuration names a directory.
-- **The dashboard** on 127.0.0.1 only (reach it with ``ssh -L``).
+- **The dashboard** on 127.0.0.1 only (reach it with ``ssh -L``); the workers serve none.
 
 Every job is cancelled when the run ends, fails or is interrupted (the cluster's close); a
 runner killed outright leaves its workers to exit ``death-timeout`` (60 s) after the scheduler.
@@ -107,6 +107,10 @@ def job_options(kind: str, directory: Path, security=None) -> dict:
     """The keyword arguments of dask-jobqueue's cluster: one single-threaded worker per job, the
     site's configuration for the rest, a lifetime below the walltime, logs in ``directory``."""
     extra = list(_config(kind, "worker-extra-args") or [])
+    if not {"--dashboard", "--no-dashboard", "--dashboard-address"} & set(extra):
+        # no worker pages; and the HTTP server a worker starts even so (/health, /metrics) on
+        # the node's loopback, not open to the compute nodes' network
+        extra += ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
     if "--lifetime" not in extra:
         extra += lifetime_arguments(_config(kind, "walltime"))
     prologue = [f"export {name}=1" for name in SINGLE_THREAD] + list(_config(kind, "job-script-prologue") or [])

@@ -86,6 +86,7 @@ def test_the_pbs_job_script_as_dask_jobqueue_renders_it(tmp_path):
     command = lines[-1]
     assert " tls://<scheduler-address>:8786 " in command
     assert "--nthreads 1" in command and "--protocol tls://" in command
+    assert "--no-dashboard --dashboard-address 127.0.0.1:0" in command     # nothing open over HTTP
     assert "--lifetime 6120s --lifetime-stagger 360s" in command            # 0.85 and 0.05 of 2 h
     for flag in ("--tls-ca-file", "--tls-cert", "--tls-key"):
         assert flag in command
@@ -275,6 +276,7 @@ def test_a_cancelled_slurm_job_loses_nothing(tmp_path, local_reference):
     _wait_for_entries(out, 4, proc)
     jobs = _our_jobs()
     assert len(jobs) == 2 and all(state == "RUNNING" for _, state in jobs), jobs
+    _assert_no_listener_answers_a_stranger(proc.pid)
     subprocess.run(["scancel", jobs[0][0]], check=True)
     _assert_a_client_without_credentials_is_refused(out)
     _, err = proc.communicate(timeout=300)
@@ -286,6 +288,32 @@ def test_a_cancelled_slurm_job_loses_nothing(tmp_path, local_reference):
     logs = sorted(p.name for p in (out / "jobs").glob("*.err"))
     assert len(logs) >= 3, logs                       # the cancelled job was replaced
     assert not list((out / "jobs").glob(".dask-jobqueue.worker.*")), "TLS keys left behind"
+
+
+def _assert_no_listener_answers_a_stranger(runner: int):
+    """Every socket the run listens on (the runner's, and its workers' in their jobs) is either on
+    127.0.0.1 (the dashboard) or speaks only TLS to holders of the run's certificates: a plain
+    HTTP request gets no answer, where a dashboard would serve its pages."""
+    import socket
+
+    from test_cluster import _listening, _tree
+    pids = _tree(runner)
+    for worker in subprocess.run(["pgrep", "-f", "distributed.cli.dask_worker"], capture_output=True,
+                                 text=True).stdout.split():
+        pids |= _tree(int(worker))
+    listeners = set(_listening(pids))
+    beyond = {(host, port) for host, port in listeners if host != "127.0.0.1"}
+    assert any(host == "127.0.0.1" for host, _ in listeners), listeners        # the dashboard
+    assert len(beyond) >= 3, listeners                # the scheduler; each worker and its nanny
+    for host, port in beyond:
+        with socket.create_connection(("127.0.0.1" if host in ("0.0.0.0", "::") else host, port), timeout=5) as sock:
+            sock.settimeout(3)
+            sock.sendall(b"GET / HTTP/1.0\r\n\r\n")
+            try:
+                answer = sock.recv(64)
+            except (socket.timeout, ConnectionResetError):
+                answer = b""
+        assert not answer.startswith(b"HTTP/"), (host, port, answer)
 
 
 def _assert_a_client_without_credentials_is_refused(out: Path):
@@ -405,7 +433,8 @@ def test_an_error_mid_study_cancels_the_jobs(tmp_path):
     out = tmp_path / "out"
     proc = _start(_study(tmp_path), out, "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.2")
     _wait_for_entries(out, 3, proc)
-    shutil.rmtree(out)
+    while out.exists():                      # as rm -rf run again: a worker may add a batch file meanwhile
+        shutil.rmtree(out, ignore_errors=True)
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 74, err
     assert "was removed or replaced during the run" in err

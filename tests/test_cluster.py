@@ -11,7 +11,6 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
-import xarray as xr
 
 from reference import assert_matches_reference
 from helpers import ROOT, assert_same_study, run_cli
@@ -47,8 +46,9 @@ def _dask_processes(tmp_path, scheme: str, tls_args: list, workers: int = 2):
         env["DASK_DISTRIBUTED__COMM__REQUIRE_ENCRYPTION"] = "True"
     names = ["scheduler"] + [f"worker{i}" for i in range(workers)]
     logs = [open(tmp_path / f"{name}.log", "w") for name in names]
+    http = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]    # /health, /metrics on the loopback
     procs = [subprocess.Popen([DASK, "scheduler", "--host", "127.0.0.1", "--port", str(port), "--protocol", scheme,
-                               "--no-dashboard", *tls_args], stdout=logs[0], stderr=subprocess.STDOUT, env=env,
+                               *http, *tls_args], stdout=logs[0], stderr=subprocess.STDOUT, env=env,
                               start_new_session=True)]
     end = time.monotonic() + 60
     while True:                                          # wait for the scheduler to listen
@@ -59,8 +59,8 @@ def _dask_processes(tmp_path, scheme: str, tls_args: list, workers: int = 2):
             assert time.monotonic() < end, (tmp_path / "scheduler.log").read_text()
             time.sleep(0.2)
     for i in range(workers):
-        procs.append(subprocess.Popen([DASK, "worker", address, "--nthreads", "1", "--nworkers", "1",
-                                       "--no-dashboard", "--name", f"w{i}", *tls_args], stdout=logs[i + 1],
+        procs.append(subprocess.Popen([DASK, "worker", address, "--nthreads", "1", "--nworkers", "1", *http,
+                                       "--name", f"w{i}", *tls_args], stdout=logs[i + 1],
                                       stderr=subprocess.STDOUT, env=env, cwd=ROOT, start_new_session=True))
     try:
         yield address, procs
