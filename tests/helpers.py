@@ -1,8 +1,10 @@
 """Helpers the test files share: the repository's root, the command line (in this process, or in
 a process of its own as a user runs it), a results directory's batch files, determinism of
-study.nc on one machine, a small grid study, and a figure's axes drawn without writing it."""
+study.nc on one machine, a small grid study, a figure's axes drawn without writing it, and the
+sockets a process tree listens on."""
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -165,3 +167,45 @@ def kill_runner_then_resume(study_file, undisturbed, out, delay, cases=8):
     after = finished_batches(out)
     assert sum(len(ids) for ids in after.values()) == cases, "a case was computed twice"
     assert_same_results(out, undisturbed)
+
+
+def listening_sockets(pids: set) -> list:
+    """(address, port) of every TCP socket in LISTEN that one of the processes holds (Linux /proc)."""
+    inodes = {}
+    for pid in pids:
+        try:
+            for fd in os.listdir(f"/proc/{pid}/fd"):
+                target = os.readlink(f"/proc/{pid}/fd/{fd}")
+                if target.startswith("socket:["):
+                    inodes[target[8:-1]] = pid
+        except OSError:
+            continue
+    found = []
+    for table, width in (("/proc/net/tcp", 8), ("/proc/net/tcp6", 32)):
+        for line in Path(table).read_text().splitlines()[1:]:
+            fields = line.split()
+            local, state, inode = fields[1], fields[3], fields[9]
+            if state == "0A" and inode in inodes:                 # 0A: LISTEN
+                address, port = local.split(":")
+                raw = bytes.fromhex(address)
+                words = b"".join(raw[i:i + 4][::-1] for i in range(0, len(raw), 4))
+                found.append((socket.inet_ntop(socket.AF_INET if width == 8 else socket.AF_INET6, words),
+                              int(port, 16)))
+    return found
+
+
+def process_tree(root: int) -> set:
+    """The process and all its descendants (Linux /proc)."""
+    pids, grew = {root}, True
+    while grew:
+        grew = False
+        for entry in os.listdir("/proc"):
+            if entry.isdigit() and int(entry) not in pids:
+                try:
+                    parent = int(Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()[1])
+                except (OSError, IndexError, ValueError):
+                    continue
+                if parent in pids:
+                    pids.add(int(entry))
+                    grew = True
+    return pids

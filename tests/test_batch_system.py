@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from helpers import ROOT, assert_same_study, run_cli
+from helpers import ROOT, assert_same_study, listening_sockets, process_tree, run_cli
 from pipeline.ledger import Ledger
 
 pytest.importorskip("dask_jobqueue")
@@ -296,12 +296,11 @@ def _assert_no_listener_answers_a_stranger(runner: int):
     HTTP request gets no answer, where a dashboard would serve its pages."""
     import socket
 
-    from test_cluster import _listening, _tree
-    pids = _tree(runner)
+    pids = process_tree(runner)
     for worker in subprocess.run(["pgrep", "-f", "distributed.cli.dask_worker"], capture_output=True,
                                  text=True).stdout.split():
-        pids |= _tree(int(worker))
-    listeners = set(_listening(pids))
+        pids |= process_tree(int(worker))
+    listeners = set(listening_sockets(pids))
     beyond = {(host, port) for host, port in listeners if host != "127.0.0.1"}
     assert any(host == "127.0.0.1" for host, _ in listeners), listeners        # the dashboard
     assert len(beyond) >= 3, listeners                # the scheduler; each worker and its nanny

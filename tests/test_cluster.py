@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from reference import assert_matches_reference
-from helpers import ROOT, assert_same_study, run_cli
+from helpers import ROOT, assert_same_study, listening_sockets, process_tree, run_cli
 
 DASK = str(Path(sys.executable).with_name("dask"))
 
@@ -189,47 +189,6 @@ end = "last_output"
 """
 
 
-def _listening(pids: set) -> list:
-    """(address, port) of every TCP socket in LISTEN that one of the processes holds (Linux /proc)."""
-    inodes = {}
-    for pid in pids:
-        try:
-            for fd in os.listdir(f"/proc/{pid}/fd"):
-                target = os.readlink(f"/proc/{pid}/fd/{fd}")
-                if target.startswith("socket:["):
-                    inodes[target[8:-1]] = pid
-        except OSError:
-            continue
-    found = []
-    for table, width in (("/proc/net/tcp", 8), ("/proc/net/tcp6", 32)):
-        for line in Path(table).read_text().splitlines()[1:]:
-            fields = line.split()
-            local, state, inode = fields[1], fields[3], fields[9]
-            if state == "0A" and inode in inodes:                 # 0A: LISTEN
-                address, port = local.split(":")
-                raw = bytes.fromhex(address)
-                words = b"".join(raw[i:i + 4][::-1] for i in range(0, len(raw), 4))
-                found.append((socket.inet_ntop(socket.AF_INET if width == 8 else socket.AF_INET6, words),
-                              int(port, 16)))
-    return found
-
-
-def _tree(root: int) -> set:
-    pids, grew = {root}, True
-    while grew:
-        grew = False
-        for entry in os.listdir("/proc"):
-            if entry.isdigit() and int(entry) not in pids:
-                try:
-                    parent = int(Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()[1])
-                except (OSError, IndexError, ValueError):
-                    continue
-                if parent in pids:
-                    pids.add(int(entry))
-                    grew = True
-    return pids
-
-
 @pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's /proc")
 def test_a_local_run_listens_on_the_loopback_only(tmp_path):
     """Issue 40: the scheduler, the workers and the dashboard of a local run bind 127.0.0.1 (the
@@ -242,7 +201,7 @@ def test_a_local_run_listens_on_the_loopback_only(tmp_path):
                             text=True, start_new_session=True)
     seen, end = set(), time.monotonic() + 120
     while proc.poll() is None and time.monotonic() < end:
-        seen.update(_listening(_tree(proc.pid)))
+        seen.update(listening_sockets(process_tree(proc.pid)))
         time.sleep(0.05)
     _, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
