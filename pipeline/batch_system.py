@@ -40,8 +40,6 @@ DEFAULT_MEMORY = "2GiB"
 LIFETIME, STAGGER = 0.85, 0.05
 #: seconds between two checks that every job is alive (a lost one is replaced)
 REPLACE_EVERY = 2.0
-#: what the runner's local workers run with, and so each job
-SINGLE_THREAD = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMBA_NUM_THREADS")
 #: where a run keeps its jobs' logs and the workers' TLS files, under the results directory
 JOBS_DIR = "jobs"
 
@@ -113,7 +111,9 @@ def job_options(kind: str, directory: Path, security=None) -> dict:
         extra += ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
     if "--lifetime" not in extra:
         extra += lifetime_arguments(_config(kind, "walltime"))
-    prologue = [f"export {name}=1" for name in SINGLE_THREAD] + list(_config(kind, "job-script-prologue") or [])
+    from .worker import SINGLE_THREAD_ENV                # what a local worker runs with, and so each job
+    prologue = [f"export {name}={value}" for name, value in SINGLE_THREAD_ENV.items()] + \
+        list(_config(kind, "job-script-prologue") or [])
     options = dict(cores=1, processes=1, memory=_config(kind, "memory") or DEFAULT_MEMORY,
                    worker_extra_args=extra, job_script_prologue=prologue,
                    log_directory=_config(kind, "log-directory") or str(directory),
@@ -132,7 +132,7 @@ def job_script(kind: str, directory: Path, security=None, logs: bool = True) -> 
     scheduler's address): what --cluster submits, inspectable without a batch system. Rendering
     it creates the log directory (dask-jobqueue does); ``logs=False`` leaves the logs out."""
     cls = _cluster_class(kind)
-    options = {k: v for k, v in job_options(kind, directory, security).items()
+    options = {k: v for k, v in job_options(kind, directory).items()
                if k not in ("scheduler_options", "shared_temp_directory")}
     if not logs:
         options["log_directory"] = None

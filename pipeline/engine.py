@@ -24,10 +24,7 @@ from solver import compile_kernels, kernel_cache
 from . import forkserver
 from .casefile import CaseWriteError
 from .tables import COMPLETE, ENDED_EARLY, WRITE_FAILED
-from .worker import run_batch
-
-SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
-                     "NUMBA_NUM_THREADS": "1"}
+from .worker import SINGLE_THREAD_ENV, run_batch
 
 
 def probe_scheduler(address: str, timeout: float = 5.0, tls: tuple | None = None) -> None:

@@ -2,7 +2,7 @@
 never the runner: SIGINT ignored, then the worker's modules and, when numba's cache holds them
 all, the solver's kernels; each worker is a fork of it and starts with them in memory.
 
-The forkserver inherits the workers' environment (pipeline.engine.SINGLE_THREAD_ENV: numpy and
+The forkserver inherits the workers' environment (pipeline.worker.SINGLE_THREAD_ENV: numpy and
 numba with one thread). It passes on the SIGINT handler its preload left, so the workers ignore
 Ctrl-C too: a Ctrl-C stops the runner alone, which abandons the in-flight cases and shuts the
 cluster down.

@@ -13,6 +13,11 @@ from .reduce import reduce_arrays
 from .case import Case, x_positions
 from .tables import WRITE_FAILED
 
+#: the environment every worker runs in (local processes, and each batch job's script): one
+#: thread for numba, OpenMP and the BLAS, as the runner schedules one case per worker
+SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1",
+                     "NUMBA_NUM_THREADS": "1"}
+
 
 def compute_case(case: Case):
     """Run the solver on one case; times past the end of its run are not integrated."""

@@ -32,6 +32,23 @@ x_points = 11
 end = "last_output"
 """
 
+#: 60 cases of 16 modes, about 0.2 s each: several seconds of work on two workers, long enough to
+#: lose a worker or a job mid-study (tests/test_batch_system.py, tests/test_cluster.py)
+JOBS_STUDY = """
+description = "60 cases for a cluster"
+[base]
+Nmod = 16
+[grid]
+V = [3.0, 4.0, 5.0, 6.0, 7.0]
+hi = [0.3, 0.4, 0.5, 0.6]
+K = [4e6, 6e6, 8e6]
+[output]
+times = { unit = "t_sc", step = 0.5, stop = 3.0 }
+fields = ["strain"]
+x_points = 11
+end = "last_output"
+"""
+
 #: a threshold search of 6 modes on two thicknesses (tests/test_search.py, test_hostile_tables.py)
 SEARCH_STUDY = """
 description = "the speed at which the layer bottoms out, on thin and thick ice"

@@ -19,29 +19,12 @@ from pathlib import Path
 
 import pytest
 
-from helpers import ROOT, assert_same_study, listening_sockets, process_tree, run_cli
+from helpers import JOBS_STUDY, ROOT, assert_same_study, listening_sockets, process_tree, run_cli
 from pipeline.ledger import Ledger
 
 pytest.importorskip("dask_jobqueue")
 
-#: 60 cases of 16 modes, about 0.2 s each: a study of ~6 s wall on 2 workers
-STUDY = """
-description = "batch-system tests"
-[base]
-Nmod = 16
-[grid]
-V = [3.0, 4.0, 5.0, 6.0, 7.0]
-hi = [0.3, 0.4, 0.5, 0.6]
-K = [4e6, 6e6, 8e6]
-[output]
-times = { unit = "t_sc", step = 0.5, stop = 3.0 }
-fields = ["strain"]
-x_points = 11
-end = "last_output"
-"""
-
-
-def _study(tmp_path, name="jobs", text=STUDY):
+def _study(tmp_path, name="jobs", text=JOBS_STUDY):
     path = tmp_path / f"{name}.toml"
     path.write_text(text)
     return path
@@ -337,7 +320,7 @@ def test_slurm_workers_retire_before_their_walltime_and_are_replaced(tmp_path):
     """A study longer than the workers' lifetime: with a walltime of 15 s each worker retires at
     11-13 s (0.85 of it, staggered by 1 s), its job ends, a new job replaces it, and the study
     completes as a local run does."""
-    text = STUDY.replace("K = [4e6, 6e6, 8e6]", "K = [4e6, 5e6, 6e6, 7e6, 8e6, 9e6]\nR = [1.0, 1.5]")
+    text = JOBS_STUDY.replace("K = [4e6, 6e6, 8e6]", "K = [4e6, 5e6, 6e6, 7e6, 8e6, 9e6]\nR = [1.0, 1.5]")
     study_file = _study(tmp_path, "retiring", text)
     started = time.monotonic()
     proc = _start(study_file, tmp_path / "out", "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.3",

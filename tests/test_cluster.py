@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from reference import assert_matches_reference
-from helpers import ROOT, assert_same_study, listening_sockets, process_tree, run_cli
+from helpers import JOBS_STUDY, ROOT, assert_same_study, listening_sockets, process_tree, run_cli
 
 DASK = str(Path(sys.executable).with_name("dask"))
 
@@ -103,7 +103,7 @@ def test_a_tls_scheduler_runs_the_study_with_its_credentials_and_refuses_others(
     ca, cert, key = _credentials(tmp_path / "tls", "cluster")
     tls_args = ["--tls-ca-file", ca, "--tls-cert", cert, "--tls-key", key]
     study = tmp_path / "tls.toml"
-    study.write_text(KILL_STUDY.replace("K = [4e6, 6e6, 8e6]", "K = [4e6]"))
+    study.write_text(JOBS_STUDY.replace("K = [4e6, 6e6, 8e6]", "K = [4e6]"))
     with _dask_processes(tmp_path, "tls", tls_args, workers=1) as (address, _):
         stranger = _credentials(tmp_path / "tls", "stranger")
         refusals = {
@@ -152,7 +152,7 @@ def test_a_dask_worker_killed_mid_batch_loses_nothing(dask_processes, tmp_path):
     from pipeline.study_files import load_study
     address, procs = dask_processes
     study_file = tmp_path / "killed.toml"
-    study_file.write_text(KILL_STUDY)
+    study_file.write_text(JOBS_STUDY)
     out = tmp_path / "out"
     runner = subprocess.Popen([sys.executable, "-m", "pipeline", "run", str(study_file), "--out", str(out),
                                "--scheduler", address, "--no-plots", "--batch-seconds", "0.3"], cwd=ROOT,
@@ -170,23 +170,6 @@ def test_a_dask_worker_killed_mid_batch_loses_nothing(dask_processes, tmp_path):
     code, _, err = run_cli("run", study_file, "--out", local, "--workers", "2", "--no-plots")
     assert code in (0, 1), err
     assert_same_study(out, local)
-
-
-#: 60 cases of about 0.2 s: a run of several seconds on two workers
-KILL_STUDY = """
-description = "a killed worker"
-[base]
-Nmod = 16
-[grid]
-V = [3.0, 4.0, 5.0, 6.0, 7.0]
-hi = [0.3, 0.4, 0.5, 0.6]
-K = [4e6, 6e6, 8e6]
-[output]
-times = { unit = "t_sc", step = 0.5, stop = 3.0 }
-fields = ["strain"]
-x_points = 11
-end = "last_output"
-"""
 
 
 @pytest.mark.skipif(not Path("/proc/net/tcp").exists(), reason="reads Linux's /proc")
