@@ -234,8 +234,9 @@ def job_ids(cluster) -> list:
     return [job.job_id for job in cluster.workers.values() if getattr(job, "job_id", None)]
 
 
-#: how often the runner looks for its first worker while the jobs wait in the queue [s]
-POLL = 1.0
+#: how often the runner looks for its first worker while the jobs wait in the queue [s], and how
+#: often it asks the batch system whether they are still there (squeue costs the site's controller)
+POLL, LIST_EVERY = 1.0, 10.0
 
 
 def wait_for_a_worker(client, cluster, kind: str, directory: Path) -> None:
@@ -247,7 +248,7 @@ def wait_for_a_worker(client, cluster, kind: str, directory: Path) -> None:
 
     from .interrupts import check
     said = False
-    started = time.monotonic()
+    started = listed_at = time.monotonic()
     while not client.scheduler_info()["workers"]:
         check()
         if not said and time.monotonic() - started > 5 * POLL:
@@ -255,7 +256,9 @@ def wait_for_a_worker(client, cluster, kind: str, directory: Path) -> None:
                   f"{directory})", file=sys.stderr, flush=True)
             said = True
         ids = job_ids(cluster)
-        listed = _listed_jobs(kind) if ids and time.monotonic() - started > 10 * POLL else None
+        listed = None
+        if ids and time.monotonic() - listed_at >= LIST_EVERY:
+            listed, listed_at = _listed_jobs(kind), time.monotonic()
         if listed is not None and not {i.split(".")[0] for i in ids} & listed:
             raise StudyError(f"--cluster {kind}: the worker jobs {', '.join(ids)} ended before a worker "
                              f"reached the scheduler; see {_newest_log(directory)}")
