@@ -41,6 +41,8 @@ from .tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INF
 
 #: the runner writes study.nc's per-case variables in slabs of about this many bytes
 FLUSH_BYTES = 16 * 2**20
+#: ragged records put into grid order at the end (StudyWriter._move_records) this many at a time
+RECORD_CHUNK = 2**21
 
 
 def _parameter_coord(key, values):
@@ -170,6 +172,8 @@ class StudyWriter:
         self.n_nodes = self.n_changes = 0
         self.seen = np.zeros(study.n_cases, dtype=bool)
         self.buffer, self.buffered = [], 0
+        #: the last grid position whose records were appended, and whether any came before it
+        self.records_upto, self.records_in_order = -1, True
 
     def _coords(self, t_coord, x_fraction, groups: list, coordinates: str):
         nc, study = self.nc, self.study
@@ -277,8 +281,11 @@ class StudyWriter:
             return
         self.buffer.sort(key=lambda item: int(item[0][0]) if item[0].size else -1)
         if self.study.output["records"]:
-            for _, data in self.buffer:
+            for flat, data in self.buffer:
                 self._append_records(data)
+                if flat.size:
+                    self.records_in_order &= int(flat[0]) > self.records_upto
+                    self.records_upto = max(self.records_upto, int(flat[-1]))
         flat = np.concatenate([f for f, _ in self.buffer])
         order = np.argsort(flat, kind="stable")
         for name, tail, kind, _ in self.variables:
@@ -303,6 +310,8 @@ class StudyWriter:
                     filler[name] = np.full(k, "", dtype=object)
             for name, values in filler.items():
                 self._put(name, missing, values)
+        if self.study.output["records"]:
+            self._records_in_grid_order()
         self.nc.setncatts(attrs)
         self.nc.close()
         fd = os.open(self.tmp, os.O_RDONLY)
@@ -312,6 +321,49 @@ class StudyWriter:
             os.close(fd)
         os.replace(self.tmp, self.path)
         return self.path
+
+    def _records_in_grid_order(self) -> None:
+        """The ragged records in the cases' grid order, each case's starting where the counts
+        before it end (CF's contiguous ragged array: a reader may derive the starts from the
+        counts alone). Batches arrive in any order across flushes (two workers racing, a batch
+        run again, a resumed study's older files), and are appended as they arrive; when one
+        came before a grid position already written, every record is moved into place here,
+        through a scratch copy beside the file, a chunk at a time."""
+        for start, count, names, appended in (
+                ("tension_record_start", "tension_record_count", TENSION_RECORD_INFO, self.n_nodes),
+                ("contact_change_start", "contact_change_entries", CONTACT_RECORD_INFO, self.n_changes)):
+            counts = np.asarray(self.nc[count][...], dtype=np.int64).ravel()
+            shape = self.nc[start].shape
+            old = np.asarray(self.nc[start][...], dtype=np.int64).ravel()
+            new = np.cumsum(counts) - counts
+            if not self.records_in_order or appended != counts.sum():     # (a case written twice)
+                for name in names:
+                    self._move_records(self.nc[name], old, counts)
+            self.nc[start][...] = new.reshape(shape)
+
+    def _move_records(self, var, old: np.ndarray, counts: np.ndarray) -> None:
+        """var[new order] = var[old starts, counts] for the cases in grid order."""
+        total = int(counts.sum())
+        if total == 0:
+            return
+        scratch = self.tmp.with_name(self.tmp.name + ".records")
+        try:
+            copy = np.lib.format.open_memmap(scratch, mode="w+", dtype=var.dtype, shape=(total,))
+            for a in range(0, total, RECORD_CHUNK):
+                copy[a:a + RECORD_CHUNK] = var[a:min(a + RECORD_CHUNK, total)]
+            keep = counts > 0
+            starts, counts = old[keep], counts[keep]
+            ends = np.cumsum(counts)
+            i = written = 0
+            while i < counts.size:                    # whole cases, about RECORD_CHUNK nodes at a time
+                j = max(i + 1, int(np.searchsorted(ends, written + RECORD_CHUNK, side="right")))
+                n = int(ends[j - 1]) - written
+                shift = np.repeat(starts[i:j] - (ends[i:j] - counts[i:j]), counts[i:j])   # old - new
+                var[written:written + n] = copy[shift + np.arange(written, written + n)]
+                written, i = written + n, j
+            del copy
+        finally:
+            scratch.unlink(missing_ok=True)
 
     def abandon(self) -> None:
         try:

@@ -9,8 +9,8 @@ import time
 
 import pytest
 
-from helpers import (ROOT, assert_same_results, batch_files, finished_batches, kill_runner_then_resume, run_cli,
-                     start_runner)
+from helpers import (ROOT, assert_same_results, batch_files, children, finished_batches, kill_runner_then_resume,
+                     local_workers, resume, run_cli, start_runner, when_frozen)
 
 STUDY = """
 description = "fault tests"
@@ -41,38 +41,25 @@ def undisturbed(study_file, tmp_path_factory):
     return out
 
 
-def _wait_for_cases(out, proc, n=1, timeout=120):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if len(batch_files(out)) >= n:
-            return
-        assert proc.poll() is None, proc.communicate()
-        time.sleep(0.05)
-    raise AssertionError("no case file appeared")
-
-
-def _children(pid):
-    out = subprocess.run(["ps", "-o", "pid=,args=", "--ppid", str(pid)], capture_output=True, text=True).stdout
-    return [(int(line.split(None, 1)[0]), line.split(None, 1)[1]) for line in out.strip().splitlines()]
-
-
-def _workers(runner):
-    """The runner's dask worker processes: the children of its forkserver (pipeline.forkserver),
-    or its spawned children where there is no forkserver."""
-    children = _children(runner)
-    forkservers = [pid for pid, args in children if "multiprocessing.forkserver" in args]
-    if forkservers:
-        return [pid for server in forkservers for pid, _ in _children(server)]
-    return [pid for pid, args in children if "multiprocessing.spawn" in args]
+def _worker_while_cases_run(out, proc):
+    """Wait for a running study (the runner frozen while looked at): a batch file written and
+    a worker alive. Returns that worker's pid, the runner still stopped."""
+    def ready():
+        files, workers = batch_files(out), local_workers(proc.pid)
+        if files and workers:
+            return workers[0]
+        # no worker after a batch file: the cluster is closed, the study past its cases
+        assert not files, f"the study ended its cases before the test saw a worker: {children(proc.pid)}"
+        return None
+    return when_frozen(proc, ready)
 
 
 def test_killed_worker_does_not_stop_the_study(study_file, undisturbed, tmp_path):
     out = tmp_path / "worker_killed"
     proc = start_runner(study_file, out)
-    _wait_for_cases(out, proc, n=1)
-    workers = _workers(proc.pid)
-    assert workers, _children(proc.pid)
-    os.kill(workers[0], signal.SIGKILL)
+    worker = _worker_while_cases_run(out, proc)
+    os.kill(worker, signal.SIGKILL)
+    resume(proc)
     stdout, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 0, stderr
     ids = [case for cases in finished_batches(out).values() for case in cases]
@@ -100,8 +87,9 @@ def test_killed_runner_resumes_without_loss_many(study_file, undisturbed, tmp_pa
 def test_ctrl_c_keeps_finished_cases_and_says_how_to_resume(study_file, undisturbed, tmp_path):
     out = tmp_path / "interrupted"
     proc = start_runner(study_file, out)
-    _wait_for_cases(out, proc, n=1)
+    _worker_while_cases_run(out, proc)
     os.killpg(proc.pid, signal.SIGINT)                  # what a terminal sends on Ctrl-C
+    resume(proc)                                        # and the runner takes it now
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "run the same command again to resume" in stderr and "Traceback" not in stderr

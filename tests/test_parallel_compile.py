@@ -16,6 +16,8 @@ import solver
 from solver import loop, parallel_compile
 from solver.parallel_compile import Claims
 
+from helpers import children
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -120,18 +122,6 @@ def test_a_function_another_process_compiles_is_waited_for(tmp_path):
         other.wait()
 
 
-def _children(pid):
-    found = []
-    for status in Path("/proc").glob("[0-9]*/status"):
-        try:
-            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
-        except OSError:
-            continue
-        if fields.get("PPid", "").strip() == str(pid):
-            found.append(int(status.parent.name))
-    return found
-
-
 def _alive(pid):
     try:
         return Path(f"/proc/{pid}/status").read_text().split("State:\t")[1][0] not in "ZX"
@@ -154,7 +144,7 @@ def test_the_helper_ends_with_the_process_that_started_it(tmp_path, how):
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:
         deadline = time.monotonic() + 30
-        while not (helpers := _children(proc.pid)) and time.monotonic() < deadline:
+        while not (helpers := [pid for pid, _ in children(proc.pid)]) and time.monotonic() < deadline:
             time.sleep(0.05)
         assert helpers, "no helper process started"
         time.sleep(1.0)                                  # both compiling

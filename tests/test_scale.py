@@ -181,8 +181,9 @@ def test_status_on_2000_cases_opens_no_result_file(tmp_path, monkeypatch):
     assert not any(p.endswith(".nc") for p in opened)
 
 
-def _fake_study(tmp_path, n_V: int) -> tuple:
-    """A study of 20 n_V cases with finished batch files of 100 cases (written directly)."""
+def _fake_study(tmp_path, n_V: int, per_batch: int = 100) -> tuple:
+    """A study of 20 n_V cases with finished batch files of ``per_batch`` cases (written
+    directly), each case with random tension and contact records of its own length."""
     text = STUDY.replace("V = [3.0, 4.0, 5.0, 6.0]", "V = " + str([1.0 + 0.1 * i for i in range(n_V)])) \
                 .replace("hi = [0.3, 0.4, 0.5]", "hi = " + str([0.3 + 0.05 * i for i in range(10)])) \
                 .replace("x_points = 11", "x_points = 401")
@@ -193,12 +194,14 @@ def _fake_study(tmp_path, n_V: int) -> tuple:
     (out / "batches").mkdir(parents=True)
     ledger = Ledger(out)
     rng = np.random.default_rng(0)
-    for start in range(0, study.n_cases, 100):
-        cases = [study.case(i) for i in range(start, min(start + 100, study.n_cases))]
+    for start in range(0, study.n_cases, per_batch):
+        cases = [study.case(i) for i in range(start, min(start + per_batch, study.n_cases))]
         arrays = [case_arrays(c, None, status="ok") for c in cases]
         for a in arrays:
             a["strain"] = rng.standard_normal(a["strain"].shape)
-            a["tension_records"] = [np.sort(rng.random((300, 5)), axis=0) for _ in range(2)]
+            a["tension_records"] = [np.sort(rng.random((300 + int(rng.integers(50)), 5)), axis=0)
+                                    for _ in a["tension_records"]]
+            a["contact_record"] = rng.random((int(rng.integers(6)), 2))
         entry = write_batch(batch_dataset(cases, arrays), out / "batches")
         entry["cases"] = [[c.case_id, "ok", "", 0.0] for c in cases]
         ledger.append(entry)
@@ -231,6 +234,40 @@ def test_combine_memory_does_not_grow_with_the_study(tmp_path, monkeypatch):
     print(f"combine peak memory: {peaks[11] / 2**20:.1f} MiB (220 cases), {peaks[100] / 2**20:.1f} MiB "
           f"(2000 cases), ratio {ratio:.2f}")
     assert ratio < 1.5, f"combine memory grows with the study: {peaks} (ratio {ratio:.2f})"
+
+
+def test_ragged_records_are_in_grid_order_whatever_order_the_batches_arrive(tmp_path, monkeypatch):
+    """The batches of a study reach the combine in reverse and in a shuffled grid order, across
+    many flushes (two workers racing, a batch run again, a resume): study.nc's ragged records
+    are read as a CF contiguous ragged array reader does, each case's starting where the
+    counts before it end, and equal those of a combine in grid order; the stored starts are
+    those cumulative counts."""
+    from pipeline import combine
+    from pipeline.combine import write_study
+    monkeypatch.setattr(combine, "FLUSH_BYTES", 2**19)      # a flush every 2 batch files
+    monkeypatch.setattr(combine, "RECORD_CHUNK", 4000)      # the move in several chunks
+    study, out, ledger = _fake_study(tmp_path, 4, per_batch=7)
+    arrivals = {"grid": lambda tasks: tasks, "reversed": lambda tasks: tasks[::-1],
+                "shuffled": lambda tasks: random.Random(5).sample(tasks, len(tasks))}
+    read = {}
+    for name, order in arrivals.items():
+        def mapper(function, tasks, order=order):
+            for key, args in order(list(tasks)):
+                yield key, function(*args)
+        path, damaged = write_study(study, out, ledger.index(), ledger.states(), mapper=mapper)
+        assert not damaged and not list(out.glob(".*tmp*"))
+        with xr.open_dataset(path) as ds:
+            read[name] = {}
+            for start, count, dim in (("tension_record_start", "tension_record_count", "tension_node"),
+                                      ("contact_change_start", "contact_change_entries", "contact_change")):
+                counts = ds[count].values.astype(np.int64).ravel()
+                assert counts.sum() == ds.sizes[dim] and counts.sum() > 0
+                np.testing.assert_array_equal(ds[start].values.ravel(), np.cumsum(counts) - counts, err_msg=name)
+                read[name].update({v: ds[v].values for v in ds.data_vars if ds[v].dims == (dim,)})
+    assert len(read["grid"]) == 7
+    for name in ("reversed", "shuffled"):
+        for variable, values in read["grid"].items():
+            np.testing.assert_array_equal(read[name][variable], values, err_msg=f"{name}: {variable}")
 
 
 def test_grid_case_ids_in_one_pass_equal_the_cases_own(tmp_path):
