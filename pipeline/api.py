@@ -108,6 +108,8 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     import io
 
     from .run import RunOptions, run_study as _run
+    _check_arguments(workers=workers, jobs=jobs, batch_seconds=batch_seconds, scheduler=scheduler,
+                     cluster=cluster, tls=tls, rerun_failed=rerun_failed, plots=plots, force=force, quiet=quiet)
     study = load(study, name)
     out_dir = Path(out) if out is not None else Path("results") / study.name
     refuse_if_locked(out_dir)
@@ -127,6 +129,25 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
                       f"status and message say why (python -m pipeline status {out_dir})", RuntimeWarning,
                       stacklevel=2)
     return ds
+
+
+def _check_arguments(**given) -> None:
+    """run_study's arguments of the wrong type or range: one StudyError naming the argument."""
+    def whole(value):
+        return isinstance(value, int) and not isinstance(value, bool)
+
+    rules = {"workers": (lambda v: whole(v) and v >= 1, "a whole number >= 1"),
+             "jobs": (lambda v: whole(v) and v >= 0, "a whole number >= 0"),
+             "batch_seconds": (lambda v: isinstance(v, (int, float)) and not isinstance(v, bool), "a number of seconds"),
+             "scheduler": (lambda v: v is None or isinstance(v, str), "None or an address (a string)"),
+             "cluster": (lambda v: v is None or v in ("slurm", "pbs"), 'None, "slurm" or "pbs"'),
+             "tls": (lambda v: v is None or (isinstance(v, (tuple, list)) and len(v) == 3
+                                             and all(isinstance(f, (str, Path)) for f in v)),
+                     "None or (CA file, certificate, key)")}
+    for key, value in given.items():
+        ok, what = rules.get(key, (lambda v: isinstance(v, bool), "True or False"))
+        if not ok(value):
+            raise StudyError(f"run_study: {key} must be {what}, got {value!r} ({type(value).__name__})")
 
 
 def open_study(results, verify: bool = True):

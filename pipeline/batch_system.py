@@ -53,29 +53,43 @@ class Jobs:
     directory: Path      # their logs and TLS files (seen by the compute nodes at the same path)
 
 
-def walltime_seconds(text) -> float:
-    """A batch walltime ('HH:MM:SS', 'MM:SS', 'D-HH:MM:SS', or minutes) in seconds."""
+#: the shortest walltime a worker job is given: its worker must start, load the kernels, run
+#: batches and retire (LIFETIME) before the batch system kills it
+MIN_WALLTIME = 10.0
+
+
+def walltime_seconds(text, system: str = "slurm") -> float:
+    """A batch walltime in seconds, as the batch system reads it. SLURM (sbatch -t): minutes,
+    MM:SS, HH:MM:SS, D-HH, D-HH:MM, D-HH:MM:SS. PBS (-l walltime): seconds, MM:SS, HH:MM:SS."""
     value = str(text).strip()
-    match = re.fullmatch(r"(?:(\d+)-)?(\d+)(?::(\d+))?(?::(\d+))?", value)
-    if not match:
-        raise StudyError(f"walltime {value!r} is not of the form HH:MM:SS (dask's jobqueue configuration)")
-    days, first, second, third = match.groups()
-    if second is None:                                 # minutes alone, as sbatch -t takes them
-        seconds = 60 * int(first)
-    elif third is None:
-        seconds = 60 * int(first) + int(second)
+    days_form = r"(\d+)-(\d+)(?::(\d+))?(?::(\d+))?"          # D-HH[:MM[:SS]]: hours after the day
+    plain_form = r"(\d+)(?::(\d+))?(?::(\d+))?"                # M | MM:SS | HH:MM:SS
+    days = re.fullmatch(days_form, value) if system == "slurm" else None
+    plain = re.fullmatch(plain_form, value)
+    if days:
+        d, h, m, sec = (int(g or 0) for g in days.groups())
+        seconds = 86400 * d + 3600 * h + 60 * m + sec
+    elif plain:
+        parts = [int(g) for g in plain.groups() if g is not None]
+        if len(parts) == 1:                     # sbatch -t 45: minutes; PBS walltime=45: seconds
+            seconds = parts[0] * (60 if system == "slurm" else 1)
+        elif len(parts) == 2:
+            seconds = 60 * parts[0] + parts[1]
+        else:
+            seconds = 3600 * parts[0] + 60 * parts[1] + parts[2]
     else:
-        seconds = 3600 * int(first) + 60 * int(second) + int(third)
-    seconds += 86400 * int(days or 0)
-    if seconds <= 0:
-        raise StudyError(f"walltime {value!r} is not positive")
+        forms = "minutes, MM:SS, HH:MM:SS or D-HH:MM:SS" if system == "slurm" else "seconds, MM:SS or HH:MM:SS"
+        raise StudyError(f"walltime {value!r} is not a {system} walltime ({forms}; dask's jobqueue configuration)")
+    if seconds < MIN_WALLTIME:
+        raise StudyError(f"walltime {value!r} is {seconds} s: a worker job needs at least {MIN_WALLTIME:.0f} s "
+                         f"(dask's jobqueue configuration)")
     return float(seconds)
 
 
-def lifetime_arguments(walltime) -> list:
+def lifetime_arguments(walltime, system: str = "slurm") -> list:
     """dask worker's ``--lifetime`` and ``--lifetime-stagger`` for a job of this walltime: it
     retires between 0.80 and 0.90 of it, leaving the rest to hand its batch back and exit."""
-    seconds = walltime_seconds(walltime)
+    seconds = walltime_seconds(walltime, system)
     return ["--lifetime", f"{int(LIFETIME * seconds)}s", "--lifetime-stagger", f"{max(1, int(STAGGER * seconds))}s"]
 
 
@@ -110,7 +124,7 @@ def job_options(kind: str, directory: Path, security=None) -> dict:
         # the node's loopback, not open to the compute nodes' network
         extra += ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
     if "--lifetime" not in extra:
-        extra += lifetime_arguments(_config(kind, "walltime"))
+        extra += lifetime_arguments(_config(kind, "walltime"), kind)
     from .worker import SINGLE_THREAD_ENV                # what a local worker runs with, and so each job
     prologue = [f"export {name}={value}" for name, value in SINGLE_THREAD_ENV.items()] + \
         list(_config(kind, "job-script-prologue") or [])
@@ -196,16 +210,47 @@ def batch_cluster(kind: str, jobs: int, directory: Path):
     with dask.config.set({"distributed.deploy.lost-worker-timeout": "2s"}):
         cluster = cls(**job_options(kind, directory, Security.temporary()))
         try:
-            cluster.scale(jobs=jobs)
-            try:
-                cluster.sync(cluster._correct_state)             # the submissions, and their errors
-            except RuntimeError as err:
-                raise StudyError(f"--cluster {kind}: submitting the worker jobs failed: "
-                                 f"{_submission_error(err)}") from None
+            _submit(cluster, kind, jobs)
             with keep_jobs(cluster, jobs):
                 yield cluster
         finally:
             cluster.close()
+            _remove_credentials(cluster, directory)
+
+
+def _submit(cluster, kind: str, jobs: int) -> None:
+    """Submit the first jobs here and now, and wait for the batch system's answer: a refusal
+    that ``sbatch --test-only`` does not check (an invalid account, a QOS or job-count limit) is
+    one StudyError with its line. (``scale`` submits in a task of the cluster's loop of its own,
+    whose error nobody retrieved: a traceback, then a wait without end for jobs that never were.)"""
+    while len(cluster.worker_spec) < jobs:                # a jobqueue cluster's spec: one entry a job
+        cluster.worker_spec.update(cluster.new_worker_spec())
+    try:
+        cluster.sync(cluster._correct_state)
+    except RuntimeError as err:
+        from distributed.core import Status
+        for name in [name for name, job in cluster.workers.items() if not getattr(job, "job_id", None)]:
+            cluster.workers[name].status = Status.failed              # never submitted: nothing to cancel
+            del cluster.workers[name], cluster.worker_spec[name]
+        raise StudyError(f"--cluster {kind}: submitting the worker jobs failed: {_submission_error(err)}") from None
+    if not job_ids(cluster):
+        raise StudyError(f"--cluster {kind}: {SYSTEMS[kind][1]} gave no job id for the worker jobs")
+
+
+def _remove_credentials(cluster, directory: Path) -> None:
+    """The workers' TLS files (CA, certificate, private key), which dask-jobqueue writes beside
+    the logs and deletes only when its cluster object is collected (after a Ctrl-C, the
+    traceback kept it past the exit): removed now, and the directory if no log is in it."""
+    for key in ("ca_file", "cert", "key"):
+        handle = getattr(cluster, f"_job_{key}", None)
+        if handle is not None:
+            handle.close()                                 # a NamedTemporaryFile: deleted
+    for path in directory.glob(".dask-jobqueue.worker.*"):
+        path.unlink(missing_ok=True)
+    try:
+        directory.rmdir()
+    except OSError:                                        # the jobs' logs are there: kept
+        pass
 
 
 def _submission_error(err: Exception) -> str:

@@ -41,8 +41,9 @@ def _parser():
     run.add_argument("study", help="studies/<name>.toml or a study name")
     run.add_argument("--out", help="results directory (default results/<name>)")
     run.add_argument("--workers", type=int, default=2, help="local worker processes (default 2)")
-    run.add_argument("--scheduler", default=os.environ.get("DASK_SCHEDULER_ADDRESS"),
-                     help="address of an existing dask scheduler (default $DASK_SCHEDULER_ADDRESS)")
+    run.add_argument("--scheduler", default=None,
+                     help="address of an existing dask scheduler (default $DASK_SCHEDULER_ADDRESS, "
+                          "unless --cluster is given)")
     run.add_argument("--tls-ca-file", help="with --scheduler tls://...: the cluster's CA certificate (PEM)")
     run.add_argument("--tls-cert", help="with --scheduler tls://...: this client's certificate (PEM)")
     run.add_argument("--tls-key", help="with --scheduler tls://...: this client's private key (PEM)")
@@ -87,7 +88,9 @@ def command_run(args) -> int:
                          f"add --yes to run it")
     out_dir = Path(args.out) if args.out else Path("results") / study.name
     tls = (args.tls_ca_file, args.tls_cert, args.tls_key)
-    options = RunOptions(workers=args.workers, scheduler=args.scheduler, tls=tls if any(tls) else None,
+    # the environment's scheduler is a default: --cluster, given on the line, chooses the jobs instead
+    scheduler = args.scheduler or (None if args.cluster else os.environ.get("DASK_SCHEDULER_ADDRESS") or None)
+    options = RunOptions(workers=args.workers, scheduler=scheduler, tls=tls if any(tls) else None,
                          cluster=args.cluster, jobs=args.jobs, batch_seconds=args.batch_seconds,
                          rerun_failed=args.rerun_failed, no_plots=args.no_plots, force=args.force,
                          dry_run=args.dry_run, all=args.all)

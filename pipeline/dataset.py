@@ -9,6 +9,7 @@ import numpy as np
 import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, default_eps_Y
+from solver.fracture import yield_strains
 from solver.outputs import SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
 
@@ -56,7 +57,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     for key, value in p.as_dict().items():
         long_name, units = PARAMETER_INFO[key]
         data[key] = ((), value, _attrs(long_name, None if key in CHOICES else units))
-    eps = np.asarray(default_eps_Y() if eps_Y is None else eps_Y, dtype=float).reshape(-1)
+    eps = yield_strains(default_eps_Y() if eps_Y is None else eps_Y).reshape(-1)
     for name, values in onset_from_records(result.tension_record, eps).items():
         data[name] = (("eps_Y",), values, _attrs(*CRACK_INFO[name]))
     for record, (_, _, follows) in TENSION_RECORDS.items():     # the event records, one table each

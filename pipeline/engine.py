@@ -52,7 +52,7 @@ def probe_scheduler(address: str, timeout: float = 5.0, tls: tuple | None = None
             if parsed.scheme == "tls":
                 first = _tls_first_bytes(sock, host, tls, address)
             else:
-                first = sock.recv(16)
+                first = _handshake(sock.recv)
     except socket.timeout:
         raise StudyError(f"{address!r} accepts connections but does not answer like a dask scheduler "
                          f"within {timeout:g} s" + ("" if parsed.scheme == "tls" else
@@ -61,6 +61,39 @@ def probe_scheduler(address: str, timeout: float = 5.0, tls: tuple | None = None
         raise StudyError(f"cannot reach the dask scheduler at {address!r}: {err.strerror or err}") from None
     if not first:
         raise StudyError(f"{address!r} closed the connection: not a dask scheduler, or it refused this client")
+    if not _is_dask_handshake(first):
+        raise StudyError(f"{address!r} answers, but not as a dask scheduler (its first bytes: {first[:24]!r})")
+
+
+#: the most of a dask comm's first message the probe reads: its handshake is about 60 bytes
+HANDSHAKE_BYTES = 4096
+
+
+def _handshake(recv) -> bytes:
+    """The first message of a dask comm as ``recv`` gives it: 8 bytes of length (uint64), then
+    that many bytes (frame count, frame lengths, msgpack), up to HANDSHAKE_BYTES; fewer where
+    the server closes, or sends something else, first."""
+    data = b""
+    while len(data) < 8 or len(data) < min(8 + _length(data), HANDSHAKE_BYTES):
+        chunk = recv(HANDSHAKE_BYTES - len(data))
+        if not chunk:
+            break
+        data += chunk
+        if len(data) >= 8 and not 0 < _length(data) <= HANDSHAKE_BYTES:
+            break                                   # not dask's framing: no need to read on
+    return data
+
+
+def _length(data: bytes) -> int:
+    import struct
+    return struct.unpack("<Q", data[:8])[0]
+
+
+def _is_dask_handshake(data: bytes) -> bool:
+    """dask's comm handshake: a length that fits, and the msgpack dict with its keys (an HTTP
+    banner or other bytes read as a length asked distributed for exabytes)."""
+    return (len(data) >= 8 and 0 < _length(data) <= HANDSHAKE_BYTES and len(data) >= 8 + _length(data)
+            and b"pickle-protocol" in data and b"compression" in data)
 
 
 def security_for(tls: tuple | None):
@@ -85,7 +118,7 @@ def _tls_first_bytes(sock, host: str, tls: tuple | None, address: str) -> bytes:
                          f"--tls-key, or dask's distributed.comm.tls configuration)")
     try:
         with context.wrap_socket(sock, server_hostname=host) as secure:
-            return secure.recv(16)
+            return _handshake(secure.recv)
     except ssl.SSLError as err:
         raise StudyError(f"the TLS handshake with the dask scheduler at {address!r} failed ({err.reason or err}): "
                          f"these credentials are not the cluster's") from None
@@ -246,6 +279,30 @@ class Progress:
             self.stream.write(line + "\n")
             self.last = time.monotonic()
         self.stream.flush()
+
+
+#: with --scheduler: say after this many seconds that the scheduler has no worker; stop after
+#: NO_WORKER_LIMIT (a scheduler whose workers never come: the run would wait without a word)
+NO_WORKER_NOTICE, NO_WORKER_LIMIT = 5.0, 600.0
+
+
+def wait_for_workers(client, address: str) -> None:
+    """Until a worker has joined the existing scheduler at ``address``: said once after
+    NO_WORKER_NOTICE; StudyError after NO_WORKER_LIMIT; a Ctrl-C stops the wait."""
+    from .errors import StudyError
+    from .interrupts import check
+    started, said = time.monotonic(), False
+    while not client.scheduler_info()["workers"]:
+        check()
+        waited = time.monotonic() - started
+        if not said and waited > NO_WORKER_NOTICE:
+            print(f"the dask scheduler at {address} has no worker: waiting for one to join "
+                  f"(dask worker {address}) ...", file=sys.stderr, flush=True)
+            said = True
+        if waited > NO_WORKER_LIMIT:
+            raise StudyError(f"no worker joined the dask scheduler at {address} within {NO_WORKER_LIMIT:.0f} s: "
+                             f"start its workers (dask worker {address}) and run the same command again")
+        time.sleep(0.25)
 
 
 def kernels_loaded() -> bool:

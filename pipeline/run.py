@@ -79,6 +79,30 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
         lock.__exit__()
 
 
+def _check_tls_files(ca_file, cert, key) -> None:
+    """The three TLS files exist, are files, and hold a CA certificate and a certificate with
+    its private key (each refused in one line naming the file, before any connection)."""
+    import ssl
+    for flag, path in (("--tls-ca-file", ca_file), ("--tls-cert", cert), ("--tls-key", key)):
+        path = Path(path)
+        if not path.exists():
+            raise StudyError(f"{flag} {path} does not exist")
+        if not path.is_file():
+            raise StudyError(f"{flag} {path} is not a file")
+        if not os.access(path, os.R_OK):
+            raise StudyError(f"{flag} {path} cannot be read")
+    context = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+    try:
+        context.load_verify_locations(cafile=str(ca_file))
+    except (ssl.SSLError, ValueError) as err:
+        raise StudyError(f"--tls-ca-file {ca_file} holds no CA certificate (PEM): {getattr(err, 'reason', None) or err}") from None
+    try:
+        context.load_cert_chain(str(cert), str(key))
+    except (ssl.SSLError, ValueError) as err:
+        raise StudyError(f"--tls-cert {cert} and --tls-key {key} are not a certificate and its private key (PEM): "
+                         f"{getattr(err, 'reason', None) or err}") from None
+
+
 def _check_placement(options, out_dir: Path) -> None:
     """Where the workers run: an existing scheduler, a batch system's jobs, or local processes;
     a wrong or unreachable one is refused before anything is written (StudyError)."""
@@ -89,9 +113,7 @@ def _check_placement(options, out_dir: Path) -> None:
             raise StudyError("--tls-ca-file, --tls-cert and --tls-key are for --scheduler tls://...")
         if len(options.tls) != 3 or not all(options.tls):
             raise StudyError("give all three of --tls-ca-file, --tls-cert and --tls-key")
-        for path in options.tls:
-            if not Path(path).is_file():
-                raise StudyError(f"TLS file {path} does not exist")
+        _check_tls_files(*options.tls)
     if options.scheduler:
         from .engine import probe_scheduler
         probe_scheduler(options.scheduler, tls=options.tls)

@@ -47,7 +47,7 @@ class Session:
         if self.client is None:
             from contextlib import ExitStack
 
-            from .engine import cluster_client, kernels_ready, start_kernels, warm_workers
+            from .engine import cluster_client, kernels_ready, start_kernels, wait_for_workers, warm_workers
             from .interrupts import check
             compiling = start_kernels()                  # alongside the cluster's start
             stack = ExitStack()
@@ -62,6 +62,8 @@ class Session:
                     raise
                 kernels_ready(compiling)
                 check()
+                if self.scheduler:
+                    wait_for_workers(self.client, self.scheduler)
                 warm_workers(self.client, one_at_a_time=bool(self.scheduler or self.batch))
                 check()
             except BaseException:

@@ -19,6 +19,7 @@ import numpy as np
 from .axes import log_axis
 from .cubic import cubic_first_reach, cubic_max, hermite
 from .jit import kernel
+from .keys import ParameterError
 from .layout import R_JOIN, R_RATE, R_T, R_VALUE, R_X
 
 #: record nodes whose places differ by more than this [m] belong to two different peaks
@@ -143,6 +144,17 @@ def thin_record(rec):
     return keep
 
 
+def yield_strains(eps_Y) -> np.ndarray:
+    """eps_Y as an array of yield strains: numbers, finite and > 0, or ParameterError naming it."""
+    try:
+        levels = np.atleast_1d(np.asarray(eps_Y, dtype=float))
+    except (TypeError, ValueError):
+        levels = None
+    if levels is None or eps_Y is None or levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
+        raise ParameterError(f"eps_Y must be one or more yield strains, finite numbers > 0 [1]; got {eps_Y!r}")
+    return levels
+
+
 def crack_onset(record, eps_Y):
     """First time and place at which the tension of a record reaches each yield strain.
 
@@ -157,9 +169,9 @@ def crack_onset(record, eps_Y):
     time : array like eps_Y [s]; NaN where the tension never reaches it in the run.
     x : array like eps_Y [m], x >= 0 for a centred impact (the field is mirrored at -x), signed off centre.
     """
+    levels = yield_strains(eps_Y)
     rec = np.asarray(record, dtype=float)
     rec = rec[np.isfinite(rec[:, R_T])] if rec.size else np.empty((0, 5))
-    levels = np.atleast_1d(np.asarray(eps_Y, dtype=float))
     out_t = np.full(levels.shape, np.nan)
     out_x = np.full(levels.shape, np.nan)
     if rec.shape[0] >= 2:

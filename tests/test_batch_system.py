@@ -37,14 +37,21 @@ def test_walltimes_and_the_lifetime_below_them():
     assert walltime_seconds("00:30:00") == 1800
     assert walltime_seconds("1-02:00:00") == 93600
     assert walltime_seconds("45") == 2700                 # minutes alone, as sbatch -t reads them
-    assert walltime_seconds("0:20") == 20                 # MM:SS
+    assert walltime_seconds("2:20") == 140                # MM:SS
+    assert walltime_seconds("0-12") == 12 * 3600         # D-HH: the hours of a day
+    assert walltime_seconds("1-02:30") == 95400          # D-HH:MM
+    assert walltime_seconds("2-0") == 2 * 86400
+    assert walltime_seconds("300", "pbs") == 300         # PBS reads a bare number as seconds
+    assert walltime_seconds("01:30:00", "pbs") == 5400
+    assert lifetime_arguments("1-02:30") == ["--lifetime", "81090s", "--lifetime-stagger", "4770s"]
     assert lifetime_arguments("01:00:00") == ["--lifetime", "3060s", "--lifetime-stagger", "180s"]
     lifetime, stagger = (int(a[:-1]) for a in lifetime_arguments("00:30:00")[1::2])
     assert lifetime + stagger < 1800 * 0.95              # retired before the job is killed
     from pipeline.errors import StudyError
-    for bad in ("1h", "", "0:00", "a:b"):
+    for bad, system in (("1h", "slurm"), ("", "slurm"), ("0:00", "slurm"), ("a:b", "slurm"), ("00:00:01", "slurm"),
+                        ("0-0", "slurm"), ("1-02:00:00", "pbs"), ("9", "pbs"), ("0:09", "slurm")):
         with pytest.raises(StudyError, match="walltime"):
-            walltime_seconds(bad)
+            walltime_seconds(bad, system)
 
 
 def test_the_pbs_job_script_as_dask_jobqueue_renders_it(tmp_path):
@@ -162,7 +169,72 @@ def test_a_bad_walltime_in_the_configuration(tmp_path, monkeypatch):
     import dask
     with dask.config.set({"jobqueue.slurm.walltime": "two hours"}):
         _refused(tmp_path, monkeypatch, "--cluster", "slurm", "--jobs", "2", env=env,
-                 match="walltime 'two hours' is not of the form HH:MM:SS")
+                 match="walltime 'two hours' is not a slurm walltime")
+
+
+def test_a_submission_the_batch_system_refuses_is_one_line_and_leaves_no_credentials(tmp_path, monkeypatch):
+    """sbatch --test-only accepts the job script, the real submission is refused (an account,
+    QOS or job-count limit that the test does not check): one line with sbatch's own, exit 2,
+    no lock left, and no TLS key in jobs/ (it used to wait for ever, resubmitting every 2 s)."""
+    refusal = "sbatch: error: Batch job submission failed: Invalid account or account/partition combination specified"
+    env = _fake_commands(tmp_path / "bin", squeue="exit 0", scancel="exit 0",
+                         sbatch=f'if [[ " $* " == *" --test-only "* ]]; then echo "sbatch: Job 7 to start at now" >&2; '
+                                f'exit 0; fi; cat > /dev/null; echo "{refusal}" >&2; exit 1')
+    for key, value in env.items():
+        monkeypatch.setenv(key, value)
+    out = tmp_path / "out"
+    started = time.monotonic()
+    code, _, err = run_cli("run", _study(tmp_path), "--out", out, "--no-plots", "--cluster", "slurm", "--jobs", "2")
+    lines = [line for line in err.splitlines() if line.startswith("error:")]
+    assert code == 2 and len(lines) == 1 and "Invalid account" in lines[0], err
+    assert "Traceback" not in err and "never retrieved" not in err and "submitted 2" not in err, err
+    assert time.monotonic() - started < 60
+    assert not (out / "jobs").exists() and not list(out.rglob(".dask-jobqueue*"))
+    from pipeline.lock import refuse_if_locked
+    refuse_if_locked(out)                                 # released: the same command may run again
+
+
+def _credentials(directory: Path) -> list:
+    """A fresh CA file, certificate and key (dask's Security.temporary) as files."""
+    from distributed.security import Security
+    security = Security.temporary()
+    directory.mkdir(exist_ok=True)
+    paths = []
+    for name, text in (("ca.pem", security.tls_ca_file), ("cert.pem", security.tls_client_cert),
+                       ("key.pem", security.tls_client_key)):
+        (directory / name).write_text(text)
+        paths.append(directory / name)
+    return paths
+
+
+@pytest.mark.parametrize("spoil, match", [
+    (lambda ca, cert, key: ca.write_text(""), "--tls-ca-file {ca} holds no CA certificate"),
+    (lambda ca, cert, key: ca.write_text("garbage\n"), "--tls-ca-file {ca} holds no CA certificate"),
+    (lambda ca, cert, key: key.write_text("garbage\n"), "are not a certificate and its private key"),
+    (lambda ca, cert, key: cert.write_text(""), "are not a certificate and its private key"),
+    (lambda ca, cert, key: (ca.unlink(), ca.mkdir()), "--tls-ca-file {ca} is not a file"),
+    (lambda ca, cert, key: key.unlink(), "--tls-key {key} does not exist"),
+])
+def test_tls_files_that_are_not_credentials_are_named_in_one_line(tmp_path, monkeypatch, spoil, match):
+    """Empty or garbage credential files were reported as 'cannot reach the dask scheduler', a
+    directory as the CA file as 'does not exist'."""
+    ca, cert, key = _credentials(tmp_path / "tls")
+    spoil(ca, cert, key)
+    _refused(tmp_path, monkeypatch, "--scheduler", "tls://127.0.0.1:9", "--tls-ca-file", ca, "--tls-cert", cert,
+             "--tls-key", key, match=match.format(ca=ca, cert=cert, key=key))
+
+
+def test_the_environments_scheduler_gives_way_to_cluster(tmp_path, monkeypatch):
+    """DASK_SCHEDULER_ADDRESS is a default: with --cluster on the line the jobs are the workers
+    (it was refused as 'give --cluster or --scheduler, not both')."""
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", "tcp://127.0.0.1:9")
+    env = _fake_commands(tmp_path / "bin", squeue="exit 0",
+                         sbatch='echo "sbatch: Job 7 to start at now" >&2; exit 0')
+    for key, value in env.items():
+        monkeypatch.setenv(key, value)
+    code, _, err = run_cli("run", _study(tmp_path), "--out", tmp_path / "out", "--cluster", "slurm", "--jobs", "2",
+                           "--dry-run")
+    assert code == 0 and "not both" not in err, err
 
 
 def test_importing_dask_jobqueue_leaves_the_runners_ctrl_c_alone(monkeypatch):
@@ -349,6 +421,7 @@ def test_a_ctrl_c_cancels_the_jobs_and_the_same_command_resumes(tmp_path, local_
     _, err = proc.communicate(timeout=120)
     assert proc.returncode == 130, err
     _assert_no_jobs_left()
+    assert not list((out / "jobs").glob(".dask-jobqueue*")), "the workers' CA, certificate and key were left"
     done = len(Ledger.load(out).entries)
     assert done >= 3
     proc = _start(study_file, out, "--cluster", "slurm", "--jobs", "2", "--batch-seconds", "0.2")

@@ -175,6 +175,71 @@ def test_scheduler_addresses_that_are_not_dask_fail_fast(study_file, tmp_path):
     assert code == 2 and err.count("\n") == 1 and "tcp://host:port" in err, err
 
 
+@pytest.mark.parametrize("greeting", [b"SSH-2.0-OpenSSH_9.2\r\n", b"HTTP/1.1 400 Bad Request\r\n\r\n", b"\x01\x02",
+                                      b"\xff" * 8 + b"garbage"])
+def test_a_server_that_speaks_first_but_not_dask_is_one_line_and_nothing_written(study_file, tmp_path, greeting):
+    """A server that greets, or sends a few bytes and closes, passed the probe: the runner wrote
+    its lock, batches/ and study.toml, then distributed read the greeting as a frame length and
+    asked for exabytes. The probe now reads dask's handshake."""
+    import threading
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen(8)
+    server.settimeout(0.1)
+    stop = threading.Event()
+
+    def greet():
+        while not stop.is_set():
+            try:
+                connection, _ = server.accept()
+            except OSError:
+                continue
+            connection.sendall(greeting)
+            connection.close()
+    thread = threading.Thread(target=greet, daemon=True)
+    thread.start()
+    try:
+        address = f"tcp://127.0.0.1:{server.getsockname()[1]}"
+        code, _, err = run_cli("run", study_file, "--out", tmp_path / "o", "--scheduler", address)
+        assert code == 2 and err.count("\n") == 1 and "dask scheduler" in err, err
+        assert not (tmp_path / "o").exists()
+    finally:
+        stop.set()
+        thread.join(timeout=10)
+        server.close()
+
+
+def test_a_dask_scheduler_with_no_worker_is_said_and_ends_in_one_line(study_file, tmp_path, monkeypatch):
+    """A scheduler that has no worker: the run printed nothing after 'kernels ready', for ever.
+    It now says so, then stops with one line after NO_WORKER_LIMIT (here shortened)."""
+    from pipeline import engine
+    monkeypatch.setattr(engine, "NO_WORKER_NOTICE", 0.5)
+    monkeypatch.setattr(engine, "NO_WORKER_LIMIT", 3.0)
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    scheduler = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host", "127.0.0.1",
+                                  "--port", str(port), "--dashboard-address", "127.0.0.1:0"],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 60
+        while True:                                   # the state: the scheduler accepts
+            try:
+                socket.create_connection(("127.0.0.1", port), timeout=1).close()
+                break
+            except OSError:
+                assert scheduler.poll() is None and time.monotonic() < deadline, scheduler.communicate()
+                time.sleep(0.1)
+        code, _, err = run_cli("run", study_file, "--out", tmp_path / "o", "--scheduler", f"tcp://127.0.0.1:{port}",
+                               "--no-plots")
+        assert code == 2 and "has no worker: waiting for one to join" in err, err
+        last = err.strip().splitlines()[-1]
+        assert last.startswith("error: no worker joined the dask scheduler") and "Traceback" not in err, err
+    finally:
+        scheduler.kill()
+        scheduler.wait()
+
+
 def test_inputs_that_used_to_crash(tmp_path):
     study = tmp_path / "count.toml"
     study.write_text(STUDY.replace('times = { unit = "t_sc", step = 0.25, stop = 0.5 }',
