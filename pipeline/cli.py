@@ -135,7 +135,7 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
     """The study and its results directory, from a study name or file (results/<name> unless
     --out), or from a results directory alone (through the copy of the study a run keeps
     there); a name whose studies/<name>.toml is gone falls back on results/<name>."""
-    from .study_files import STUDY_COPY, find_study, load_study, load_study_copy
+    from .study_files import STUDY_COPY, find_study, load_study, load_study_copy, study_copy_name
     given = Path(name_or_path)
     if given.is_dir():
         if not (given / STUDY_COPY).is_file():
@@ -149,7 +149,12 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
         if given.suffix or not (fallback / STUDY_COPY).is_file():
             raise
         return load_study_copy(fallback), fallback
-    return study, Path(out) if out else Path("results") / study.name
+    out_dir = Path(out) if out else Path("results") / study.name
+    held = study_copy_name(out_dir)
+    if held is not None and held != study.name:       # status would list its cases as pending, show draw into it
+        raise StudyError(f"{out_dir} holds the results of study {held!r}, not of {study.name!r}: give that "
+                         f"study, or the results directory alone")
+    return study, out_dir
 
 
 def main(argv=None) -> int:

@@ -59,9 +59,14 @@ def analyze(ds, design: dict, analysis: dict):
         for eps in (analysis["eps_Y"] if name in CRACK_OUTPUTS else [None]):
             Y, cens, label = output_values(ds, name, eps)
             refusal = ""
+            if cens.all():                  # censored whole: indices of the stand-in, not of the output
+                refusal = (f"{label}: no sample produced it (all {Y.size} values NaN: an event no run reached, "
+                           f"or an output these settings do not compute)")
+                if analysis["method"] != "pce":
+                    raise StudyError(f"[analysis] outputs: {refusal}")
             if name in analysis.get("log", []):
                 label = f"log({label})"
-                if np.any(Y <= 0):
+                if np.any(Y <= 0) and not refusal:
                     refusal = f"{label}: {int(np.sum(Y <= 0))} of {Y.size} values are not positive"
                     if analysis["method"] != "pce":
                         raise StudyError(f"[analysis] log: {refusal}")

@@ -59,6 +59,8 @@ def choose_case(study, spec: str | None) -> str:
             return study.case_ids[int(value)]
         if key not in PARAMETER_INFO and key not in SETTING_INFO:
             raise ShowError(f"--case: {key!r} is not a parameter or solver setting")
+        if key in wanted:
+            raise ShowError(f"--case {spec!r}: {key} is given twice; show draws one case")
         wanted[key] = value
     matches = []
     for cid in ids:
@@ -210,8 +212,14 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
         raise ShowError(f"--x {x_point:g} m is outside the plate (-{p.L:g} .. {p.L:g} m)")
     end = case.t_end
     times = np.linspace(0.0, end, max(points, 2))
+    import sys
+    import time
+    started = time.monotonic()
+    # said before the solve: a case of thousands of modes takes minutes, and show would be silent
+    print(f"solving the case for its curves ({p.Nmod} modes, {times.size} times) ...", file=sys.stderr, flush=True)
     r = solve(p, settings, times=times, fields=("strain",), x=np.array([x_point]), t_end=end,
               until_separation=case.end == "separation")
+    print(f"solved in {time.monotonic() - started:.1f} s", file=sys.stderr, flush=True)
     if stored is None:
         status, message, t_reached = r.status, r.message, r.time_reached
         lines.append(f"status: {status}" + (f" ({message})" if message else ""))

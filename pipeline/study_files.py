@@ -116,6 +116,19 @@ def keep_study_copy(study: Study, out_dir: Path) -> None:
         raise
 
 
+def study_copy_name(out_dir: Path) -> str | None:
+    """The name of the study whose results a directory holds (its copy's header), or None."""
+    try:
+        with open(Path(out_dir) / STUDY_COPY, "rb") as f:
+            header = f.readline().decode("utf-8", errors="replace")
+    except OSError:
+        return None
+    if not header.startswith(_COPY_HEADER):
+        return None
+    quoted = header[len(_COPY_HEADER):].split(", from ", 1)[0].strip()
+    return quoted[1:-1] if len(quoted) >= 2 and quoted[0] == quoted[-1] and quoted[0] in "'\"" else None
+
+
 def load_study_copy(out_dir: Path) -> Study:
     """The study a results directory was run with, from its copy (see keep_study_copy)."""
     path = Path(out_dir) / STUDY_COPY

@@ -73,6 +73,19 @@ def test_status_of_a_results_directory_on_its_own(small_run, tmp_path):
     assert code == 2 and err.count("\n") == 1 and "study.toml" in err
 
 
+@pytest.mark.parametrize("command", ["status", "show"])
+def test_another_studys_results_directory_is_refused_in_one_line(small_run, tmp_path, command):
+    """A study file with another study's results: status listed every case as pending and show
+    drew a figure into that directory. One line, nothing written."""
+    _, out, _ = small_run
+    other = tmp_path / "other_study.toml"
+    other.write_text(SMALL.replace("V = [3.0, 5.0]", "V = [4.0, 6.0]"))
+    before = sorted(p.name for p in out.iterdir())
+    code, _, err = run_cli(command, other, "--out", out, *(["--case", "V=4,hi=0.5"] if command == "show" else []))
+    assert code == 2 and err.count("\n") == 1 and "holds the results of study 'cli_small', not of 'other_study'" in err, err
+    assert sorted(p.name for p in out.iterdir()) == before
+
+
 def test_role_column_only_with_reference_runs_and_explained(tmp_path):
     study = tmp_path / "with_reference.toml"
     study.write_text(SMALL.replace("[grid]\nV = [3.0, 5.0]\nhi = [0.3, 0.5]",
@@ -89,6 +102,7 @@ def test_show_draws_one_case_and_prints_its_summary(small_run):
     study, out, _ = small_run
     code, outp, err = run_cli("show", out, "--case", "V=5,hi=0.5")
     assert code == 0, err
+    assert "solving the case for its curves (6 modes, 400 times) ..." in err and "solved in" in err, err
     lines = outp.splitlines()
     assert lines[0].startswith("case ") and lines[0].endswith("of cli_small: V=5, hi=0.5")
     assert "status: ok" in lines
@@ -107,6 +121,7 @@ def test_show_draws_one_case_and_prints_its_summary(small_run):
     (["--case", "zz"], "no case id of the study starts with 'zz'"),
     ([], "the study has 4 runs: choose one with --case"),
     (["--case", "V=5,hi=0.5", "--x", "99"], "--x 99 m is outside the plate"),
+    (["--case", "V=3,V=5"], "V is given twice"),
 ])
 def test_show_bad_choices_are_one_line(small_run, args, words):
     _, out, _ = small_run

@@ -342,3 +342,17 @@ def test_a_floe_takes_the_bodies_and_layers_of_the_walled_plate(changes):
     for sub in (1000, 4000):
         assert residual["free", sub] < 1.2 * residual["walls", sub] + 1e-8
     assert residual["free", 4000] < residual["free", 1000] / 8
+
+
+def test_the_depth_correction_in_chunks_and_past_round_off(monkeypatch):
+    """Its k-nodes a chunk at a time (a floe of L = 1000 m on H = 0.01 m needed 7.7 GiB at once):
+    the same matrix to round-off; a depth beyond DEEP_ENOUGH L gives zero (H = 1e300 made the
+    Bessel recurrence overflow: an internal error), and such a floe runs as on deep water."""
+    whole = floe.depth_correction(30, 6.0, 0.5)
+    monkeypatch.setattr(floe, "DEPTH_NODES_AT_ONCE", 100)
+    np.testing.assert_allclose(floe.depth_correction(30, 6.0, 0.5), whole, rtol=0, atol=1e-14 * np.abs(whole).max())
+    assert not floe.depth_correction(30, 6.0, 6.0 * floe.DEEP_ENOUGH * 2).any()
+    p = dict(Nmod=10, edges="free", duration=0.05)
+    deep, far = (solve(Parameters(**p, H=H), Settings(error_estimate=False), fields=()) for H in (math.inf, 1e300))
+    assert far.status == deep.status == "ok"
+    assert far.diagnostics["max_strain"] == pytest.approx(deep.diagnostics["max_strain"], rel=1e-9)

@@ -55,6 +55,22 @@ def test_a_walled_plates_zone_leaves_out_the_wall():
         assert d["contact_extent"] > 5.0                    # the contact nearly reaches the walls
 
 
+@pytest.mark.parametrize("x0", [0.0, 2.0])
+@pytest.mark.parametrize("integrator", ["etd34", "dop853"])
+def test_a_margin_that_covers_a_walled_plate_leaves_the_zone_empty(x0, integrator):
+    """impact_zone_margin >= L on walls: no zone (it stops the margin short of each wall), so
+    every impact_zone_* value is NaN and its records are empty. (They were finite: the value at
+    x = 0 at margin = L, the zone's end beyond the plate at margin > L.)"""
+    for margin in (6.0, 7.0):
+        r = solve(Parameters(Nmod=12, x0=x0), Settings(error_estimate=False, impact_zone_margin=margin,
+                                                        integrator=integrator), fields=())
+        zone = {k: v for k, v in r.diagnostics.items() if k.startswith("impact_zone")}
+        assert len(zone) == 8 and all(np.isnan(v) for v in zone.values()), (margin, zone)
+        assert r.tension_record["impact_zone_upper"].shape[0] == r.tension_record["impact_zone_lower"].shape[0] == 0
+        assert np.isnan(r.crack_onset(1e-6, region="impact_zone")[0])
+        assert np.isfinite(r.diagnostics["max_strain"])
+
+
 @pytest.mark.parametrize("changes", [dict(), dict(edges="free", duration=0.06)])
 def test_zone_maxima_agree_with_dop853(changes):
     """DOP853 observes the zone on its own dense output (8 samples a step, Hermite between);

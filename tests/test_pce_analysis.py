@@ -133,6 +133,25 @@ def test_the_logarithm_of_an_output_is_analysed_where_asked():
     assert "values are not positive" in json.loads(idx.attrs["refusals"])["log(max_strain)"]
 
 
+@pytest.mark.parametrize("output", ["error_estimate", "separation_time", "max_strain"])
+def test_an_output_no_run_produced_is_refused_not_fitted(output):
+    """Every value NaN (the estimate off, a driven body's separation, a maximum no run has): the
+    stand-in values (0, or the run's end) fitted to Q2 = 1 with indices 0, or S1(V) = 1 from the
+    run's end. It is refused with its reason; the other outputs are kept."""
+    design = {"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (1.0, 2.0, False)}}
+    ds = _fake_study(design, {output: lambda X: np.full(X.shape[0], np.nan),
+                              "max_force": lambda X: X[:, 0] + X[:, 1] ** 2}, time_reached=1.0)
+    ds["time_reached"] = ds["time_reached"] * ds["V"]             # the run's end varies, as a stage does
+    idx = analyze(ds, design, _analysis([output, "max_force"]))
+    assert int(idx["refused"].sel(output=output)) == 1 and np.isnan(idx["ST"].sel(output=output)).all()
+    assert "no sample produced it" in json.loads(idx.attrs["refusals"])[output]
+    assert int(idx["refused"].sel(output="max_force")) == 0 and float(idx["q2"].sel(output="max_force")) > 0.99
+    sobol = {"method": "sobol", "outputs": [output], "eps_Y": [], "conf_level": 0.95, "resamples": 50, "seed": 0}
+    saltelli = {"method": "saltelli", "samples": 16, "seed": 0, "keys": design["keys"]}
+    with pytest.raises(pipeline.StudyError, match=f"{output}: no sample produced it"):
+        analyze(_fake_study(saltelli, {output: lambda X: np.full(X.shape[0], np.nan)}), saltelli, sobol)
+
+
 def test_the_emulator_predicts_within_its_error_estimate_and_refuses_what_it_cannot_answer():
     """A smooth output of two keys (one on a log scale), 64 runs: at 500 points it never saw the
     RMS error is below the error estimate, the cross-validated RMSE (measured: 8.0e-7 against the

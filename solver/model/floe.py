@@ -205,24 +205,39 @@ def bessel_table(n_max, x):
     return out
 
 
+#: the depth correction integrates this many k-nodes at a time (its memory: J of them in floats)
+DEPTH_NODES_AT_ONCE = 2**16
+#: beyond this depth over half-length the correction, O((L / H)^2), is below round-off: zero
+DEEP_ENOUGH = 1e8
+
+
 def depth_correction(J, L, H):
     """C_ij = pi i j (-1)^((j - i)/2) int_0^inf (1 - tanh kH) J_i(kL) J_j(kL) / k dk for i + j even
     (0 otherwise), i, j = 1..J: what the bottom at depth H takes from the deep water's map on
     b_j, whose Fourier transform is pi j (-i)^(j-1) J_j(kL) / k. 1 - tanh kH = 2 / (e^{2kH} + 1)
     falls below 1e-17 at kH = 20, where the integral stops: Gauss-Legendre, 16 nodes on each
     half period pi / L of the Bessel functions (bessel_table). Its cost grows as L / H (the
-    Bessel functions' periods up to kH = 20)."""
+    Bessel functions' periods up to kH = 20), its memory does not (DEPTH_NODES_AT_ONCE nodes at
+    a time); where H > DEEP_ENOUGH L it is below round-off (the deep limit, O((L / H)^2)): zero."""
+    if H > DEEP_ENOUGH * L:
+        return np.zeros((J, J))
     kmax = 20.0 / H
     panels = max(1, int(math.ceil(kmax * L / math.pi)))
     gx, gw = np.polynomial.legendre.leggauss(16)
-    edges = np.linspace(0.0, kmax, panels + 1)
-    half = 0.5 * np.diff(edges)[:, None]
-    kk = (0.5 * (edges[:-1, None] + edges[1:, None]) + half * gx[None, :]).ravel()
-    weight = (half * gw[None, :]).ravel() * 2.0 / (np.exp(2.0 * kk * H) + 1.0) / kk
     j = np.arange(1, J + 1)
-    B = bessel_table(J, kk * L)[1:]
+    total = np.zeros((J, J))
+    every = np.linspace(0.0, kmax, panels + 1)
+    step = max(1, DEPTH_NODES_AT_ONCE // 16)
+    for first in range(0, panels, step):                 # panels [first, last): their nodes at once
+        last = min(panels, first + step)
+        edges = every[first:last + 1]
+        half = 0.5 * np.diff(edges)[:, None]
+        kk = (0.5 * (edges[:-1, None] + edges[1:, None]) + half * gx[None, :]).ravel()
+        weight = (half * gw[None, :]).ravel() * 2.0 / (np.exp(2.0 * kk * H) + 1.0) / kk
+        B = bessel_table(J, kk * L)[1:]
+        total += (B * weight) @ B.T
     sign = np.where((j[:, None] + j[None, :]) % 2 == 0, (-1.0) ** ((j[None, :] - j[:, None]) // 2), 0.0)
-    return np.pi * np.outer(j, j) * sign * ((B * weight) @ B.T)
+    return np.pi * np.outer(j, j) * sign * total
 
 
 def mode_norms(kinds, betas, L, points: int = 0):

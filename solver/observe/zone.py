@@ -299,6 +299,9 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
         zw.reach[0] = c
     diag[D_CONTACT_EXTENT] = zw.reach[0]
     lo, hi = zone_ends(model, zw.reach[0], zw.reach[1])
+    if not lo < hi:         # no zone (walls whose margins cover the plate): nothing in it, its values NaN
+        zw.reach[2], zw.reach[3], zw.reach[4] = lo, hi, c
+        return rec_up, n_up, rec_lo, n_lo
     zone = (zw.reach[2] if h > 0.0 else lo, zw.reach[3] if h > 0.0 else hi, lo, hi)
     for s in range(2):
         sign = 1.0 - 2.0 * s
