@@ -120,8 +120,8 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     with contextlib.redirect_stderr(sink) if quiet else contextlib.nullcontext():
         code = _run(study, out_dir, options)
     if study.search:                          # a threshold search: its results, not its runs
-        import xarray as xr
-        return xr.open_dataset(out_dir / "search.nc")
+        from .sealed import open_sealed
+        return open_sealed(out_dir / "search.nc")
     ds = open_study(out_dir)
     if code != EXIT_OK:
         failed = int(ds.attrs.get("cases_failed", 0)) + int(ds.attrs.get("cases_missing", 0))
@@ -194,7 +194,7 @@ def open_sensitivity(results):
     results : str or pathlib.Path
         A results directory, or a study name (then ``results/<name>``).
     """
-    import xarray as xr
+    from .sealed import open_sealed
     out_dir = Path(results)
     if not out_dir.is_dir() and "/" not in str(results) and (Path("results") / str(results)).is_dir():
         out_dir = Path("results") / str(results)
@@ -202,7 +202,7 @@ def open_sensitivity(results):
     if not path.is_file():
         raise ResultsIOError(f"{out_dir} holds no sensitivity.nc (does the study have an [analysis], and has "
                              f"it run to its end?)")
-    return xr.open_dataset(path)
+    return open_sealed(path)
 
 
 def open_emulator(results):

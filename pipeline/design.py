@@ -50,8 +50,9 @@ def _bound(where: str, value) -> float:
 
 
 def _check_bound(where: str, key: str, bound: float, base: dict) -> None:
-    """A key's bound alone on the [base] case is a valid parameter (nu < 0.5, hi <= L, ...):
-    named here rather than at the first sample past it."""
+    """A key's bound on the [base] case (with the other sampled keys at their midpoints: a free
+    floe's sampled duration, say) is a valid parameter (nu < 0.5, hi <= L, ...): named here
+    rather than at the first sample past it."""
     from solver import Parameters
     from solver.parameters import ParameterError
     try:
@@ -102,9 +103,11 @@ def check_design(table, base: dict) -> dict:
             raise StudyError(f"{where}: min = {lo:g} must be below max = {hi:g}")
         if log and lo <= 0:
             raise StudyError(f"{where}: a log scale needs min > 0, got min = {lo:g}")
-        for end, bound in (("min", lo), ("max", hi)):
-            _check_bound(f"{where}.{end}", key, bound, base)
         checked[key] = (lo, hi, log)
+    for key, (lo, hi, _) in checked.items():        # each bound beside the other keys' midpoints
+        others = {k: 0.5 * (a + b) for k, (a, b, _) in checked.items() if k != key}
+        for end, bound in (("min", lo), ("max", hi)):
+            _check_bound(f"[design.keys] {key}.{end}", key, bound, {**base, **others})
     cases = design_size({"method": method, "samples": samples, "keys": checked})
     if cases > MAX_CASES:
         raise StudyError(f"[design] samples = {samples} of {method} over {len(checked)} keys is {cases} cases, more "

@@ -67,7 +67,19 @@ class Emulator:
             raise EmulatorError(f"give each key of the design ({', '.join(self.keys)}) and no other"
                                 + (f"; missing {', '.join(missing)}" if missing else "")
                                 + (f"; unknown {', '.join(unknown)}" if unknown else ""))
-        arrays = np.broadcast_arrays(*(np.asarray(values[k], dtype=float) for k in self.keys))
+        arrays = []
+        for k in self.keys:
+            try:
+                arrays.append(np.asarray(values[k], dtype=float))
+            except (TypeError, ValueError):
+                arrays.append(None)
+            if arrays[-1] is None or arrays[-1].size == 0 or np.isnan(arrays[-1]).any():
+                raise EmulatorError(f"{k} = {values[k]!r}: give numbers (a scalar or an array of them)")
+        try:
+            arrays = np.broadcast_arrays(*arrays)
+        except ValueError:
+            raise EmulatorError("the keys' values do not broadcast to one shape: " + ", ".join(
+                f"{k} {np.shape(a)}" for k, a in zip(self.keys, arrays))) from None
         shape = arrays[0].shape
         U = np.empty((arrays[0].size, len(self.keys)))
         for j, (k, a) in enumerate(zip(self.keys, arrays)):

@@ -404,7 +404,8 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
     if not study.analysis:
         return
     target = out_dir / "sensitivity.nc"
-    if target.exists() and not fresh:
+    from .sealed import is_intact, seal
+    if not fresh and is_intact(target):             # (a damaged or unsealed one is written again)
         return
     import xarray as xr
 
@@ -420,6 +421,7 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
     try:
         indices.to_netcdf(tmp)
         os.replace(tmp, target)
+        seal(target)
     except OSError as err:
         raise write_failed(target, err) from None
     finally:

@@ -81,6 +81,9 @@ def check_search(table, taken: set) -> dict:
     event = table.get("event")
     if event not in EVENTS:
         raise StudyError(f"[search] event must be one of {', '.join(EVENTS)}, got {event!r}")
+    if event == "bottoming" and "eps_Y" in table:
+        raise StudyError(f"[search] eps_Y = {table['eps_Y']!r} is for a crack-onset event: a bottoming search has "
+                         f"no yield strain (leave eps_Y out)")
     eps = table.get("eps_Y", [8e-5]) if event != "bottoming" else []
     if event != "bottoming" and (not isinstance(eps, list) or not eps or not all(
             isinstance(e, (int, float)) and not isinstance(e, bool) and 0 < e < 1 for e in eps)):

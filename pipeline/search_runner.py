@@ -208,6 +208,8 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
         ds.to_netcdf(tmp)
         import os
         os.replace(tmp, target)
+        from .sealed import seal
+        seal(target)
     finally:
         tmp.unlink(missing_ok=True)
     print(f"wrote {target} ({runs} runs for {len(targets)} searches)", file=sys.stderr)
@@ -228,8 +230,8 @@ def search_summary(study, out_dir: Path) -> str:
     lines.append(f"runs done: {done} (in {evaluations})")
     path = Path(out_dir) / "search.nc"
     if path.exists():
-        import xarray as xr
-        with xr.open_dataset(path) as ds:
+        from .sealed import open_sealed
+        with open_sealed(path) as ds:
             statuses = np.asarray(ds["search_status"].values).ravel()
             counts = {s: int((statuses == s).sum()) for s in sorted(set(statuses))}
         lines.append("search.nc: " + ", ".join(f"{v} {k}" for k, v in counts.items()))

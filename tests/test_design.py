@@ -141,3 +141,15 @@ def test_show_picks_a_sample_by_its_position():
     assert choose_case(study, "sample=3") == study.case_ids[3]
     with pytest.raises(ShowError, match="from 0 to 7"):
         choose_case(study, "sample=8")
+
+
+def test_a_free_floes_sampled_duration_counts_when_the_other_keys_bounds_are_checked():
+    """Each key's bounds were checked against [base] alone: a design sampling a free floe's
+    duration beside hi was refused as "hi.min = 0.3: a free floe needs duration > 0"."""
+    text = ('description = "a free floe\'s design"\n[base]\nNmod = 12\nedges = "free"\n[design]\n'
+            'method = "latin_hypercube"\nsamples = 8\n[design.keys]\nhi = { min = 0.3, max = 1.0 }\n'
+            'duration = { min = 0.01, max = 0.05 }\n')
+    study = load_study_text(text, "floe_design")
+    assert study.n_cases == 8 and all(0.01 <= study.case(i).parameters.duration <= 0.05 for i in range(8))
+    with pytest.raises(pipeline.StudyError, match=r"\[design.keys\] hi.min = -0.3: "):   # still named
+        load_study_text(text.replace("min = 0.3", "min = -0.3"), "floe_design")

@@ -5,6 +5,7 @@ an output the expansion cannot predict refused alone; the emulator; the design e
 resuming; bad tables in one line."""
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -169,8 +170,12 @@ def test_the_emulator_predicts_within_its_error_estimate_and_refuses_what_it_can
     assert np.sqrt(np.mean(err**2)) <= p.error[0] and np.max(np.abs(err)) <= 5 * p.error[0]
     assert emulator.predict("max_strain", V=[[2.0], [3.0]], hi=[0.4, 0.5, 0.6]).value.shape == (2, 3)
     for kwargs, words in ((dict(V=11.0, hi=0.5), "V = 11 is outside the design's box [1, 10]"),
-                          (dict(V=2.0), "missing hi"), (dict(V=2.0, hi=0.5, K=1e7), "unknown K")):
-        with pytest.raises(EmulatorError, match=words.replace("[", r"\[").replace("]", r"\]")):
+                          (dict(V=2.0), "missing hi"), (dict(V=2.0, hi=0.5, K=1e7), "unknown K"),
+                          (dict(V=None, hi=0.5), "V = None: give numbers"),
+                          (dict(V="fast", hi=0.5), "V = 'fast': give numbers"),
+                          (dict(V=[2.0, float("nan")], hi=0.5), "give numbers"),
+                          (dict(V=[2.0, 3.0], hi=[0.4, 0.5, 0.6]), "do not broadcast to one shape: V (2,), hi (3,)")):
+        with pytest.raises(EmulatorError, match=re.escape(words)):
             emulator.predict("max_strain", **kwargs)
     with pytest.raises(EmulatorError, match="no output 'max_force'"):
         emulator.predict("max_force", V=2.0, hi=0.5)
@@ -228,6 +233,18 @@ def test_a_pce_study_writes_indices_emulator_and_figures_and_extends(tmp_path):
     assert abs(float(p.value) - float(case["max_strain"].values.ravel()[0])) <= 3 * float(p.error)
     with pytest.raises(EmulatorError, match="outside the design's box"):
         emulator.predict("max_strain", V=6.0, hi=0.5)
+    # a damaged sensitivity.nc (it raised the netCDF library's "HDF error") is refused in one
+    # line naming it, its figures are skipped with a note, and the same command rebuilds it
+    target = out / "sensitivity.nc"
+    data = bytearray(target.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    target.write_bytes(bytes(data))
+    for opener in (pipeline.open_sensitivity, pipeline.open_emulator):
+        with pytest.raises(pipeline.ResultsIOError, match=f"{re.escape(str(target))} does not match the checksum"):
+            opener(out)
+    code, _, err = run_cli("run", study_file, "--out", out)
+    assert code == 0 and f"wrote {target}" in err, err
+    assert pipeline.open_emulator(out).outputs == emulator.outputs
 
 
 def test_the_emulator_of_a_sobol_analysis_is_refused(tmp_path):

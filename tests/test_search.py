@@ -93,6 +93,27 @@ def test_status_and_a_rerun_say_what_the_search_did(searched):
     assert code == 0 and "(0 to run)" in err                                # every run reused
 
 
+def test_a_damaged_search_nc_is_one_line_and_the_same_command_rebuilds_it(searched, tmp_path):
+    """search.nc carries its checksum as study.nc does: damaged, status and the API name it in
+    one line (no library error); the same command writes it again from the runs, computing none."""
+    import shutil
+    ds, base = searched
+    out = tmp_path / "out"
+    shutil.copytree(base / "out", out)
+    target = out / "search.nc"
+    data = bytearray(target.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    target.write_bytes(bytes(data))
+    code, _, err = command("status", base / "s.toml", "--out", out)
+    assert code != 0 and err.strip().splitlines()[-1].startswith("error: ") and "HDF" not in err, err
+    assert f"{target} does not match the checksum" in err and "Traceback" not in err
+    code, _, err = command("run", base / "s.toml", "--out", out)
+    assert code == 0 and "(0 to run)" in err, err
+    from pipeline.sealed import open_sealed
+    with open_sealed(target) as again:
+        np.testing.assert_array_equal(again["critical_V"].values, ds["critical_V"].values)
+
+
 @pytest.mark.slow       # 40 s; test_status_and_a_rerun_say_what_the_search_did replays a search in make test
 def test_a_killed_search_resumes_where_it_stopped(searched, tmp_path):
     ds, base = searched
@@ -141,6 +162,7 @@ BAD = [
     (STUDY.replace('key = "V"', 'key = "hi"'), "key hi is also in [base], [grid] or [design.keys]"),
     (STUDY.replace("tolerance = 0.05", "tolerance = 20.0"), "is not below the bracket's width"),
     (STUDY.replace('key = "V"', 'key = "Nmod"'), "key must be a continuous parameter"),
+    (STUDY.replace("tolerance = 0.05", 'tolerance = 0.05\neps_Y = "junk"'), "is for a crack-onset event"),
     (STUDY.replace("[grid]\nhi = [0.3, 1.0]", "[[cases]]\nhi = 0.3\n[[cases]]\nhi = 1.0"), "not [[cases]]"),
 ]
 

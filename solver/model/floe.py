@@ -216,9 +216,8 @@ def depth_correction(J, L, H):
     (0 otherwise), i, j = 1..J: what the bottom at depth H takes from the deep water's map on
     b_j, whose Fourier transform is pi j (-i)^(j-1) J_j(kL) / k. 1 - tanh kH = 2 / (e^{2kH} + 1)
     falls below 1e-17 at kH = 20, where the integral stops: Gauss-Legendre, 16 nodes on each
-    half period pi / L of the Bessel functions (bessel_table). Its cost grows as L / H (the
-    Bessel functions' periods up to kH = 20), its memory does not (DEPTH_NODES_AT_ONCE nodes at
-    a time); where H > DEEP_ENOUGH L it is below round-off (the deep limit, O((L / H)^2)): zero."""
+    half period pi / L of the Bessel functions (bessel_table). Its cost grows as L / H, its memory
+    does not (DEPTH_NODES_AT_ONCE nodes at a time); past H = DEEP_ENOUGH L it is zero (O((L/H)^2))."""
     if H > DEEP_ENOUGH * L:
         return np.zeros((J, J))
     kmax = 20.0 / H
