@@ -254,6 +254,8 @@ class StudyWriter:
         wait in a buffer of at most FLUSH_BYTES and are written in grid order as few large
         hyperslabs (consecutive batches are contiguous); the ragged records are appended in
         the same order."""
+        if self.seen[np.asarray(flat, dtype=np.int64)].all():
+            return                                  # (a batch delivered twice: stored once)
         self.buffer.append((np.asarray(flat, dtype=np.int64), data))
         self.buffered += sum(np.asarray(v).nbytes for v in data.values())
         self.seen[flat] = True
@@ -343,14 +345,14 @@ class StudyWriter:
 
     def _move_records(self, var, old: np.ndarray, counts: np.ndarray) -> None:
         """var[new order] = var[old starts, counts] for the cases in grid order."""
-        total = int(counts.sum())
-        if total == 0:
+        length = int(var.shape[0])               # all appended, a case written twice included
+        if int(counts.sum()) == 0:
             return
         scratch = self.tmp.with_name(self.tmp.name + ".records")
         try:
-            copy = np.lib.format.open_memmap(scratch, mode="w+", dtype=var.dtype, shape=(total,))
-            for a in range(0, total, RECORD_CHUNK):
-                copy[a:a + RECORD_CHUNK] = var[a:min(a + RECORD_CHUNK, total)]
+            copy = np.lib.format.open_memmap(scratch, mode="w+", dtype=var.dtype, shape=(length,))
+            for a in range(0, length, RECORD_CHUNK):
+                copy[a:a + RECORD_CHUNK] = var[a:min(a + RECORD_CHUNK, length)]
             keep = counts > 0
             starts, counts = old[keep], counts[keep]
             ends = np.cumsum(counts)
@@ -422,8 +424,12 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
     first = study.case(0)
     writer = writer or open_writer(study, out_dir)
     for file in list(groups):                              # streamed already: nothing to read
-        if writer.seen[np.asarray(groups[file][1], dtype=np.int64)].all():
+        unseen = ~writer.seen[np.asarray(groups[file][1], dtype=np.int64)]
+        if not unseen.any():
             del groups[file]
+        elif not unseen.all():      # some positions streamed (a Morris design's repeated point): the others
+            groups[file][1] = [f for f, u in zip(groups[file][1], unseen) if u]
+            groups[file][2] = [r for r, u in zip(groups[file][2], unseen) if u]
     tasks = [(file, (str(out_dir / BATCHES / file), sha, rows, study.output["eps_Y"], names,
                      study.output["records"], refs)) for file, (sha, flat, rows, refs) in groups.items()]
     mapper = mapper or _serial

@@ -210,3 +210,8 @@ def test_a_morris_design_with_repeated_points_runs_each_point_once(tmp_path):
         assert len(set(strain[ids == cid])) == 1
     with xr.open_dataset(tmp_path / "m" / "sensitivity.nc") as idx:
         assert np.all(np.isfinite(idx["mu_star"].values)) and float(idx["mu_star"].sel(output="max_strain", key="V")) > 0
+    # each sample's records once, in sample order, the sample dimension no longer than the counts
+    # (a repeated point's positions were streamed and then read again: their records stored twice)
+    counts = ds["tension_record_count"].values.astype(np.int64).ravel()
+    assert ds.sizes["tension_node"] == counts.sum()
+    np.testing.assert_array_equal(ds["tension_record_start"].values.ravel(), np.cumsum(counts) - counts)
