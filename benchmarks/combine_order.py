@@ -1,6 +1,6 @@
 """What it costs to put study.nc's ragged records in grid order when the batches arrive out of it
 (pipeline.combine.StudyWriter._records_in_grid_order): a synthetic study of N cases, each with
-four tension records of 250-350 nodes and a few contact changes, combined from its batch files
+four tension records of 300-349 nodes and a few contact changes, combined from its batch files
 with the batches arriving in grid order and reversed (each flush then out of order), the combine
 timed (median of 3) and the file checked as a CF contiguous ragged array reader reads it.
 
@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -17,10 +18,11 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from pipeline.casefile import batch_dataset, case_arrays, write_batch
 from pipeline.combine import write_study
-from pipeline.ledger import Ledger
 from pipeline.study_files import load_study
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from helpers import write_fake_batches  # noqa: E402
 
 STUDY = """description = "records order benchmark"
 [base]
@@ -40,19 +42,7 @@ def fake_study(directory: Path, cases: int, per_batch: int):
     path.write_text(STUDY.format(V=[1.0 + 0.01 * i for i in range(n_V)]))
     study = load_study(path)
     out = directory / "order"
-    (out / "batches").mkdir(parents=True)
-    ledger, rng = Ledger(out), np.random.default_rng(0)
-    for start in range(0, study.n_cases, per_batch):
-        batch = [study.case(i) for i in range(start, min(start + per_batch, study.n_cases))]
-        arrays = [case_arrays(c, None, status="ok") for c in batch]
-        for a in arrays:
-            a["tension_records"] = [np.sort(rng.random((250 + int(rng.integers(100)), 5)), axis=0)
-                                    for _ in a["tension_records"]]
-            a["contact_record"] = rng.random((int(rng.integers(6)), 2))
-        entry = write_batch(batch_dataset(batch, arrays), out / "batches")
-        entry["cases"] = [[c.case_id, "ok", "", 0.0] for c in batch]
-        ledger.append(entry)
-    return study, out, ledger
+    return study, out, write_fake_batches(study, out, per_batch)
 
 
 def combine(study, out, ledger, reverse: bool) -> float:

@@ -305,3 +305,26 @@ def resume(proc) -> None:
         os.kill(proc.pid, signal.SIGCONT)
     except ProcessLookupError:
         pass
+
+
+def write_fake_batches(study, out, per_batch: int, seed: int = 0):
+    """Finished batch files of ``per_batch`` cases each, written directly (no solver), with a
+    ledger: each case with random fields, tension records of 300-349 nodes and a few contact
+    changes. Returns the Ledger. (tests/test_scale.py; benchmarks/combine_order.py)"""
+    from pipeline.casefile import batch_dataset, case_arrays, write_batch
+    from pipeline.ledger import Ledger
+    (Path(out) / "batches").mkdir(parents=True)
+    ledger, rng = Ledger(out), np.random.default_rng(seed)
+    for start in range(0, study.n_cases, per_batch):
+        cases = [study.case(i) for i in range(start, min(start + per_batch, study.n_cases))]
+        arrays = [case_arrays(c, None, status="ok") for c in cases]
+        for a in arrays:
+            if "strain" in a:
+                a["strain"] = rng.standard_normal(a["strain"].shape)
+            a["tension_records"] = [np.sort(rng.random((300 + int(rng.integers(50)), 5)), axis=0)
+                                    for _ in a["tension_records"]]
+            a["contact_record"] = rng.random((int(rng.integers(6)), 2))
+        entry = write_batch(batch_dataset(cases, arrays), Path(out) / "batches")
+        entry["cases"] = [[c.case_id, "ok", "", 0.0] for c in cases]
+        ledger.append(entry)
+    return ledger

@@ -19,7 +19,7 @@ import xarray as xr
 from pipeline.casefile import batch_dataset, case_arrays, read_batch, write_batch
 from pipeline.ledger import LEDGER, Ledger
 from pipeline.study_files import load_study
-from helpers import ROOT, assert_same_study, batch_files, run_cli
+from helpers import ROOT, assert_same_study, batch_files, run_cli, write_fake_batches
 
 #: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.5
 #: (0.05 cut one case a batch when the suite loaded the machine: a case took over 0.05 s)
@@ -192,20 +192,7 @@ def _fake_study(tmp_path, n_V: int, per_batch: int = 100) -> tuple:
     study_file.write_text(text)
     study = load_study(study_file)
     out = tmp_path / f"mem{n_V}"
-    (out / "batches").mkdir(parents=True)
-    ledger = Ledger(out)
-    rng = np.random.default_rng(0)
-    for start in range(0, study.n_cases, per_batch):
-        cases = [study.case(i) for i in range(start, min(start + per_batch, study.n_cases))]
-        arrays = [case_arrays(c, None, status="ok") for c in cases]
-        for a in arrays:
-            a["strain"] = rng.standard_normal(a["strain"].shape)
-            a["tension_records"] = [np.sort(rng.random((300 + int(rng.integers(50)), 5)), axis=0)
-                                    for _ in a["tension_records"]]
-            a["contact_record"] = rng.random((int(rng.integers(6)), 2))
-        entry = write_batch(batch_dataset(cases, arrays), out / "batches")
-        entry["cases"] = [[c.case_id, "ok", "", 0.0] for c in cases]
-        ledger.append(entry)
+    ledger = write_fake_batches(study, out, per_batch)
     return study, out, ledger
 
 
