@@ -163,6 +163,13 @@ BAD = [
     (STUDY.replace("tolerance = 0.05", "tolerance = 20.0"), "is not below the bracket's width"),
     (STUDY.replace('key = "V"', 'key = "Nmod"'), "key must be a continuous parameter"),
     (STUDY.replace("tolerance = 0.05", 'tolerance = 0.05\neps_Y = "junk"'), "is for a crack-onset event"),
+    (STUDY.replace('key = "V"', 'key = "L"').replace("Nmod = 6", "Nmod = 6\nhi = 1.0")
+     .replace("[grid]\nhi = [0.3, 1.0]", "[grid]\nV = [2.0]").replace("bracket = [1.0, 10.0]", "bracket = [0.5, 10.0]"),
+     "[search] bracket: L = 0.5 at V=2: hi = 1.0 m is thicker"),
+    (STUDY.replace('key = "V"', 'key = "duration"').replace("Nmod = 6", 'Nmod = 6\nedges = "free"')
+     .replace("[grid]\nhi = [0.3, 1.0]", "[grid]\nV = [2.0]").replace("bracket = [1.0, 10.0]", "bracket = [0.0, 0.1]")
+     .replace("log = true", "log = false").replace("tolerance = 0.05", "tolerance = 0.01"),
+     "[search] bracket: duration = 0 at V=2: a free floe (edges = 'free') needs duration > 0"),
     (STUDY.replace("[grid]\nhi = [0.3, 1.0]", "[[cases]]\nhi = 0.3\n[[cases]]\nhi = 1.0"), "not [[cases]]"),
 ]
 
