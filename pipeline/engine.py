@@ -185,8 +185,12 @@ def _ctrl_c_held(ignore: bool):
     try:
         yield
     finally:
+        # unblocked first: a Ctrl-C still pending is taken by this thread now, and the handlers
+        # run inside pthread_sigmask (PyErr_CheckSignals) while the recording one is installed.
+        # (In the other order, one that a busy machine had not yet delivered to another thread
+        # went to the previous handler: the start went on as if there had been none.)
+        signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         signal.signal(signal.SIGINT, previous)
-        signal.pthread_sigmask(signal.SIG_SETMASK, mask)          # a pending Ctrl-C is raised here
         if interrupted and previous is not signal.SIG_IGN:
             from . import interrupts
             interrupts.requested = True
