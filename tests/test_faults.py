@@ -215,11 +215,15 @@ def test_a_ctrl_c_while_the_cluster_starts_is_raised_once_it_is_up(monkeypatch):
     other.start()
     monkeypatch.setattr(engine, "LocalCluster", Cluster)
     monkeypatch.setattr(interrupts, "requested", False)
+    # as a runner has it (interrupts.install): a test process started in the background by a
+    # non-interactive shell inherits SIGINT ignored, and a run that ignores Ctrl-C is not this test's
+    handler = signal.signal(signal.SIGINT, interrupts._on_sigint)
     try:
         with pytest.raises(KeyboardInterrupt):
             with engine.cluster_client(1, None):
                 pytest.fail("the run went on after the Ctrl-C")
     finally:
+        signal.signal(signal.SIGINT, handler)
         stop.set()
         other.join()
     assert closed and interrupts.requested
