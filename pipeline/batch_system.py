@@ -243,11 +243,14 @@ def _remove_credentials(cluster, directory: Path) -> None:
     traceback kept it past the exit): removed now, and the directory if no log is in it."""
     for key in ("ca_file", "cert", "key"):
         handle = getattr(cluster, f"_job_{key}", None)
-        if handle is not None:
-            handle.close()                                 # a NamedTemporaryFile: deleted
-    for path in directory.glob(".dask-jobqueue.worker.*"):
-        path.unlink(missing_ok=True)
+        try:
+            if handle is not None:
+                handle.close()                             # a NamedTemporaryFile: deleted
+        except OSError:                                    # gone already (the results removed mid-run)
+            pass
     try:
+        for path in directory.glob(".dask-jobqueue.worker.*"):
+            path.unlink(missing_ok=True)
         directory.rmdir()
     except OSError:                                        # the jobs' logs are there: kept
         pass
