@@ -70,11 +70,12 @@ class Emulator:
         arrays = []
         for k in self.keys:
             try:
-                arrays.append(np.asarray(values[k], dtype=float))
+                a = np.asarray(values[k], dtype=float)
             except (TypeError, ValueError):
-                arrays.append(None)
-            if arrays[-1] is None or arrays[-1].size == 0 or np.isnan(arrays[-1]).any():
+                a = np.array([np.nan])
+            if a.size == 0 or np.isnan(a).any():
                 raise EmulatorError(f"{k} = {values[k]!r}: give numbers (a scalar or an array of them)")
+            arrays.append(a)
         try:
             arrays = np.broadcast_arrays(*arrays)
         except ValueError:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 import signal
+import struct
 import subprocess
 import sys
 import time
@@ -85,7 +86,6 @@ def _handshake(recv) -> bytes:
 
 
 def _length(data: bytes) -> int:
-    import struct
     return struct.unpack("<Q", data[:8])[0]
 
 

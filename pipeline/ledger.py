@@ -239,18 +239,21 @@ def _sidecar(out_dir: Path) -> Path:
     return Path(out_dir) / ".study.nc.inputs"
 
 
-def write_sidecar(out_dir: Path, fingerprint: str) -> None:
-    path = Path(out_dir) / "study.nc"
-    st = path.stat()
-    side = _sidecar(out_dir)
-    tmp = side.with_name(f"{side.name}.tmp-{os.getpid()}")
-    from .casefile import file_sha256
-    record = {"fingerprint": fingerprint, "size": st.st_size, "mtime_ns": st.st_mtime_ns,
-              "sha256": file_sha256(path)}
+def write_json_record(target: Path, record: dict) -> None:
+    """``record`` as JSON at ``target``, atomically, never through a symbolic link."""
+    tmp = target.with_name(f"{target.name}.tmp-{os.getpid()}")
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o644)
     with os.fdopen(fd, "w") as f:
         f.write(json.dumps(record))
-    os.replace(tmp, side)
+    os.replace(tmp, target)
+
+
+def write_sidecar(out_dir: Path, fingerprint: str) -> None:
+    path = Path(out_dir) / "study.nc"
+    st = path.stat()
+    from .casefile import file_sha256
+    write_json_record(_sidecar(out_dir), {"fingerprint": fingerprint, "size": st.st_size,
+                                          "mtime_ns": st.st_mtime_ns, "sha256": file_sha256(path)})
 
 
 def sidecar(out_dir: Path) -> dict | None:

@@ -6,11 +6,11 @@ beside the file, JSON ``{"sha256": ..., "size": ...}``, written atomically after
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 from .casefile import file_sha256
 from .errors import ResultsIOError
+from .ledger import write_json_record
 
 
 def record_path(path: Path) -> Path:
@@ -21,13 +21,7 @@ def record_path(path: Path) -> Path:
 def seal(path: Path) -> None:
     """Record the checksum of the file just written at ``path``."""
     path = Path(path)
-    record = {"sha256": file_sha256(path), "size": path.stat().st_size}
-    target = record_path(path)
-    tmp = target.with_name(f"{target.name}.tmp-{os.getpid()}")
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o644)
-    with os.fdopen(fd, "w") as f:
-        f.write(json.dumps(record))
-    os.replace(tmp, target)
+    write_json_record(record_path(path), {"sha256": file_sha256(path), "size": path.stat().st_size})
 
 
 def is_intact(path: Path) -> bool:

@@ -16,6 +16,8 @@ drawn from that (nothing is stored).
 """
 from __future__ import annotations
 
+import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -212,8 +214,6 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
         raise ShowError(f"--x {x_point:g} m is outside the plate (-{p.L:g} .. {p.L:g} m)")
     end = case.t_end
     times = np.linspace(0.0, end, max(points, 2))
-    import sys
-    import time
     started = time.monotonic()
     # said before the solve: a case of thousands of modes takes minutes, and show would be silent
     print(f"solving the case for its curves ({p.Nmod} modes, {times.size} times) ...", file=sys.stderr, flush=True)

@@ -123,6 +123,11 @@ def study_copy_name(out_dir: Path) -> str | None:
             header = f.readline().decode("utf-8", errors="replace")
     except OSError:
         return None
+    return _header_name(header)
+
+
+def _header_name(header: str) -> str | None:
+    """The study name in the copy's header line (keep_study_copy), or None."""
     if not header.startswith(_COPY_HEADER):
         return None
     quoted = header[len(_COPY_HEADER):].split(", from ", 1)[0].strip()
@@ -141,7 +146,5 @@ def load_study_copy(out_dir: Path) -> Study:
     name = Path(out_dir).name
     if text.startswith(_COPY_HEADER):
         header, _, text = text.partition("\n")
-        quoted = header[len(_COPY_HEADER):].split(", from ", 1)[0]
-        if len(quoted) >= 2 and quoted[0] == quoted[-1] and quoted[0] in "'\"":
-            name = quoted[1:-1]
+        name = _header_name(header) or name
     return load_study_text(text, name, path)

@@ -150,7 +150,7 @@ def yield_strains(eps_Y) -> np.ndarray:
         levels = np.atleast_1d(np.asarray(eps_Y, dtype=float))
     except (TypeError, ValueError):
         levels = None
-    if levels is None or eps_Y is None or levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
+    if levels is None or levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
         raise ParameterError(f"eps_Y must be one or more yield strains, finite numbers > 0 [1]; got {eps_Y!r}")
     return levels
 
