@@ -15,7 +15,7 @@ import struct
 import subprocess
 import sys
 import time
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 
 import dask
 from distributed import Client, LocalCluster, as_completed
@@ -167,21 +167,20 @@ def _main_script_hidden():
 
 
 @contextmanager
-def _ctrl_c_held(ignore: bool):
+def _ctrl_c_held():
     """A Ctrl-C during the cluster's start does not interrupt it half-way: it is raised once the
     cluster is up (which is then closed). SIGINT is blocked in this thread meanwhile, so that
     the threads the start creates inherit it blocked; only the runner reacts to a Ctrl-C,
     abandons the in-flight cases and shuts the cluster down.
 
-    Workers forked from the forkserver ignore SIGINT as it does (pipeline.forkserver_preload),
-    and the Ctrl-C is recorded by a handler. Spawned workers ignore it by inheriting SIG_IGN
-    across exec (``ignore``): a Ctrl-C then goes to any thread that does not block it (numpy's
-    BLAS threads, started at import) and is lost there; the pending signal of the blocking
-    thread is raised only if no such thread exists."""
+    The workers ignore SIGINT: those forked from the forkserver as it does
+    (pipeline.forkserver_preload), spawned ones through their launcher
+    (forkserver.spawned_ignoring_sigint). The runner records the Ctrl-C in a handler; it goes
+    to any thread that does not block it (numpy's BLAS threads, started at import), and the
+    handler runs in this one."""
     interrupted = []
     mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN if ignore else
-                             (lambda signum, frame: interrupted.append(signum)))
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: interrupted.append(signum))
     try:
         yield
     finally:
@@ -205,12 +204,13 @@ def _local_cluster_client(workers: int):
     environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environ.update(SINGLE_THREAD_ENV)
     method = forkserver.start(environ)
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
-                          "distributed.scheduler.allowed-failures": 3,
-                          "distributed.worker.multiprocessing-method": method}):
+    launcher = forkserver.spawned_ignoring_sigint() if method == "spawn" else nullcontext()
+    with launcher, dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
+                                    "distributed.scheduler.allowed-failures": 3,
+                                    "distributed.worker.multiprocessing-method": method}):
         cluster = None
         try:
-            with _ctrl_c_held(ignore=method != "forkserver"):
+            with _ctrl_c_held():
                 # CRITICAL: a case's failure reaches the runner as its record (run_batch catches
                 # everything); what dask logs at ERROR is its own shutdown races (a worker's
                 # heartbeat to a scheduler already gone when a full disk stops the study), a

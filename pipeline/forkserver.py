@@ -13,7 +13,10 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import shlex
 import signal
+import tempfile
+from contextlib import contextmanager
 from pathlib import Path
 
 #: how local workers start; "spawn" (dask's default) where there is no forkserver
@@ -68,3 +71,25 @@ def start(environ: dict) -> str:
                 os.environ[key] = value
     _started_from = source
     return "forkserver"
+
+
+@contextmanager
+def spawned_ignoring_sigint():
+    """While it is open, the processes multiprocessing spawns (the workers where there is no
+    forkserver, and those a nanny restarts) start with SIGINT ignored, as the forkserver's
+    children do: their Python is exec'd by a two-line shell launcher that ignores SIGINT first
+    (an ignored signal stays ignored across exec; a handler does not, and CPython's fork_exec
+    clears the signal mask, so the runner cannot hand it down any other way). A Ctrl-C then
+    reaches only the runner, which records it during the cluster's start and shuts the
+    workers down after it. The launcher lives in a temporary directory for the run."""
+    from multiprocessing import spawn
+    python = spawn.get_executable()
+    with tempfile.TemporaryDirectory(prefix="floe-impact-launcher-") as directory:
+        launcher = Path(directory) / "python-ignoring-sigint"
+        launcher.write_text(f"#!/bin/sh\ntrap '' INT\nexec {shlex.quote(os.fsdecode(python))} \"$@\"\n")
+        launcher.chmod(0o700)
+        spawn.set_executable(str(launcher))
+        try:
+            yield
+        finally:
+            spawn.set_executable(python)

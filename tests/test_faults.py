@@ -227,3 +227,60 @@ def test_a_ctrl_c_while_the_cluster_starts_is_raised_once_it_is_up(monkeypatch):
         stop.set()
         other.join()
     assert closed and interrupts.requested
+
+
+def test_spawned_workers_ignore_a_ctrl_c_during_the_cluster_start(monkeypatch, capfd):
+    """Where workers are spawned (no forkserver), the Ctrl-C that a terminal sends to the whole
+    process group during the cluster's start is recorded by the runner and raised once the
+    cluster is up; the workers, started through a launcher that ignores SIGINT, are not killed
+    half-way (their tracebacks on the runner's stderr). It was lost: the runner ignored SIGINT
+    meanwhile, so that the workers inherited it ignored."""
+    from pipeline import engine, forkserver, interrupts
+    sent = {}
+
+    class Cluster(engine.LocalCluster):
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+            workers = [pid for pid, args in children(os.getpid()) if "multiprocessing.spawn" in args]
+            for pid in workers:
+                os.kill(pid, signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGINT)
+            # each worker has had the signal once it is no longer pending there (ignored: dropped)
+            deadline = time.monotonic() + 30
+            while any(_pending(pid) for pid in workers) and time.monotonic() < deadline:
+                time.sleep(0.05)
+            sent["workers"] = workers
+            sent["alive"] = [pid for pid in workers if _alive(pid)]
+
+    monkeypatch.setattr(forkserver, "start", lambda environ: "spawn")
+    monkeypatch.setattr(engine, "LocalCluster", Cluster)
+    monkeypatch.setattr(interrupts, "requested", False)
+    handler = signal.signal(signal.SIGINT, interrupts._on_sigint)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            with engine.cluster_client(2, None):
+                pytest.fail("the run went on after the Ctrl-C")
+    finally:
+        signal.signal(signal.SIGINT, handler)
+    assert len(sent["workers"]) == 2 and sent["alive"] == sent["workers"], sent
+    assert interrupts.requested
+    err = capfd.readouterr().err                       # the workers write to the runner's stderr
+    assert "KeyboardInterrupt" not in err, err[-3000:]
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state not in "ZX"
+
+
+def _pending(pid: int) -> bool:
+    """SIGINT pending in the process ``pid`` (its ShdPnd or SigPnd bit), from /proc."""
+    try:
+        status = dict(line.split(":", 1) for line in open(f"/proc/{pid}/status").read().splitlines())
+    except OSError:
+        return False
+    bit = 1 << (signal.SIGINT - 1)
+    return any(int(status[key].strip(), 16) & bit for key in ("ShdPnd", "SigPnd"))
