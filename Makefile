@@ -73,7 +73,7 @@ bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 	$(PY) benchmarks/bench_study.py
 
 variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests/test_variables.py checks it)
-	$(PY) -m pipeline.variables
+	$(PY) -m pipeline.common.variables
 
 bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 25 cases (15 at the paper's rule, 8 Gauss, a floe under each), settings pinned, every output array
 	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)

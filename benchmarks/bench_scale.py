@@ -88,7 +88,7 @@ def main(argv=None):
     time.sleep(delay)
     os.killpg(runner.pid, signal.SIGKILL)
     runner.wait()
-    from pipeline.casefile import DamagedFile, read_batch
+    from pipeline.store.casefile import DamagedFile, read_batch
     finished = set()
     for path in (killed / "batches").glob("*.nc"):
         try:

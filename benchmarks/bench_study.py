@@ -83,7 +83,7 @@ def scale_1000(repeats):
 
 def cluster_start(workers):
     start = time.perf_counter()
-    subprocess.run([sys.executable, "-c", "from pipeline.engine import cluster_client\n"
+    subprocess.run([sys.executable, "-c", "from pipeline.compute.engine import cluster_client\n"
                     f"with cluster_client({workers}, None) as c: c.submit(abs, -1).result()"],
                    cwd=ROOT, check=True, capture_output=True)
     return time.perf_counter() - start

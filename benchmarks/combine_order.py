@@ -1,5 +1,5 @@
 """What it costs to put study.nc's ragged records in grid order when the batches arrive out of it
-(pipeline.combine.StudyWriter._records_in_grid_order): a synthetic study of N cases, each with
+(pipeline.store.combine.StudyWriter._records_in_grid_order): a synthetic study of N cases, each with
 four tension records of 300-349 nodes and a few contact changes, combined from its batch files
 with the batches arriving in grid order and reversed (each flush then out of order), the combine
 timed (median of 3) and the file checked as a CF contiguous ragged array reader reads it.
@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from pipeline.combine import write_study
-from pipeline.study_files import load_study
+from pipeline.store.combine import write_study
+from pipeline.study.study_files import load_study
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from helpers import write_fake_batches  # noqa: E402

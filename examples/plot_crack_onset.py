@@ -5,14 +5,14 @@ Crack onset against the yield strain
 Crack onset is not a solver input: each run stores the running maximum of the tension on both
 surfaces, so one run answers "when does the ice first reach εY?" for every εY. Here the
 speed-sweep study's records answer it along 41 yield strains; any other list is
-:func:`pipeline.fracture.crack_onset` away, without a rerun.
+:func:`pipeline.store.fracture.crack_onset` away, without a rerun.
 """
 import os
 
 import matplotlib.pyplot as plt
 
 import pipeline
-from pipeline.fracture import crack_onset
+from pipeline.store.fracture import crack_onset
 
 FAST = os.environ.get("FLOE_GALLERY_FAST") == "1"
 study = {

@@ -11,8 +11,8 @@ From the shell: ``floe-impact run|status|show`` (= ``python -m pipeline``).
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from .api import open_emulator, open_sensitivity, open_study, run_study, study_text
-from .errors import ResultsIOError, StudyError
-from .lock import StudyLocked
+from .common.errors import ResultsIOError, StudyError
+from .store.lock import StudyLocked
 
 try:
     __version__ = _version("floe-impact")

@@ -4,10 +4,10 @@
 same checks before anything is written, the same lock, ledger and resume, the same files. Where
 the command line prints one line and exits with a status, these functions raise:
 
-- :class:`~pipeline.errors.StudyError` (a ``ValueError``): bad input, nothing written (exit 2);
-- :class:`~pipeline.errors.ResultsIOError`: the results cannot be read or written; finished
+- :class:`~pipeline.common.errors.StudyError` (a ``ValueError``): bad input, nothing written (exit 2);
+- :class:`~pipeline.common.errors.ResultsIOError`: the results cannot be read or written; finished
   cases are kept (exit 74);
-- :class:`~pipeline.lock.StudyLocked`: another runner holds the study (exit 75);
+- :class:`~pipeline.store.lock.StudyLocked`: another runner holds the study (exit 75);
 - ``KeyboardInterrupt``: finished cases are kept; the same call resumes (exit 130).
 
 Cases that fail numerically (exit 1 on the command line) are not an exception: they are in the
@@ -18,26 +18,26 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
-from .errors import EXIT_OK, ResultsIOError, StudyError
-from .lock import refuse_if_locked
+from .common.errors import EXIT_OK, ResultsIOError, StudyError
+from .store.lock import refuse_if_locked
 
 __all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "study_text", "load"]
 
 
 def study_text(study: dict) -> str:
     """The TOML text of a study given as a dict of the study file's tables (see
-    :func:`pipeline.study_files.study_text`)."""
-    from .study_files import study_text as text   # deferred: import pipeline stays light (the CLI's fast refusals)
+    :func:`pipeline.study.study_files.study_text`)."""
+    from .study.study_files import study_text as text   # deferred: import pipeline stays light (the CLI's fast refusals)
     return text(study)
 
 
 def load(study, name: str | None = None):
-    """A validated :class:`~pipeline.study.Study` from a study name (``"speed_sweep"``: the file
+    """A validated :class:`~pipeline.study.definition.Study` from a study name (``"speed_sweep"``: the file
     ``studies/speed_sweep.toml``), a path to a study file, the TOML text of one (a string of
     several lines), a dict of sections (see :func:`study_text`) or a Study (returned as it is);
     ``name`` names a study given as text or a dict (default ``"study"``)."""
-    from .study import Study, load_study_text
-    from .study_files import find_study, load_study
+    from .study.definition import Study, load_study_text
+    from .study.study_files import find_study, load_study
     if isinstance(study, Study):
         return study
     if isinstance(study, dict):
@@ -120,7 +120,7 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     with contextlib.redirect_stderr(sink) if quiet else contextlib.nullcontext():
         code = _run(study, out_dir, options)
     if study.search:                          # a threshold search: its results, not its runs
-        from .sealed import open_sealed
+        from .store.sealed import open_sealed
         return open_sealed(out_dir / "search.nc")
     ds = open_study(out_dir)
     if code != EXIT_OK:
@@ -163,8 +163,8 @@ def open_study(results, verify: bool = True):
     """
     import xarray as xr
 
-    from .casefile import file_sha256
-    from .ledger import sidecar
+    from .store.casefile import file_sha256
+    from .store.ledger import sidecar
     path = Path(results)
     if path.suffix == ".nc":
         out_dir = path.parent
@@ -194,7 +194,7 @@ def open_sensitivity(results):
     results : str or pathlib.Path
         A results directory, or a study name (then ``results/<name>``).
     """
-    from .sealed import open_sealed
+    from .store.sealed import open_sealed
     out_dir = Path(results)
     if not out_dir.is_dir() and "/" not in str(results) and (Path("results") / str(results)).is_dir():
         out_dir = Path("results") / str(results)
@@ -208,7 +208,7 @@ def open_sensitivity(results):
 def open_emulator(results):
     """The polynomial-chaos emulator of a study whose ``[analysis]`` is ``method = "pce"``: each
     output predicted anywhere in the design's box, with its cross-validated error estimate
-    (pipeline.emulator; numpy alone, no OpenTURNS needed).
+    (pipeline.analyse.emulator; numpy alone, no OpenTURNS needed).
 
     Parameters
     ----------
@@ -217,10 +217,10 @@ def open_emulator(results):
 
     Returns
     -------
-    pipeline.emulator.Emulator
+    pipeline.analyse.emulator.Emulator
         ``.predict(output, **key_values) -> Prediction(value, error)``; ``.outputs``, ``.keys``,
         ``.box``, ``.q2``.
     """
-    from .emulator import Emulator
+    from .analyse.emulator import Emulator
     with open_sensitivity(results) as indices:
         return Emulator(indices.load())

@@ -20,9 +20,9 @@ from pathlib import Path
 
 # only the standard library here: a locked study or a bad command line is refused in well
 # under a second; numba, xarray and dask are imported by the commands that need them
-from .errors import (EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_IO, EXIT_LOCKED, EXIT_OK, LARGE_STUDY,
-                     ResultsIOError, StudyError, free_space, write_failed)
-from .lock import StudyLocked, refuse_if_locked
+from .common.errors import (EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_IO, EXIT_LOCKED, EXIT_OK,
+                            LARGE_STUDY, ResultsIOError, StudyError, free_space, write_failed)
+from .store.lock import StudyLocked, refuse_if_locked
 from .report import TABLE_ROWS, ledger_states, print_table
 
 
@@ -77,9 +77,9 @@ def _parser():
 
 
 def command_run(args) -> int:
-    from .interrupts import check
+    from .common.interrupts import check
     from .run import RunOptions, run_study
-    from .study_files import find_study, load_study
+    from .study.study_files import find_study, load_study
     check()                                           # a Ctrl-C during the imports
     study = load_study(find_study(args.study), max_cases=None if args.yes else LARGE_STUDY)
     check()
@@ -109,7 +109,7 @@ def command_status(args) -> int:
 
 
 def command_show(args) -> int:
-    from .casefile import DamagedFile
+    from .store.casefile import DamagedFile
     from .show import ShowError, choose_case, show
     study, out_dir = study_and_results(args.study, args.out)
     if not 2 <= args.points <= 100_000:
@@ -135,7 +135,7 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
     """The study and its results directory, from a study name or file (results/<name> unless
     --out), or from a results directory alone (through the copy of the study a run keeps
     there); a name whose studies/<name>.toml is gone falls back on results/<name>."""
-    from .study_files import STUDY_COPY, find_study, load_study, load_study_copy, study_copy_name
+    from .study.study_files import STUDY_COPY, find_study, load_study, load_study_copy, study_copy_name
     given = Path(name_or_path)
     if given.is_dir():
         if not (given / STUDY_COPY).is_file():
@@ -179,7 +179,7 @@ def main(argv=None) -> int:
         print(f"error: {err}", file=sys.stderr)
         return EXIT_LOCKED
     except RuntimeError as err:
-        from .engine import KernelCompileError
+        from .compute.engine import KernelCompileError
         if not isinstance(err, KernelCompileError):
             raise
         print(f"error: {err}", file=sys.stderr)
@@ -191,7 +191,7 @@ def main(argv=None) -> int:
         sys.stdout = open(os.devnull, "w")           # which would catch it first)
         return EXIT_OK
     except OSError as err:
-        from .casefile import CaseWriteError
+        from .store.casefile import CaseWriteError
         if isinstance(err, CaseWriteError):
             print(f"error: {err}; finished cases are kept", file=sys.stderr)
         elif err.errno == errno.ENOSPC or "HDF error" in str(err):

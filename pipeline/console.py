@@ -10,7 +10,7 @@ INTERRUPTED = 130
 def console() -> None:
     """Run the command line and exit with its status (see pipeline.cli for the statuses)."""
     try:
-        from . import interrupts
+        from .common import interrupts
         interrupts.install()
         from .cli import main
         code = main()

@@ -9,7 +9,7 @@ from pathlib import Path
 def ledger_states(study, out_dir: Path, ledger=None) -> dict:
     """case_id -> 'ok' | failed status | 'pending', from the study's ledger alone (no result
     file is opened)."""
-    from .ledger import Ledger
+    from .store.ledger import Ledger
     ledger = ledger if ledger is not None else Ledger.load(out_dir)
     recorded = ledger.states()
     return {cid: recorded.get(cid, "pending") for cid in study.run_ids}

@@ -14,8 +14,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from .errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, WriteFailed, write_failed
-from .lock import StudyLock
+from .common.errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, WriteFailed, write_failed
+from .store.lock import StudyLock
 from .report import _count, _label, ledger_states, print_table
 
 
@@ -41,7 +41,7 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
     EXIT_FAILED when some failed numerically. Raises StudyError (bad input, before anything is
     written), ResultsIOError (the results cannot be written; finished cases are kept),
     StudyLocked, KeyboardInterrupt (finished cases are kept; the same call resumes). ``session``:
-    an open pipeline.session.Session to run on (a search's rounds share one; default a new one)."""
+    an open pipeline.compute.session.Session to run on (a search's rounds share one; default a new one)."""
     options = options or RunOptions()
     if options.workers < 1:
         raise StudyError(f"--workers must be >= 1, got {options.workers}")
@@ -50,7 +50,7 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
     out_dir = Path(out_dir)
     _check_placement(options, out_dir)                 # unreachable: bad input, refused before writing
     if session is None:                                # not a search's round: said once, by the search
-        from .consistency import validity_warnings
+        from .study.consistency import validity_warnings
         for line in validity_warnings(study):
             print(line, file=sys.stderr)
     if options.dry_run:
@@ -71,7 +71,7 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
     try:
         if study.search:                               # rounds of runs in out_dir/evaluations
             from .search_runner import run_search
-            from .study_files import keep_study_copy
+            from .study.study_files import keep_study_copy
             keep_study_copy(study, out_dir)
             return run_search(study, out_dir, options, run_study)
         return _run_locked(options, study, out_dir, session)
@@ -115,20 +115,20 @@ def _check_placement(options, out_dir: Path) -> None:
             raise StudyError("give all three of --tls-ca-file, --tls-cert and --tls-key")
         _check_tls_files(*options.tls)
     if options.scheduler:
-        from .engine import probe_scheduler
+        from .compute.engine import probe_scheduler
         probe_scheduler(options.scheduler, tls=options.tls)
     elif options.cluster:
         if not 1 <= options.jobs <= 10_000:
             raise StudyError(f"--cluster needs --jobs N (worker jobs, 1 .. 10000), got {options.jobs}")
-        from .batch_system import check
-        from .session import jobs_directory
+        from .compute.batch_system import check
+        from .compute.session import jobs_directory
         check(options.cluster, jobs_directory(out_dir))
     elif options.jobs:
         raise StudyError("--jobs is for --cluster slurm|pbs")
 
 
 def _prepare_dirs(out_dir: Path) -> Path:
-    from .ledger import BATCHES, LEDGER
+    from .store.ledger import BATCHES, LEDGER
     batches = out_dir / BATCHES
     batches.mkdir(parents=True, exist_ok=True)
     _remove_temporaries([*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
@@ -153,7 +153,7 @@ def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     states = ledger_states(study, out_dir)
     items, _ = _todo(study, states, rerun_failed)
     todo = [cid for cid, _ in items]
-    from .tables import FAILED
+    from .common.tables import FAILED
     failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
     print(f"{study.name}: {_count(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
           f"-> {out_dir}")
@@ -259,7 +259,7 @@ def _workers_for(requested: int, runs: int, batches: Path) -> int:
 
 def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     """The runs to compute as (items [case_id, position or -1], signatures)."""
-    from .tables import FAILED
+    from .common.tables import FAILED
     first = study.first_position
     items, signature = [], []
     for cid in study.run_ids:
@@ -273,11 +273,11 @@ def _todo(study, states: dict, rerun_failed: bool) -> tuple:
 def _run_locked(options, study, out_dir: Path, session=None) -> int:
     """Plan, compute and stream, combine (again, where a batch file turned out damaged), figures,
     report."""
-    from .tables import NUMERICAL_FAILURES
-    from .interrupts import check
-    from .ledger import reconcile
+    from .common.tables import NUMERICAL_FAILURES
+    from .common.interrupts import check
+    from .store.ledger import reconcile
     batches = _prepare_dirs(out_dir)
-    from .study_files import keep_study_copy
+    from .study.study_files import keep_study_copy
     keep_study_copy(study, out_dir)
     notes = []
     ledger = reconcile(out_dir, notes)
@@ -285,7 +285,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
         print(f"note: {note}", file=sys.stderr)
     states = ledger_states(study, out_dir, ledger)
     items, signature = _todo(study, states, options.rerun_failed)
-    from .consistency import cases_past_their_stage
+    from .study.consistency import cases_past_their_stage
     past = cases_past_their_stage(study)
     if past:
         print(f"note: {past} of {study.n_cases} cases have output times past their impact stage "
@@ -297,8 +297,8 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
     if items and study.n_cases > 1000 and "error_estimate" not in study.solver and "error_estimate" not in study.grid:
         print("note: every case also runs the error estimate's companion (0.79x the integration, measured); "
               "[solver] error_estimate = \"sample\" runs it on about 1 case in 10", file=sys.stderr)
-    from .combine import open_writer, stream_spec
-    from .session import session_for
+    from .store.combine import open_writer, stream_spec
+    from .compute.session import session_for
     items_run = list(items)
     identity = _identity(out_dir)
     import contextlib
@@ -364,7 +364,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
 def _combine(options, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
     """Write study.nc if its inputs changed; True if written, False if up to date, None if a
     damaged batch file was found (set aside and dropped from the ledger)."""
-    from .ledger import inputs_fingerprint, is_up_to_date, set_aside
+    from .store.ledger import inputs_fingerprint, is_up_to_date, set_aside
     index = ledger.index()
     fingerprint = inputs_fingerprint(study, index)
     path = out_dir / "study.nc"
@@ -374,7 +374,7 @@ def _combine(options, study, out_dir: Path, ledger, states: dict, session, compu
     streamed = writer.seen if writer is not None else None
     n_files = len({index[cid][0]["file"] for i, cid in enumerate(study.case_ids)
                    if cid in index and (streamed is None or not streamed[i])})
-    from .combine import write_study
+    from .store.combine import write_study
     mapper = session.mapper() if session.is_open or n_files > 50 else None
     started = time.monotonic()
     try:
@@ -404,13 +404,13 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
     if not study.analysis:
         return
     target = out_dir / "sensitivity.nc"
-    from .sealed import is_intact, seal
+    from .store.sealed import is_intact, seal
     if not fresh and is_intact(target):             # (a damaged or unsealed one is written again)
         return
     import xarray as xr
 
-    from .sensitivity import analyze, doubtful_outputs
-    from .casefile import temporary_path
+    from .analyse.sensitivity import analyze, doubtful_outputs
+    from .store.casefile import temporary_path
     try:
         with xr.open_dataset(out_dir / "study.nc") as ds:
             indices = analyze(ds, study.design, study.analysis)
@@ -443,8 +443,8 @@ def _plots(options, study, out_dir: Path, fresh: bool) -> None:
         return
     import xarray as xr
 
-    from .casefile import file_sha256
-    from .ledger import sidecar
+    from .store.casefile import file_sha256
+    from .store.ledger import sidecar
     from .figures import make_plots
     path = out_dir / "study.nc"
     record = sidecar(out_dir)
@@ -466,7 +466,7 @@ def _summary(study, ledger, states: dict, computed: set) -> None:
     """The cases that did not end ok: listed (30 at most) when this run computed them, one
     line when they are old news (status lists them)."""
     index = ledger.index()
-    from .tables import COMPLETE
+    from .common.tables import COMPLETE
     not_ok = [cid for cid in study.run_ids if states[cid] not in COMPLETE]
     if not not_ok:
         return

@@ -1,4 +1,4 @@
-"""A threshold search's runs (pipeline.search states the search and checks it): the rounds on
+"""A threshold search's runs (pipeline.study.search states the search and checks it): the rounds on
 one dask session, each round one run of the evaluations' [[cases]] study in out/evaluations
 through the runner (its ledger, batch files and resume), then search.nc and search.png."""
 from __future__ import annotations
@@ -11,13 +11,13 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import StudyError
-from .search import EVENTS, MAX_ROUNDS, Target, runs_per_search
+from .common.errors import StudyError
+from .study.search import EVENTS, MAX_ROUNDS, Target, runs_per_search
 
 
 def _event(ds, i: int, search: dict, eps) -> bool | None:
     """Did the event happen in case i of the evaluations' study.nc (None: the case failed)?"""
-    from .tables import COMPLETE
+    from .common.tables import COMPLETE
     status = str(ds["status"].values[i])
     if status not in (*COMPLETE, "layer_bottomed_out"):
         return None
@@ -31,7 +31,7 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
 def _evaluation_text(study, cases: list) -> str:
     """The evaluations' study: the search study's [base], [solver] and [output] (its eps_Y with
     the search's), and one [[cases]] entry a run."""
-    from .study_files import study_text
+    from .study.study_files import study_text
     data = tomllib.loads(study.text)
     output = dict(data.get("output", {}))
     eps = study.search["eps_Y"]
@@ -58,8 +58,8 @@ def run_search(study, out_dir: Path, options, run_study) -> int:
     module, not the other way round); then search.nc and search.png."""
     import dataclasses
 
-    from .errors import EXIT_OK
-    from .session import session_for
+    from .common.errors import EXIT_OK
+    from .compute.session import session_for
     search = study.search
     targets = [Target(i, eps, search) for i in range(study.n_cases) for eps in (search["eps_Y"] or [None])]
     points = [_point_values(study, i) for i in range(study.n_cases)]
@@ -104,7 +104,7 @@ class Runs:
 
         import xarray as xr
 
-        from .study import load_study_text
+        from .study.definition import load_study_text
         for item in wanted:
             if item not in self.index:
                 self.index[item] = len(self.order)
@@ -147,8 +147,8 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     import xarray as xr
 
     from solver import PARAMETER_INFO
-    from . import provenance
-    from .casefile import temporary_path
+    from .common import provenance
+    from .store.casefile import temporary_path
     search = study.search
     key, (long_name, units) = search["key"], PARAMETER_INFO[search["key"]]
     eps_list = search["eps_Y"]
@@ -182,7 +182,7 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     }
     coords = {}
     if study.grid:
-        from .combine import _parameter_coord
+        from .store.combine import _parameter_coord
         for (k, values), d in zip(study.grid.items(), study.dims):
             values_, attrs = _parameter_coord(k, values)
             coords[d] = (d, values_, attrs)
@@ -208,7 +208,7 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
         ds.to_netcdf(tmp)
         import os
         os.replace(tmp, target)
-        from .sealed import seal
+        from .store.sealed import seal
         seal(target)
     finally:
         tmp.unlink(missing_ok=True)
@@ -220,7 +220,7 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
 
 def search_summary(study, out_dir: Path) -> str:
     """What status says of a search: its plan, the runs done, and what search.nc found."""
-    from .ledger import Ledger
+    from .store.ledger import Ledger
     search = study.search
     n = study.n_cases * max(1, len(search["eps_Y"]))
     lines = [f"{study.name}: a search of {search['key']} in [{search['bracket'][0]:g}, {search['bracket'][1]:g}] "
@@ -230,7 +230,7 @@ def search_summary(study, out_dir: Path) -> str:
     lines.append(f"runs done: {done} (in {evaluations})")
     path = Path(out_dir) / "search.nc"
     if path.exists():
-        from .sealed import open_sealed
+        from .store.sealed import open_sealed
         with open_sealed(path) as ds:
             statuses = np.asarray(ds["search_status"].values).ravel()
             counts = {s: int((statuses == s).sum()) for s in sorted(set(statuses))}

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import StudyError
+from .common.errors import StudyError
 
 
 class ShowError(Exception):
@@ -88,7 +88,7 @@ def _off_grid(study, wanted: dict, spec: str) -> str:
     of the study that matches the keys whose values it has, with the others set as asked. It is
     added to the study's runs for this call only; show solves it and stores nothing."""
     from solver import PARAMETER_INFO, SETTING_INFO
-    from .identity import make_case
+    from .study.identity import make_case
     unknown = [k for k in wanted if k not in PARAMETER_INFO and k not in SETTING_INFO]
     if unknown:
         raise ShowError(f"--case: {unknown[0]} is not a parameter or solver setting")
@@ -135,8 +135,8 @@ def _same(actual, text: str) -> bool:
 def stored_case(out_dir: Path, case_id: str):
     """The case's slice of its batch file (xarray, loaded; checksum verified), or None when
     the ledger has no entry for it."""
-    from .casefile import read_batch
-    from .ledger import BATCHES, Ledger
+    from .store.casefile import read_batch
+    from .store.ledger import BATCHES, Ledger
     index = Ledger.load(out_dir).index()
     if case_id not in index:
         return None
@@ -173,7 +173,7 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
     import matplotlib.ticker
 
     from solver import solve
-    from .casefile import tension_records
+    from .store.casefile import tension_records
     from .figures.common import save
 
     case = study.run(case_id)
@@ -328,7 +328,7 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
 
 def _contact_record(ds, i: int):
     """(n, 2) rows (t, contact intervals) of case i of a batch dataset."""
-    from .casefile import ragged_offsets
+    from .store.casefile import ragged_offsets
     counts = ds["contact_change_entries"].values
     start = int(ragged_offsets(counts)[i])
     n = int(counts[i])

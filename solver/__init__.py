@@ -8,10 +8,10 @@ Pure numerics (no files, no xarray, no dask, no plots). Three lines run one case
 """
 from importlib.metadata import PackageNotFoundError as _NotInstalled, version as _version
 
-from . import kernel_cache as _kernel_cache
+from .compile import kernel_cache as _kernel_cache
 
 # before any kernel is defined: the compiled kernels are cached under a key of every solver source
-# file (solver.kernel_cache), so that an edit anywhere in the solver compiles afresh
+# file (solver.compile.kernel_cache), so that an edit anywhere in the solver compiles afresh
 _kernel_cache.install()
 
 from .core import Result, compile_kernels, solve

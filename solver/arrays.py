@@ -6,7 +6,7 @@ formats the shapes as text: about 3.7 s of the first compile for the solver's co
 loop fixed when it made them.
 """
 
-from .jit import kernel
+from .compile.jit import kernel
 
 
 @kernel

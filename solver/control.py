@@ -14,7 +14,7 @@ and as dx^2 with the quadrature.
 import math
 from collections import namedtuple
 
-from .jit import kernel
+from .compile.jit import kernel
 from .layout import B_D, B_U
 from .model.basis import field_sum
 from .model.plate import MASS, ONES, mode_a

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import kernel_cache, parallel_compile
+from .compile import kernel_cache, parallel_compile
 from . import layout as kn
 from .control import make_control
 from .diagnostics import Outputs
@@ -105,8 +105,8 @@ class Result:
         """This case as a labelled ``xarray.Dataset``: the same names, units and long names as a
         study's ``study.nc`` (fields over t [s] and x [m], series, diagnostics, crack onset along
         ``eps_Y``, parameters, status, records). Needs the runner's packages (xarray): the
-        conversion is :func:`pipeline.dataset.case_dataset`; the solver itself stays free of them."""
-        from pipeline.dataset import case_dataset   # deferred: the one hand-off from solver to pipeline
+        conversion is :func:`pipeline.store.dataset.case_dataset`; the solver itself stays free of them."""
+        from pipeline.store.dataset import case_dataset   # deferred: the one hand-off from solver to pipeline
         return case_dataset(self, eps_Y)
 
 

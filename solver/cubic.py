@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .jit import kernel
+from .compile.jit import kernel
 
 
 @kernel

@@ -11,7 +11,7 @@ from collections import namedtuple
 import numpy as np
 
 from .control import ENERGY_BOUND
-from .jit import kernel
+from .compile.jit import kernel
 from .layout import (D_BODY_RESIDUAL, D_BOTTOM_SPEED, D_BOTTOM_T, D_BOTTOM_X, D_ENERGY_JUMPS,
                      D_ENERGY_RESIDUAL, D_FAIL_KIND, D_FAIL_T, D_H_MAX, D_H_MIN, D_MAX_ABS, D_MAX_ABS_T,
                      D_MAX_ABS_X, D_MAX_CONTACTS, D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_FORCE, D_MAX_FORCE_T,

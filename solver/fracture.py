@@ -18,7 +18,7 @@ import numpy as np
 
 from .axes import log_axis
 from .cubic import cubic_first_reach, cubic_max, hermite
-from .jit import kernel
+from .compile.jit import kernel
 from .keys import ParameterError
 from .layout import R_JOIN, R_RATE, R_T, R_VALUE, R_X
 
@@ -183,6 +183,6 @@ def crack_onset(record, eps_Y):
 
 def compile_crack_onset() -> None:
     """Compile (or load from numba's cache) the crack-onset kernels on a two-row tension record
-    (solver.compile_kernels; its helper process, solver/parallel_compile.py)."""
+    (solver.compile_kernels; its helper process, solver/compile/parallel_compile.py)."""
     rec = np.array([[0.0, 0.0, 1.0, 0.0, 0.0], [1.0, 1.0, 1.0, 0.0, 1.0]])
     crack_onset(rec[thin_record(rec)], [0.5])

@@ -1,6 +1,6 @@
 """The study keys: every physical parameter's long name and units, the names a few of them take,
 the values that are the paper's model, the ranges the model is meant for, and the bounds a value
-must keep (solver.parameters checks a case against them; pipeline.variables writes them to
+must keep (solver.parameters checks a case against them; pipeline.common.variables writes them to
 docs/parameters.md); the error a value outside them raises, and the checks shared with
 solver.settings.
 """

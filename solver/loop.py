@@ -21,7 +21,7 @@ from .control import energy_allowance, error_ratio, grown_step, next_step
 from .cubic import cubic_max, hermite
 from .diagnostics import (bottomed_at, failed_at, finish_diagnostics, record_output, running_maxima,
                           start_diagnostics)
-from .jit import kernel
+from .compile.jit import kernel
 from .layout import (B_D, B_U, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
                      D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T,
                      D_T_REACHED, ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP,
@@ -38,7 +38,8 @@ from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observ
 from .observe.events import locate_event
 from .observe.layer_maxima import finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import append_row
-from .observe.tension import DENSE, PEAKS, RUN_MAX, STEP_BEST, Dense, global_state, observe_tensions, tension_work
+from .observe.tension import (DENSE, PEAKS, RUN_MAX, STEP_BEST, Dense, global_state, observe_tensions,
+                              tension_work)
 from .observe.zone import observe_zone, zone_work
 from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
 

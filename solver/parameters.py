@@ -40,7 +40,7 @@ MIN_STAGE_RESPONSE = 1e-4
 TIME_SCALE_KEYS = ("hi", "L", "E", "nu", "rho_i", "rho_w", "g", "H")
 #: the keys Parameters checks together (_check_scales: the time scale, the impact stage against
 #: the layer's response time, flat_width against L + |x0|; x0 against L; hi against L): a
-#: study checks every combination of its grid's values of them (pipeline.consistency)
+#: study checks every combination of its grid's values of them (pipeline.study.consistency)
 COUPLED_KEYS = (*TIME_SCALE_KEYS, "R", "V", "body_p", "flat_width", "deadrise", "x0", "K", "he")
 #: the keys those checks are not monotone in (the stage against body_p, and against |x0|): where
 #: a grid has too many combinations, every value of these is checked with the extremes of the rest

@@ -37,7 +37,7 @@ methods return a_n(t) = cos(omega_n t), ETD34 to round-off; the observed order o
 import math
 from collections import namedtuple
 
-from .jit import kernel
+from .compile.jit import kernel
 from .layout import B_D, B_U, ETD34
 from .model.body import _body_error, _step_work, body_accel, body_coefficients
 from .model.contact import count_contacts

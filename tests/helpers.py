@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from pipeline.casefile import DamagedFile, read_batch
+from pipeline.store.casefile import DamagedFile, read_batch
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -266,7 +266,7 @@ def children(pid: int) -> list:
 
 def local_workers(runner: int) -> list:
     """The pids of a local run's dask worker processes: the children of its forkserver
-    (pipeline.forkserver), or its spawned children where there is no forkserver."""
+    (pipeline.compute.forkserver), or its spawned children where there is no forkserver."""
     kids = children(runner)
     servers = [pid for pid, args in kids if "multiprocessing.forkserver" in args]
     if servers:
@@ -311,8 +311,8 @@ def write_fake_batches(study, out, per_batch: int, seed: int = 0):
     """Finished batch files of ``per_batch`` cases each, written directly (no solver), with a
     ledger: each case with random fields, tension records of 300-349 nodes and a few contact
     changes. Returns the Ledger. (tests/test_scale.py; benchmarks/combine_order.py)"""
-    from pipeline.casefile import batch_dataset, case_arrays, write_batch
-    from pipeline.ledger import Ledger
+    from pipeline.store.casefile import batch_dataset, case_arrays, write_batch
+    from pipeline.store.ledger import Ledger
     (Path(out) / "batches").mkdir(parents=True)
     ledger, rng = Ledger(out), np.random.default_rng(seed)
     for start in range(0, study.n_cases, per_batch):

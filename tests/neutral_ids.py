@@ -1,7 +1,7 @@
 """Shared by the tests of keys beyond the paper: a small study text, and the check that case ids
 leave a key out at its neutral value (the paper's model), so that studies from before the key
 keep their ids and results."""
-from pipeline.study import load_study_text
+from pipeline.study.definition import load_study_text
 
 SMALL_STUDY = """
 [base]

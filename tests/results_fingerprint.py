@@ -86,7 +86,7 @@ def machine() -> dict:
     import llvmlite
     import numba
     import scipy
-    from solver.kernel_cache import target_cpu
+    from solver.compile.kernel_cache import target_cpu
     name, features = target_cpu()
     facts = {"machine": platform.machine(), "numba_target": name,
              "numba_features": hashlib.sha256(features.encode()).hexdigest()[:12],

@@ -13,7 +13,7 @@ import xarray as xr
 
 import pipeline
 from pipeline import ResultsIOError, StudyError, StudyLocked
-from pipeline.lock import StudyLock
+from pipeline.store.lock import StudyLock
 from solver import Parameters, Settings, solve
 
 ROOT = Path(__file__).resolve().parents[1]

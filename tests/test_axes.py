@@ -3,8 +3,8 @@ double nearest its short decimal, whatever the last bits of the CPU's pow or exp
 import numpy as np
 import pytest
 
-from pipeline.case import coordinate_times, x_positions
-from pipeline.study import load_study_text
+from pipeline.study.case import coordinate_times, x_positions
+from pipeline.study.definition import load_study_text
 from solver import default_eps_Y
 from solver.axes import linear_axis, log_axis, round_significant
 

@@ -153,7 +153,7 @@ def test_a_large_grid_is_checked_where_the_checks_are_not_monotone(tmp_path, cap
     body_p: a body's mean height (so its stage) is least at an inner body_p (4.5 here, with
     L/R = 1.5). The combination V = 6000, body_p = 4.5 is refused at load, not by a worker (where
     the case would stay pending); each value alone with the base is fine."""
-    from pipeline import consistency
+    from pipeline.study import consistency
     monkeypatch.setattr(consistency, "MAX_COMBINATIONS", 2)
     text = "accept_extreme_values = true\n" + GOOD.replace("V = [3.0, 5.0]", "V = [5.0, 6000.0]\nbody_p = [1.0, 4.5, 10.0]") \
         .replace("Nmod = 4", "Nmod = 4\nK = 1e3\nhe = 1.0\nhi = 5.0\nR = 4.0")

@@ -1,4 +1,4 @@
-"""Issue 40: a study's workers as batch jobs (``--cluster slurm|pbs --jobs N``; pipeline/batch_system.py).
+"""Issue 40: a study's workers as batch jobs (``--cluster slurm|pbs --jobs N``; pipeline/compute/batch_system.py).
 
 Default suite: the walltime and lifetime arithmetic, the PBS job script as dask-jobqueue renders
 it, and every wrong or unreachable batch system refused in one line, exit 2, nothing written.
@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from helpers import JOBS_STUDY, ROOT, assert_same_study, listening_sockets, process_tree, run_cli
-from pipeline.ledger import Ledger
+from pipeline.store.ledger import Ledger
 
 pytest.importorskip("dask_jobqueue")
 
@@ -33,7 +33,7 @@ def _study(tmp_path, name="jobs", text=JOBS_STUDY):
 # --- default suite: arithmetic, rendering, refusals -------------------------------------------
 
 def test_walltimes_and_the_lifetime_below_them():
-    from pipeline.batch_system import lifetime_arguments, walltime_seconds
+    from pipeline.compute.batch_system import lifetime_arguments, walltime_seconds
     assert walltime_seconds("00:30:00") == 1800
     assert walltime_seconds("1-02:00:00") == 93600
     assert walltime_seconds("45") == 2700                 # minutes alone, as sbatch -t reads them
@@ -47,7 +47,7 @@ def test_walltimes_and_the_lifetime_below_them():
     assert lifetime_arguments("01:00:00") == ["--lifetime", "3060s", "--lifetime-stagger", "180s"]
     lifetime, stagger = (int(a[:-1]) for a in lifetime_arguments("00:30:00")[1::2])
     assert lifetime + stagger < 1800 * 0.95              # retired before the job is killed
-    from pipeline.errors import StudyError
+    from pipeline.common.errors import StudyError
     for bad, system in (("1h", "slurm"), ("", "slurm"), ("0:00", "slurm"), ("a:b", "slurm"), ("00:00:01", "slurm"),
                         ("0-0", "slurm"), ("1-02:00:00", "pbs"), ("9", "pbs"), ("0:09", "slurm")):
         with pytest.raises(StudyError, match="walltime"):
@@ -61,7 +61,7 @@ def test_the_pbs_job_script_as_dask_jobqueue_renders_it(tmp_path):
     import dask
     from distributed.security import Security
 
-    from pipeline.batch_system import job_script
+    from pipeline.compute.batch_system import job_script
     config = {"jobqueue.pbs.queue": "short", "jobqueue.pbs.account": "ice-lab",
               "jobqueue.pbs.walltime": "02:00:00", "jobqueue.pbs.memory": "4GB"}
     with dask.config.set(config):
@@ -85,7 +85,7 @@ def test_the_pbs_job_script_as_dask_jobqueue_renders_it(tmp_path):
 def test_the_slurm_job_script(tmp_path):
     import dask
 
-    from pipeline.batch_system import job_script
+    from pipeline.compute.batch_system import job_script
     with dask.config.set({"jobqueue.slurm.queue": "compute", "jobqueue.slurm.walltime": "00:30:00"}):
         script = job_script("slurm", tmp_path / "jobs")
     assert "#SBATCH -p compute" in script and "#SBATCH -t 00:30:00" in script
@@ -190,7 +190,7 @@ def test_a_submission_the_batch_system_refuses_is_one_line_and_leaves_no_credent
     assert "Traceback" not in err and "never retrieved" not in err and "submitted 2" not in err, err
     assert time.monotonic() - started < 60
     assert not (out / "jobs").exists() and not list(out.rglob(".dask-jobqueue*"))
-    from pipeline.lock import refuse_if_locked
+    from pipeline.store.lock import refuse_if_locked
     refuse_if_locked(out)                                 # released: the same command may run again
 
 
@@ -242,7 +242,8 @@ def test_importing_dask_jobqueue_leaves_the_runners_ctrl_c_alone(monkeypatch):
     exit 0 and no message. The runner's handler must survive the import."""
     import signal
 
-    from pipeline import batch_system, interrupts
+    from pipeline.compute import batch_system
+    from pipeline.common import interrupts
     for name in [m for m in sys.modules if m.split(".")[0] == "dask_jobqueue"]:
         monkeypatch.delitem(sys.modules, name)                  # imported afresh, restored after
     previous = signal.signal(signal.SIGINT, interrupts._on_sigint)
@@ -316,7 +317,7 @@ def _wait_for_entries(out: Path, n: int, proc, timeout=180):
 
 def _assert_each_case_once(study_file, out):
     """The ledger records every case of the study exactly once (nothing lost, nothing twice)."""
-    from pipeline.study_files import load_study
+    from pipeline.study.study_files import load_study
     study = load_study(study_file)
     recorded = [row[0] for entry in Ledger.load(out).entries for row in entry["cases"]]
     assert sorted(recorded) == sorted(study.run_ids)

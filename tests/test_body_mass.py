@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.study import load_study_text
+from pipeline.study.definition import load_study_text
 from solver import ParameterError, Parameters, Settings, solve
 from solver import layout as kn
 from solver.control import BOTTOM_GAP, make_control

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from pipeline.study import load_study_text
+from pipeline.study.definition import load_study_text
 from solver import Parameters, Settings, solve
 from solver.model.assemble import Tables
 from solver.model.body import body_extent, body_profile, body_slope_curvature

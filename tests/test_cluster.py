@@ -148,8 +148,8 @@ def test_a_dask_worker_killed_mid_batch_loses_nothing(dask_processes, tmp_path):
     """Issue 40: kill -9 one `dask worker` (its nanny and its process) while it runs a batch: the
     scheduler gives the batch to the other worker, the study completes, the ledger records every
     case once, and study.nc equals a local run's bit for bit."""
-    from pipeline.ledger import Ledger
-    from pipeline.study_files import load_study
+    from pipeline.store.ledger import Ledger
+    from pipeline.study.study_files import load_study
     address, procs = dask_processes
     study_file = tmp_path / "killed.toml"
     study_file.write_text(JOBS_STUDY)

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import pipeline
-from pipeline.design import design_points, unit_points
-from pipeline.ledger import Ledger
-from pipeline.study import load_study_text
+from pipeline.study.design import design_points, unit_points
+from pipeline.store.ledger import Ledger
+from pipeline.study.definition import load_study_text
 from helpers import kill_runner_then_resume, run_cli as command
 
 BASE = """

@@ -152,7 +152,7 @@ def test_ctrl_c_while_the_kernels_compile(study_file, tmp_path, delay):
 #: SIGINT lands in the swallowing code
 SWALLOWING = """
 import runpy, sys, time
-from pipeline import interrupts
+from pipeline.common import interrupts
 interrupts.install()
 try:
     print("ready", flush=True)
@@ -182,7 +182,7 @@ def test_a_ctrl_c_that_a_library_swallowed_still_stops_the_run(study_file, tmp_p
 def test_the_compile_notice_shows_only_when_the_kernels_compile(capsys, monkeypatch):
     """'compiling them ... about 25 s' is printed when the kernels take longer than
     COMPILE_NOTICE to load (a compile), not on every run (from the cache they load in 1.5 s)."""
-    from pipeline import engine
+    from pipeline.compute import engine
     monkeypatch.setattr(engine, "COMPILE_NOTICE", 0.5)
     for seconds, shown in ((0.0, False), (1.5, True)):
         child = subprocess.Popen([sys.executable, "-c", f"import time; time.sleep({seconds})"],
@@ -199,7 +199,8 @@ def test_a_ctrl_c_while_the_cluster_starts_is_raised_once_it_is_up(monkeypatch):
     cluster is closed."""
     import threading
 
-    from pipeline import engine, interrupts
+    from pipeline.compute import engine
+    from pipeline.common import interrupts
     closed = []
 
     class Cluster:
@@ -235,7 +236,8 @@ def test_spawned_workers_ignore_a_ctrl_c_during_the_cluster_start(monkeypatch, c
     cluster is up; the workers, started through a launcher that ignores SIGINT, are not killed
     half-way (their tracebacks on the runner's stderr). It was lost: the runner ignored SIGINT
     meanwhile, so that the workers inherited it ignored."""
-    from pipeline import engine, forkserver, interrupts
+    from pipeline.compute import engine, forkserver
+    from pipeline.common import interrupts
     sent = {}
 
     class Cluster(engine.LocalCluster):

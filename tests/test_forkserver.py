@@ -1,13 +1,13 @@
 """Local workers are forked from a forkserver that imported their modules and loaded the
-kernels (pipeline.forkserver): they start with what a spawned worker imports and loads (about
+kernels (pipeline.compute.forkserver): they start with what a spawned worker imports and loads (about
 1.5 s of CPU each), keep the one-thread environment, ignore Ctrl-C, and never run code older
 than the tree."""
 import os
 
 import pytest
 
-from pipeline import forkserver
-from pipeline.engine import cluster_client
+from pipeline.compute import forkserver
+from pipeline.compute.engine import cluster_client
 
 pytestmark = pytest.mark.skipif(forkserver.METHOD != "forkserver", reason="no forkserver on this platform")
 
@@ -17,7 +17,7 @@ def _worker_facts():
 
     import numba
 
-    from pipeline.engine import kernels_loaded
+    from pipeline.compute.engine import kernels_loaded
     return {"parent": os.getppid(), "omp": os.environ.get("OMP_NUM_THREADS"),
             "numba_threads": numba.config.NUMBA_NUM_THREADS, "kernels": kernels_loaded(),
             "sigint_ignored": signal.getsignal(signal.SIGINT) == signal.SIG_IGN}
@@ -39,7 +39,7 @@ def test_workers_share_one_forkserver_with_one_thread_each_and_ignore_ctrl_c():
 def test_an_edit_of_the_source_starts_a_new_forkserver(monkeypatch):
     """Its workers would otherwise run the code the forkserver imported before the edit."""
     before = _facts()[0]["parent"]
-    from solver import kernel_cache
+    from solver.compile import kernel_cache
     digest = kernel_cache.source_digest
     monkeypatch.setattr(kernel_cache, "source_digest", lambda *a: "edited" + digest(*a))
     after = _facts()[0]["parent"]
@@ -53,7 +53,7 @@ def test_a_stale_forkserver_that_cannot_be_stopped_gives_spawned_workers(monkeyp
     older than the tree is not used: the workers are spawned and import the tree's code."""
     from multiprocessing import forkserver as mp_forkserver
 
-    from solver import kernel_cache
+    from solver.compile import kernel_cache
     running = _facts()[0]["parent"]
     monkeypatch.delattr(type(mp_forkserver._forkserver), "_stop")
     digest = kernel_cache.source_digest

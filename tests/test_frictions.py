@@ -16,7 +16,7 @@ import pipeline  # noqa: E402
 from pipeline import figures  # noqa: E402
 from pipeline.figures import common, sweeps  # noqa: E402
 from pipeline.show import choose_case, show  # noqa: E402
-from pipeline.study import load_study_text  # noqa: E402
+from pipeline.study.definition import load_study_text  # noqa: E402
 from helpers import figure_axes as _axes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from pipeline.ledger import LEDGER
+from pipeline.store.ledger import LEDGER
 from helpers import ROOT, SMALL_GRID_STUDY as STUDY, assert_same_study, batch_files, run_cli
 
 @pytest.fixture(scope="module")
@@ -212,7 +212,7 @@ def test_a_server_that_speaks_first_but_not_dask_is_one_line_and_nothing_written
 def test_a_dask_scheduler_with_no_worker_is_said_and_ends_in_one_line(study_file, tmp_path, monkeypatch):
     """A scheduler that has no worker: the run printed nothing after 'kernels ready', for ever.
     It now says so, then stops with one line after NO_WORKER_LIMIT (here shortened)."""
-    from pipeline import engine
+    from pipeline.compute import engine
     monkeypatch.setattr(engine, "NO_WORKER_NOTICE", 0.5)
     monkeypatch.setattr(engine, "NO_WORKER_LIMIT", 3.0)
     with socket.socket() as s:
@@ -307,7 +307,7 @@ def test_results_directory_removed_mid_run_stops_the_runner(tmp_path):
 #: after the runner last looked: the race of make clean with a batch coming back
 _REMOVED_BEFORE_APPEND = r"""
 import runpy, shutil, sys
-import pipeline.ledger as L
+import pipeline.store.ledger as L
 original = L.Ledger.append
 def append(self, entry):
     while self.path.parent.exists():     # as rm -rf run again: a worker may add a batch file meanwhile
@@ -341,7 +341,7 @@ def _last_line_of_a_patched_run(script: str, study_file, out) -> str:
 #: reached the file (a torn write)
 _TORN_LEDGER = r"""
 import errno, os, runpy, sys
-import pipeline.ledger as L
+import pipeline.store.ledger as L
 real_write = os.write
 def torn(fd, data):
     real_write(fd, bytes(data)[: len(data) // 2])
@@ -360,7 +360,7 @@ runpy.run_module("pipeline", run_name="__main__")
 
 
 def test_disk_full_at_the_ledger_is_exit_74_one_line_and_no_torn_line(study_file, finished, tmp_path):
-    from pipeline.ledger import Ledger
+    from pipeline.store.ledger import Ledger
     out = tmp_path / "full_ledger"
     last = _last_line_of_a_patched_run(_TORN_LEDGER, study_file, out)
     assert last.startswith(f"error: cannot write {out / LEDGER}") and "MiB free" in last, last

@@ -1,4 +1,4 @@
-"""How the kernels compile (solver/jit.py): a kernel called from another kernel is compiled for
+"""How the kernels compile (solver/compile/jit.py): a kernel called from another kernel is compiled for
 linking only (no machine code; its IR cached for linking), the entry point Python calls is
 optimised and cached whole, and a warm process compiles nothing."""
 import os
@@ -9,14 +9,14 @@ import textwrap
 from pathlib import Path
 
 import solver
-from solver.jit import Kernel, LinkOnlyLibrary
+from solver.compile.jit import Kernel, LinkOnlyLibrary
 
 ROOT = Path(__file__).resolve().parents[1]
 
 #: a kernel tree of three levels, and a probe that reports how each level was compiled
 TREE = textwrap.dedent("""
     import numpy as np
-    from solver.jit import kernel
+    from solver.compile.jit import kernel
 
     @kernel
     def leaf(x, out):
@@ -74,9 +74,9 @@ def test_callees_compile_for_linking_only_and_a_warm_process_compiles_nothing(tm
     never got a Python-callable dispatcher. Second process: the entry point comes from the cache
     and no callee is compiled at all (the cached entry point carries their code). Third process,
     the entry point's own cache entry removed: the link-only libraries are cached as IR
-    (solver.jit.LinkCache), so it types none of its callees, it loads and links them, and
+    (solver.compile.jit.LinkCache), so it types none of its callees, it loads and links them, and
     computes the same value (so a second process can compile part of a tree:
-    solver/parallel_compile.py)."""
+    solver/compile/parallel_compile.py)."""
     (tmp_path / "tree.py").write_text(TREE)
     expected = 2.0 * (1.5 * (1 + 2 + 3 + 4) + 1.0)
     cold = _probe(tmp_path)
@@ -115,7 +115,7 @@ def test_a_kernel_called_from_python_gets_numbas_own_dispatcher():
 
 
 def test_an_unknown_inline_mode_is_refused_by_name():
-    from solver.jit import kernel
+    from solver.compile.jit import kernel
     try:
         kernel(inline="sometimes")(lambda x: x)
     except ValueError as error:
@@ -127,7 +127,7 @@ def test_an_unknown_inline_mode_is_refused_by_name():
 def test_this_numba_has_what_a_link_only_library_needs():
     """Where numba lacks an internal the link-only library uses, kernels fall back to numba's
     plain dispatcher; on the numba the project installs they must not."""
-    from solver import jit
+    from solver.compile import jit
     assert jit.LINK_ONLY
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.study import load_study_text
+from pipeline.study.definition import load_study_text
 from solver import ParameterError, Parameters, Settings, solve
 from helpers import run_cli
 

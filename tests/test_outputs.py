@@ -52,8 +52,8 @@ def test_the_series_and_record_layouts_are_their_tables():
     """S_<slot> and R_<slot> are the rows of solver.outputs.SERIES and TENSION_RECORD; every
     series a Result carries is a row, and the study's and a case's variables take their names
     and units from there."""
-    from pipeline.dataset import ENERGY_INFO
-    from pipeline.tables import BODY_SERIES_INFO, SERIES_INFO, TENSION_RECORD_INFO
+    from pipeline.store.dataset import ENERGY_INFO
+    from pipeline.common.tables import BODY_SERIES_INFO, SERIES_INFO, TENSION_RECORD_INFO
     from solver.outputs import SERIES, TENSION_RECORD
     for index, row in enumerate(SERIES):
         assert getattr(kn, f"S_{row.slot}") == index and row.units and row.long_name

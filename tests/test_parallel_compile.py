@@ -1,4 +1,4 @@
-"""The first compile on two cores (solver/parallel_compile.py): the helper compiles exactly the
+"""The first compile on two cores (solver/compile/parallel_compile.py): the helper compiles exactly the
 subtrees integrate calls, one process compiles each function, and the helper never outlives
 the process that started it."""
 import os
@@ -13,8 +13,9 @@ from numba import typeof
 from numba.core.caching import NullCache
 
 import solver
-from solver import loop, parallel_compile
-from solver.parallel_compile import Claims
+from solver import loop
+from solver.compile import parallel_compile
+from solver.compile.parallel_compile import Claims
 
 from helpers import children
 
@@ -137,7 +138,7 @@ def test_the_helper_ends_with_the_process_that_started_it(tmp_path, how):
     to it alone), the compile's process takes its helper with it. (The helper's end is what is
     asserted after a Ctrl-C, not the first process's: once in a full suite on a fresh clone, that
     process had not exited 10 s after its Ctrl-C; a run's compile process is killed by the
-    runner, pipeline/engine.py.)"""
+    runner, pipeline/compute/engine.py.)"""
     env = dict(os.environ, FLOE_IMPACT_KERNEL_CACHE=str(tmp_path / "kernels"))
     env.pop(parallel_compile.ENABLE, None)
     proc = subprocess.Popen([sys.executable, "-c", "import solver; solver.compile_kernels()"], env=env,
@@ -167,7 +168,7 @@ def test_a_run_compiles_in_one_process_when_asked(monkeypatch):
     monkeypatch.setattr(parallel_compile.subprocess, "Popen", lambda *a, **k: started.append(a))
     with parallel_compile.helper():
         pass
-    assert started == [] and solver.jit.claims is None
+    assert started == [] and solver.compile.jit.claims is None
 
 
 def test_the_interrupt_handler_is_the_one_before_after_the_compile():

@@ -1,6 +1,6 @@
 """Sobol' indices from a polynomial-chaos surrogate through a study's own path (issue 39):
-``[analysis] method = "pce"`` on a space-filling design (pipeline.design's samplers,
-pipeline.sensitivity.analyze on a study.nc-like dataset), on functions whose indices are known;
+``[analysis] method = "pce"`` on a space-filling design (pipeline.study.design's samplers,
+pipeline.analyse.sensitivity.analyze on a study.nc-like dataset), on functions whose indices are known;
 an output the expansion cannot predict refused alone; the emulator; the design extending and
 resuming; bad tables in one line."""
 import json
@@ -14,10 +14,10 @@ import xarray as xr
 pytest.importorskip("openturns")
 
 import pipeline  # noqa: E402
-from pipeline.design import design_points  # noqa: E402
-from pipeline.emulator import Emulator, EmulatorError  # noqa: E402
-from pipeline.sensitivity import analyze  # noqa: E402
-from pipeline.study import load_study_text  # noqa: E402
+from pipeline.study.design import design_points  # noqa: E402
+from pipeline.analyse.emulator import Emulator, EmulatorError  # noqa: E402
+from pipeline.analyse.sensitivity import analyze  # noqa: E402
+from pipeline.study.definition import load_study_text  # noqa: E402
 
 PI = math.pi
 A, B = 7.0, 0.1

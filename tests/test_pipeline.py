@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.study_files import find_study, load_study
+from pipeline.study.study_files import find_study, load_study
 from helpers import ROOT, assert_same_study, batch_files, run_cli
 from reference import REFERENCE, SPREAD, SPREAD_FACTOR, assert_matches_reference, within_spread
 
@@ -28,7 +28,7 @@ def test_run_study_from_python_is_the_command_line_run(regression_run, tmp_path)
     (every variable but the wall times bit for bit), and returns the exit status."""
     out = tmp_path / "from_python"
     code = ("from pipeline.run import RunOptions, run_study\n"
-            "from pipeline.study_files import find_study, load_study\n"
+            "from pipeline.study.study_files import find_study, load_study\n"
             "import sys\n"
             f"sys.exit(run_study(load_study(find_study('regression_small')), {str(out)!r}, "
             "RunOptions(workers=2, no_plots=True)))")
@@ -118,8 +118,8 @@ def test_combined_file_is_labelled_and_carries_provenance(regression_run):
 
 def test_a_study_that_differs_only_in_eps_Y_computes_nothing(regression_run, tmp_path):
     """eps_Y is not part of a case's identity: another list reuses every case file, and the new
-    study.nc holds crack onset along it, equal to pipeline.fracture.crack_onset on the records."""
-    from pipeline.fracture import crack_onset
+    study.nc holds crack onset along it, equal to pipeline.store.fracture.crack_onset on the records."""
+    from pipeline.store.fracture import crack_onset
     out = tmp_path / "other_eps"
     shutil.copytree(regression_run, out)
     text = (ROOT / "studies" / "regression_small.toml").read_text()
@@ -262,8 +262,8 @@ def test_case_ids_are_stable_and_change_with_settings(tmp_path):
 def test_a_results_revision_recomputes_only_its_rules_cases(monkeypatch, rule):
     """solver.revision.RESULTS_REVISION enters the id of a case by its rule: when one rule's
     results change at the same settings its stored cases are recomputed, the other's are kept."""
-    import pipeline.identity as identity
-    import pipeline.study as study_module
+    import pipeline.study.identity as identity
+    import pipeline.study.definition as study_module
     text = (ROOT / "studies" / "regression_small.toml").read_text()
     texts = {r: text.replace("[solver]", f'[solver]\nquadrature = "{r}"', 1) for r in ("gauss", "paper")}
     assert all(t != text for t in texts.values())
@@ -279,8 +279,8 @@ def test_a_results_revision_recomputes_only_its_rules_cases(monkeypatch, rule):
 def test_the_floes_results_revision_recomputes_only_the_floes_cases(monkeypatch):
     """RESULTS_REVISION["floe"] enters the id of a free floe's case (beside its rule's), and of
     no other: walls and floe in one grid, and the grid's fast ids are the cases' own."""
-    import pipeline.identity as identity
-    import pipeline.study as study_module
+    import pipeline.study.identity as identity
+    import pipeline.study.definition as study_module
     text = ('[base]\nNmod = 4\nduration = 0.01\n[grid]\nedges = ["walls", "free"]\nV = [2.0, 3.0]\n'
             '[output]\ntimes = { unit = "stage", count = 3 }\n')
     before = study_module.load_study_text(text, "s").case_ids
@@ -331,9 +331,9 @@ def test_a_run_starts_no_more_workers_than_it_has_work_for(tmp_path):
 def test_workers_are_warm_before_the_first_case(monkeypatch):
     """Every local worker has the kernels loaded before any case runs, so run_time is solver
     time (issue 9: the first case on each worker used to carry numba's cache load): forked from
-    the forkserver that loaded them (pipeline.forkserver), or, spawned, by warm_workers."""
-    from pipeline import forkserver
-    from pipeline.engine import cluster_client, kernels_loaded, warm_workers
+    the forkserver that loaded them (pipeline.compute.forkserver), or, spawned, by warm_workers."""
+    from pipeline.compute import forkserver
+    from pipeline.compute.engine import cluster_client, kernels_loaded, warm_workers
     from solver import compile_kernels
     compile_kernels()
     with cluster_client(2, None) as client:

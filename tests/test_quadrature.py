@@ -213,7 +213,7 @@ def test_the_quadrature_is_part_of_a_case_id():
     """A Gauss run is another case; the paper's keeps the id it had before the setting existed
     (a study that names the paper's rule, its 1000 subintervals and tolerance 1e-8, the defaults
     before issue 24, finds its finished cases)."""
-    from pipeline.identity import case_id, used_settings
+    from pipeline.study.identity import case_id, used_settings
     p = Parameters()
     output = {"times": [0.5], "fields": [], "x_points": 11, "end": "stage"}
     paper = Settings(quadrature="paper")

@@ -31,7 +31,7 @@ def test_the_python_snippet_runs(tmp_path, monkeypatch):
 
 
 def test_the_study_file_snippet_is_a_valid_study():
-    from pipeline.study import load_study_text
+    from pipeline.study.definition import load_study_text
     study = load_study_text(blocks("toml")[0], "readme")
     assert study.dims == ["V", "hi"] and study.n_cases == 24
 

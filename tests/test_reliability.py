@@ -18,7 +18,7 @@ def _snapshot(directory):
 def _hold_lock(out):
     """Another process that holds the study's lock (it says so before returning)."""
     holder = subprocess.Popen([sys.executable, "-c", "import sys, time\n"
-                               "from pipeline.lock import StudyLock\n"
+                               "from pipeline.store.lock import StudyLock\n"
                                "StudyLock(sys.argv[1]).__enter__(); print('held', flush=True); time.sleep(120)",
                                str(out)], cwd=ROOT, stdout=subprocess.PIPE, text=True)
     assert holder.stdout.readline().strip() == "held"

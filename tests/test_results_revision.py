@@ -1,5 +1,5 @@
 """A change of results comes with a revision bump (solver/revision.py), and the compiled kernels
-follow the source they came from (solver/kernel_cache.py)."""
+follow the source they came from (solver/compile/kernel_cache.py)."""
 import os
 import shutil
 import subprocess
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import results_fingerprint as fp
-from solver import kernel_cache
+from solver.compile import kernel_cache
 from solver.revision import RESULTS_REVISION
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -95,7 +95,7 @@ def test_the_cache_key_follows_every_source_file_and_the_target(tmp_path):
     (copy / "observe" / "new_piece.py").write_text("X = 1\n")
     assert kernel_cache.cache_key(copy) not in (key, edited)
     # (its own cache root: importing solver makes the key's directory and prunes the root)
-    generic = _run(ROOT, "from solver import kernel_cache; print(kernel_cache.cache_key())",
+    generic = _run(ROOT, "from solver.compile import kernel_cache; print(kernel_cache.cache_key())",
                    {"NUMBA_CPU_NAME": "generic", "FLOE_IMPACT_KERNEL_CACHE": str(tmp_path / "cache")})
     assert generic.startswith("generic-") and generic != key
 
@@ -115,9 +115,9 @@ def test_old_keys_are_pruned_to_the_most_recently_used(tmp_path, monkeypatch):
 def test_a_dask_worker_compiles_into_the_same_directory():
     """Workers are processes of their own: they import the same source, so the same key and
     directory (the runner fills it, the workers load it)."""
-    from pipeline.engine import cluster_client
+    from pipeline.compute.engine import cluster_client
     with cluster_client(1, None) as client:
-        seen = client.run(lambda: str(__import__("solver").kernel_cache.SolverCacheLocator.directory))
+        seen = client.run(lambda: str(__import__("solver")._kernel_cache.SolverCacheLocator.directory))
     assert set(seen.values()) == {str(kernel_cache.SolverCacheLocator.directory)}
 
 
@@ -139,7 +139,7 @@ def test_the_cache_is_complete_only_with_every_index_compile_kernels_listed(tmp_
 
 
 def test_a_run_starts_no_compile_process_when_the_cache_is_complete(monkeypatch, capsys):
-    from pipeline import engine
+    from pipeline.compute import engine
     monkeypatch.setattr(kernel_cache, "is_complete", lambda: True)
     monkeypatch.setattr(engine.subprocess, "Popen", lambda *a, **k: pytest.fail("a compile process started"))
     handle = engine.start_kernels()

@@ -16,9 +16,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from pipeline.casefile import batch_dataset, case_arrays, read_batch, write_batch
-from pipeline.ledger import LEDGER, Ledger
-from pipeline.study_files import load_study
+from pipeline.store.casefile import batch_dataset, case_arrays, read_batch, write_batch
+from pipeline.store.ledger import LEDGER, Ledger
+from pipeline.study.study_files import load_study
 from helpers import ROOT, assert_same_study, batch_files, run_cli, write_fake_batches
 
 #: 24 small cases (8 modes, a window of 0.6 t_sc): several cases per batch at --batch-seconds 0.5
@@ -107,7 +107,7 @@ def test_a_ledger_that_disagrees_with_the_files_is_repaired(study_file, finished
         (out / "study.nc").unlink()                   # so that the run combines again
     elif damage == "stale_entries":
         entry = json.loads(lines[0].rsplit(" ", 1)[0])
-        from pipeline.ledger import _line
+        from pipeline.store.ledger import _line
         stale = {**entry, "file": "0" * 32 + ".nc", "cases": [["feedfacefeedface", "ok", "", 0.1]]}
         ledger_path.write_text("".join(lines) + lines[0] + _line(stale))      # a duplicate and a stray
     elif damage == "damaged_ledger_line":
@@ -201,8 +201,8 @@ def test_combine_memory_does_not_grow_with_the_study(tmp_path, monkeypatch):
     """Peak memory of the combine (numpy and Python allocations, tracemalloc) for 220 and 2000
     cases: the larger study holds 9x the data and needs less than 1.5x the memory. (The write
     buffer is set to 1 MiB here, below both studies' data, as 16 MiB is below a real study's.)"""
-    from pipeline import combine
-    from pipeline.combine import write_study
+    from pipeline.store import combine
+    from pipeline.store.combine import write_study
     monkeypatch.setattr(combine, "FLUSH_BYTES", 2**20)
     peaks, sizes = {}, {}
     for n_V in (10, 11, 100):                         # the first combine also warms up imports
@@ -230,8 +230,8 @@ def test_ragged_records_are_in_grid_order_whatever_order_the_batches_arrive(tmp_
     are read as a CF contiguous ragged array reader does, each case's starting where the
     counts before it end, and equal those of a combine in grid order; the stored starts are
     those cumulative counts."""
-    from pipeline import combine
-    from pipeline.combine import write_study
+    from pipeline.store import combine
+    from pipeline.store.combine import write_study
     monkeypatch.setattr(combine, "FLUSH_BYTES", 2**19)      # a flush every 2 batch files
     monkeypatch.setattr(combine, "RECORD_CHUNK", 4000)      # the move in several chunks
     study, out, ledger = _fake_study(tmp_path, 4, per_batch=7)

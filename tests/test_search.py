@@ -13,8 +13,8 @@ import pytest
 import xarray as xr
 
 import pipeline
-from pipeline.search import runs_per_search
-from pipeline.study import load_study_text
+from pipeline.study.search import runs_per_search
+from pipeline.study.definition import load_study_text
 from helpers import ROOT, SEARCH_STUDY as STUDY, run_cli as command
 
 
@@ -109,7 +109,7 @@ def test_a_damaged_search_nc_is_one_line_and_the_same_command_rebuilds_it(search
     assert f"{target} does not match the checksum" in err and "Traceback" not in err
     code, _, err = command("run", base / "s.toml", "--out", out)
     assert code == 0 and "(0 to run)" in err, err
-    from pipeline.sealed import open_sealed
+    from pipeline.store.sealed import open_sealed
     with open_sealed(target) as again:
         np.testing.assert_array_equal(again["critical_V"].values, ds["critical_V"].values)
 
@@ -136,7 +136,7 @@ def test_a_killed_search_resumes_where_it_stopped(searched, tmp_path):
     with xr.open_dataset(out / "search.nc") as again:
         for name in ("critical_V", "critical_V_lower", "critical_V_upper", "solves"):
             np.testing.assert_array_equal(again[name].values, ds[name].values)
-    from pipeline.ledger import Ledger
+    from pipeline.store.ledger import Ledger
     assert len(Ledger.load(out / "evaluations").index()) == int(ds["solves"].sum())
 
 

@@ -1,5 +1,5 @@
 """Global sensitivity (issue 23): Sobol' indices and Morris effects through the code path a study
-uses (pipeline.design's samplers, pipeline.analysis.analyze on a study.nc-like dataset), first
+uses (pipeline.study.design's samplers, pipeline.study.analysis.analyze on a study.nc-like dataset), first
 on functions whose indices are known, then on the solver end to end; bad [analysis] tables get
 one line."""
 import math
@@ -11,9 +11,9 @@ import xarray as xr
 pytest.importorskip("SALib")
 
 import pipeline  # noqa: E402
-from pipeline.sensitivity import analyze  # noqa: E402
-from pipeline.design import design_points  # noqa: E402
-from pipeline.study import load_study_text  # noqa: E402
+from pipeline.analyse.sensitivity import analyze  # noqa: E402
+from pipeline.study.design import design_points  # noqa: E402
+from pipeline.study.definition import load_study_text  # noqa: E402
 
 PI = math.pi
 #: the Ishigami function's indices (a = 7, b = 0.1), from its closed-form variances
@@ -100,7 +100,7 @@ def test_a_seed_of_0_gives_the_same_intervals_every_run():
 def test_indices_outside_the_unit_interval_are_flagged(seed):
     """One base sample gives S1 = -3.04 or 5.42 with intervals of width 0 (the issue's S1 = 1.34):
     flagged, and the runner warns; Ishigami's indices at 1024 samples are not."""
-    from pipeline.sensitivity import doubtful_outputs
+    from pipeline.analyse.sensitivity import doubtful_outputs
     analysis = {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
                 "resamples": 100, "seed": seed}
     keys = {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}

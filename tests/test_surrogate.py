@@ -1,4 +1,4 @@
-"""The polynomial-chaos surrogate and its Sobol' indices (pipeline/surrogate.py; issue 39): the
+"""The polynomial-chaos surrogate and its Sobol' indices (pipeline/analyse/surrogate.py; issue 39): the
 indices within their intervals of exact values, on the Ishigami function and on a kinked one;
 refused where the expansion does not predict; the emulator refuses points outside its box."""
 import math
@@ -10,7 +10,7 @@ pytest.importorskip("openturns")
 
 from scipy.stats import qmc  # noqa: E402
 
-from pipeline.surrogate import SurrogateError, fit, indices  # noqa: E402
+from pipeline.analyse.surrogate import SurrogateError, fit, indices  # noqa: E402
 
 
 def _design(n, d, low, high, seed=3):
@@ -76,7 +76,7 @@ def test_the_emulator_predicts_within_its_error_estimate_and_refuses_points_outs
 def test_a_stored_expansion_evaluates_with_numpy_alone_as_openturns_does():
     """The emulator's path (the multi-indices and coefficients, orthonormal Legendre by recurrence)
     against OpenTURNS' own metamodel, at points it never saw: to 1e-12 of the output's scale."""
-    from pipeline.surrogate import _unit, evaluate
+    from pipeline.analyse.surrogate import _unit, evaluate
     X = _design(64, 3, -math.pi, math.pi)
     y = np.sin(X[:, 0]) + 7.0 * np.sin(X[:, 1]) ** 2 + 0.1 * X[:, 2] ** 4 * np.sin(X[:, 0])
     bounds = np.array([[-math.pi, math.pi]] * 3)

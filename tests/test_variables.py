@@ -2,7 +2,7 @@
 and every variable is labelled the CF way."""
 import xarray as xr
 
-from pipeline.variables import generate, parameter_table, table
+from pipeline.common.variables import generate, parameter_table, table
 from helpers import ROOT
 
 

@@ -1,13 +1,13 @@
 """Kernels the tests call from Python, compiled by ``python tests/warm_kernels.py`` while the
 controller compiles integrate (tests/conftest.py): each is compiled whole on its first call from
-Python (solver/jit.py), and a test that makes the first call waits for it. The calls here take
+Python (solver/compile/jit.py), and a test that makes the first call waits for it. The calls here take
 the argument types the tests use; a kernel a test calls with other types is compiled in that
 test, as before."""
 import numpy as np
 
 from solver import Parameters, Settings, solve
 from solver.model.assemble import Tables
-from solver.parallel_compile import claiming
+from solver.compile.parallel_compile import claiming
 from solver.model.layer import layer_energy, layer_forcing_at, layer_forcing_strain, rule_energy
 
 

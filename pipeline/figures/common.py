@@ -14,7 +14,7 @@ import xarray as xr  # noqa: E402
 
 from solver import PAPER_EPS_Y, PARAMETER_INFO, SETTING_INFO  # noqa: E402
 
-from ..casefile import temporary_path  # noqa: E402
+from ..store.casefile import temporary_path  # noqa: E402
 
 
 #: Okabe-Ito colours (distinct in grey print and for colour-blind readers), then markers, one per line

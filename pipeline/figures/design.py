@@ -12,8 +12,8 @@ import matplotlib.ticker
 import numpy as np
 import xarray as xr
 
-from ..sealed import is_intact
-from ..tables import COMPLETE
+from ..store.sealed import is_intact
+from ..common.tables import COMPLETE
 from .common import log_spaced, save, tick_label, auto_log_y, paper_eps_Y, design_axis, plt
 
 #: what the design figure colours its points by, and the panel of each against each key

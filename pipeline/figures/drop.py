@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from ..tables import COMPLETE
+from ..common.tables import COMPLETE
 from .common import line_styles, save, key_label, auto_log_y, paper_eps_Y, sweep_line, plt
 
 

@@ -13,8 +13,8 @@ import xarray as xr
 
 from solver import PAPER_EPS_Y
 
-from ..analysis import CRACK_OUTPUTS
-from ..tables import COMPLETE
+from ..study.analysis import CRACK_OUTPUTS
+from ..common.tables import COMPLETE
 from .common import (line_styles, log_spaced, save, tick_label, key_label, case_keys, case_labels,
                      spaced_labels, auto_log_y, yield_line, paper_eps_Y, walled, at_wall, margin, sweep_line,
                      plt)

@@ -26,7 +26,7 @@ from collections import namedtuple
 import numpy as np
 
 from .floe import TABLE_STRAIN, floe_dry, floe_dry_sums, floe_plane, floe_sums
-from ..jit import kernel
+from ..compile.jit import kernel
 
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
 #: the hat weights dx sinc^2(lambda_n dx / 2) [m], mirror (2: the symmetric half plate, whose

@@ -18,7 +18,7 @@ M (U^2 - V^2)/2 - M g_b s + W = 0 (``body_residual``, the free body's energy bal
 import math
 from collections import namedtuple
 
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import B_D, B_U
 
 #: the body: V [m s-1], inv_mass = 1/M [m kg-1] (0: the paper's body at constant speed), g = g_b

@@ -18,9 +18,10 @@ step; the contact observer on the bounded nodes equals the observer on every nod
 """
 import numpy as np
 
-from .basis import NEWTON_STOP, _newton_move, argmax_node, continuous_peak, field_sum, field_sums, modal_sum_range, refine
+from .basis import (NEWTON_STOP, _newton_move, argmax_node, continuous_peak, field_sum, field_sums,
+                    modal_sum_range, refine)
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
-from ..jit import kernel
+from ..compile.jit import kernel
 from .plate import ONES
 
 #: modes taken exactly in contact_bound's node-by-node bound on the deflection

@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
+from ..compile.jit import kernel
 
 #: A floe's Basis.floe is one 1-D array (fewer arrays in the Basis tuple: numba counts a reference
 #: to each at every call that takes it): the four tables TABLE_* (N, J) one after the other, the

@@ -8,7 +8,7 @@ evaluate the law here.
 """
 import math
 
-from ..jit import kernel
+from ..compile.jit import kernel
 
 
 @kernel

@@ -33,7 +33,7 @@ import numpy as np
 from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, node_strain
 from .floe import TABLE_HAT, floe_plane, floe_segment
 from .contact import contact_bound
-from ..jit import kernel
+from ..compile.jit import kernel
 from .law import law_energy, law_pressure
 from .quadrature import gauss_energy, gauss_reaction
 from .plate import COEF, STRAIN

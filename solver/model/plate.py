@@ -20,7 +20,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..jit import kernel
+from ..compile.jit import kernel
 
 #: the plate: modes (8, N), its per-mode constants over the kernel's modes n in the rows below,
 #: and lm_floor, L M of the first symmetric mode (the floor of the error norm) [kg m-1]. One

@@ -46,7 +46,7 @@ import numpy as np
 from .basis import modal_projection, modal_sum_range
 from .body import body_corners, body_profile, body_slope_curvature
 from .floe import dry_table, floe_dry, floe_dry_sums, floe_wet
-from ..jit import kernel
+from ..compile.jit import kernel
 from .law import law_energy, law_pressure
 
 #: Gauss-Legendre nodes in a panel of the rule

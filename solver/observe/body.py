@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ..cubic import cubic, cubic_sign_changes, hermite
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import D_MAX_PENETRATION, D_SEPARATION_SPEED, D_SEPARATION_T, D_STOP_T
 from ..model.body import body_accel, body_position, body_speed
 

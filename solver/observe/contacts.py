@@ -19,7 +19,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..cubic import cubic, cubic_sign_changes, hermite
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..model.basis import modal_sum_range, refine
 from ..model.body import body_position, body_speed
 from ..model.contact import count_contacts, node_deltas, reach_in_step

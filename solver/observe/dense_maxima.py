@@ -27,7 +27,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_ZONE_UPPER, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import dry_newton_peak
 from ..model.floe import floe_dry, floe_dry_sums

@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..model.basis import global_peak, node_strain
 from ..model.body import body_position, body_speed
 from ..model.contact import gap_peak

@@ -28,7 +28,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..arrays import copy_into
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_FORCE, D_MAX_FORCE_T
 from ..model.body import body_position, body_speed
 from ..model.contact import gap_peak

@@ -18,7 +18,7 @@ DOP853, whose samples resolve the front (a 6 m floe's reach, 0.5716 m, to 2e-9 m
 import math
 
 from ..cubic import hermite
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import B_D, B_U
 from ..model.contact import node_deltas
 

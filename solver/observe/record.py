@@ -2,7 +2,7 @@
 import numpy as np
 
 from ..arrays import copy_into
-from ..jit import kernel
+from ..compile.jit import kernel
 
 
 @kernel

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..arrays import copy_into
 from ..cubic import cubic_max, hermite
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
 from ..model.basis import climb, field_sum, field_sums, global_peak, newton_peak, node_strain
 from ..model.plate import OMEGA, STRAIN

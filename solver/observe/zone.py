@@ -41,7 +41,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..cubic import cubic_max, hermite
-from ..jit import kernel
+from ..compile.jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
 from ..model.floe import floe_dry, floe_dry_sums

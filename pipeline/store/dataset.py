@@ -1,0 +1,81 @@
+"""One solved case as a labelled ``xarray.Dataset``, with the names, units and long names a
+``study.nc`` gives the same quantities (:meth:`solver.Result.to_dataset` hands off to here:
+the solver itself imports no xarray)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import xarray as xr
+
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, default_eps_Y
+from solver.fracture import yield_strains
+from solver.outputs import SERIES, TENSION_RECORDS
+from solver.parameters import CHOICES
+
+from ..common import provenance
+from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
+from ..common.tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+                             TENSION_RECORD_INFO, TEXT_INFO, diagnostic_values, run_records)
+
+#: the series a Result carries beside the study's (solver.outputs.SERIES): name -> (Result
+#: attribute, long_name, units); work and dissipated_energy are the run's totals, as in study.nc
+ENERGY_INFO = {row.name: (row.attribute, row.long_name, row.units) for row in SERIES if row.stored == "case"}
+
+
+def _attrs(long_name: str, units: str | None = None) -> dict:
+    return {"long_name": long_name, **({"units": units} if units is not None else {})}
+
+
+def case_dataset(result, eps_Y=None) -> xr.Dataset:
+    """The case's fields over (t, x), series over t, diagnostics, crack onset along eps_Y,
+    parameters, run records, status and event records, labelled as in study.nc (t and x here in
+    seconds and metres). ``eps_Y``: yield strains of the crack-onset variables (default: 10 a
+    decade from 1e-5 to 1e-1 and the paper's 8e-5, as a study's)."""
+    T = result.times.size
+    data = {}
+    for name, values in result.fields.items():
+        data[name] = (("t", "x"), np.asarray(values), _attrs(*FIELD_INFO[name]))
+    series = {name: (name, *SERIES_INFO[name]) for name in ("contact_intervals", "force")}
+    series.update(ENERGY_INFO)
+    if result.body_position is not None and np.isfinite(result.parameters.body_mass):
+        series.update({name: (name, *info) for name, info in BODY_SERIES_INFO.items()})
+    for name, (attribute, long_name, units) in series.items():
+        values = np.asarray(getattr(result, attribute), dtype=float).reshape(T)
+        data[name] = (("t",), values, _attrs(long_name, units))
+    data["valid"] = (("t",), np.asarray(result.valid, dtype=np.int8),
+                     {**_attrs("1: the run reached this time", "1"), "flag_values": np.array([0, 1], np.int8),
+                      "flag_meanings": "not_reached reached"})
+    for name, value in diagnostic_values(result).items():
+        data[name] = ((), value, _attrs(*DIAGNOSTIC_INFO[name][:2]))
+    p = result.parameters
+    records = run_records(result, p.time_scale, p.stage_duration)
+    for name, (long_name, units) in RECORD_INFO.items():
+        data[name] = ((), float(records[name]), _attrs(long_name, units))
+    data["status"] = ((), result.status, _attrs(TEXT_INFO["status"]))
+    data["message"] = ((), result.message, _attrs(TEXT_INFO["message"]))
+    for key, value in p.as_dict().items():
+        long_name, units = PARAMETER_INFO[key]
+        data[key] = ((), value, _attrs(long_name, None if key in CHOICES else units))
+    eps = yield_strains(default_eps_Y() if eps_Y is None else eps_Y).reshape(-1)
+    for name, values in onset_from_records(result.tension_record, eps).items():
+        data[name] = (("eps_Y",), values, _attrs(*CRACK_INFO[name]))
+    for record, (_, _, follows) in TENSION_RECORDS.items():     # the event records, one table each
+        rows = np.asarray(result.tension_record[record], dtype=float).reshape(-1, 5)
+        dim = f"tension_node_{record}"
+        for col, (name, (long_name, units)) in enumerate(TENSION_RECORD_INFO.items()):
+            data[f"{name}_{record}"] = ((dim,), rows[:, col], _attrs(f"{long_name} (the record of the {follows})",
+                                                                      units))
+    contacts = np.asarray(result.contact_record if result.contact_record is not None else np.empty((0, 2)),
+                          dtype=float).reshape(-1, 2)
+    for col, (name, (long_name, units)) in enumerate(CONTACT_RECORD_INFO.items()):
+        data[name] = (("contact_change",), contacts[:, col], _attrs(long_name, units))
+    coords = {"t": ("t", np.asarray(result.times, dtype=float), _attrs("time since first touch", "s")),
+              "x": ("x", np.asarray(result.x, dtype=float), _attrs("position along the plate", "m")),
+              "eps_Y": eps_Y_coord(eps)}
+    attrs = {"title": "floe-impact case", "solver_settings": json.dumps(result.settings.as_dict()),
+             "parameters": json.dumps(p.as_dict()), **provenance.attributes("solved one case")}
+    ds = xr.Dataset(data, coords=coords, attrs=attrs)
+    for name in ds.coords:                       # CF 2.5.1: no _FillValue on a coordinate variable
+        ds[name].encoding["_FillValue"] = None
+    return ds

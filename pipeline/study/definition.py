@@ -1,0 +1,330 @@
+"""Study files: read, validate and expand into cases (study file -> cases).
+
+A study file ``studies/<name>.toml`` (read with :mod:`tomllib`)::
+
+    description = "..."
+    [base]        # overrides of the reference case; keys of solver.PARAMETER_INFO
+    [grid]        # full factorial: key = [values]; every key becomes a dimension
+                  # (parameters, or solver settings such as tolerance or integrator)
+    [[cases]]     # or: an explicit list of cases (parameters and solver settings;
+                  # reference = {...} overrides the study's [reference] for that case;
+                  # group = "..." labels it, e.g. the sweep it belongs to)
+    [reference]   # optional: Nmod and solver settings of a converged run; every case is also
+                  # run with these overrides and stored with its error against that run
+    [output]      # times = {unit = "t_sc", step, stop} | {unit = "s", step, stop} | {unit = "stage", count}
+                  # fields = [...], x_points = 241
+                  # eps_Y = [...] | {min, max, count} (log range): the yield strains at which
+                  # crack onset is reported (post-processing: not part of a case's identity)
+    [solver]      # keys of solver.SETTING_INFO
+    [plots]       # kinds = ["diagnostics", "paper_fig2"]
+
+Everything is validated here, before any case runs or anything is written; a problem raises
+:class:`StudyError` with one line naming it.
+"""
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
+
+from .case import Case, coordinate_times
+from .consistency import body_masses, check_grid_values, check_ranges, longest_stage_in_t_sc
+from ..common.errors import StudyError
+from .identity import grid_case_ids, grid_label, make_case, resolve_sample
+from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, check_output, check_parameters, check_reference,
+                       check_solver, check_value)
+
+#: the plot kinds a study can ask for ([plots]); pipeline.figures.KINDS draws each, one entry
+#: per name (tests/test_architecture.py holds the two together)
+PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop", "design",
+              "sensitivity", "emulator")
+#: grid keys whose study.nc dimension has another name (the key is also a result's name)
+DIM_NAMES = {"error_estimate": "error_estimate_on"}
+
+
+@dataclass
+class Study:
+    """A validated study. A [grid] is not expanded up front: its size is known at once
+    (``n_cases``), its case ids come from one fast pass (``case_ids``), and a Case is built
+    only when asked for (``case(i)``); 10^5 cases cost well under a second."""
+
+    name: str
+    path: Path
+    text: str
+    description: str
+    base: dict
+    grid: dict                      # key -> list of values, in file order
+    case_list: list                 # explicit [[cases]] (overrides), or []
+    output: dict
+    solver: dict
+    plots: list
+    reference: dict = field(default_factory=dict)
+    design: dict = field(default_factory=dict)          # a checked [design] (pipeline.study.design), or {}
+    analysis: dict = field(default_factory=dict)        # a checked [analysis] (pipeline.study.analysis), or {}
+    search: dict = field(default_factory=dict)          # a checked [search] (pipeline.study.search), or {}
+    references: dict = field(default_factory=dict)     # position in cases -> its reference Case
+    _listed: list = field(default_factory=list, repr=False)   # [[cases]] (or referenced) Cases
+
+    @property
+    def n_cases(self) -> int:
+        return math.prod(self.shape)
+
+    @property
+    def dims(self) -> list:
+        """study.nc's case dimensions: the grid keys (error_estimate, also the name of a result,
+        becomes error_estimate_on), ["sample"] for a [design], or ["case"]."""
+        if self.grid:
+            return [DIM_NAMES.get(k, k) for k in self.grid]
+        return ["sample"] if self.design else ["case"]
+
+    @property
+    def shape(self) -> tuple:
+        return tuple(len(v) for v in self.grid.values()) if self.grid else (len(self.case_list),)
+
+    def case(self, i: int) -> Case:
+        """The i-th case in grid (C) order, built and validated on demand."""
+        if self._listed:
+            return self._listed[i]
+        idx = tuple(int(j) for j in np.unravel_index(i, self.shape))
+        values = {**self.base, **self.solver,
+                  **{k: v[j] for (k, v), j in zip(self.grid.items(), idx)}}
+        label = grid_label(self.grid, idx)
+        try:
+            values = resolve_sample(values)
+        except ParameterError as err:
+            raise StudyError(f"case {label}: {err}") from None
+        return make_case(idx, values, self.output, label)
+
+    @cached_property
+    def cases(self) -> list:
+        """Every case as a Case (builds them all: use case_ids and case(i) for large grids)."""
+        return [self.case(i) for i in range(self.n_cases)]
+
+    @cached_property
+    def case_ids(self) -> list:
+        """The case ids in grid order (one fast pass for a grid; equal to case(i).case_id)."""
+        if self._listed:
+            return [c.case_id for c in self._listed]
+        return grid_case_ids(self)
+
+    @cached_property
+    def case_id_set(self) -> frozenset:
+        return frozenset(self.case_ids)
+
+    def is_reference(self, case: Case) -> bool:
+        """True for a reference run that is not itself one of the study's cases."""
+        return case.case_id not in self.case_id_set
+
+    @cached_property
+    def run_ids(self) -> list:
+        """Every distinct run's id: the study's cases, then the reference runs not among them."""
+        seen = dict.fromkeys(self.case_ids)
+        for ref in self.references.values():
+            seen.setdefault(ref.case_id, None)
+        return list(seen)
+
+    @cached_property
+    def _extra_runs(self) -> dict:
+        return {ref.case_id: ref for ref in self.references.values() if ref.case_id not in self.case_id_set}
+
+    @cached_property
+    def first_position(self) -> dict:
+        """case id -> its first position in grid order (reference runs not among the cases:
+        absent)."""
+        first = {}
+        for i, cid in enumerate(self.case_ids):
+            first.setdefault(cid, i)
+        return first
+
+    @cached_property
+    def varying_keys(self) -> list:
+        """The keys whose values differ between cases: the grid's, or those a [[cases]] list
+        varies (parameters and solver settings)."""
+        if self.grid:
+            return list(self.grid)
+        return [k for k in [*PARAMETER_INFO, *SETTING_INFO] if len({c.value(k) for c in self._listed}) > 1]
+
+    def run(self, case_id: str) -> Case:
+        """The run with this id (a case or a reference run)."""
+        if case_id in self._extra_runs:
+            return self._extra_runs[case_id]
+        return self.case(self.first_position[case_id])
+
+    def all_cases(self) -> list:
+        """Every distinct run as a Case (small studies; large ones go through run_ids)."""
+        return [self.run(cid) for cid in self.run_ids]
+
+
+def load_study_text(text: str, name: str, path: Path | None = None, max_cases: int | None = None) -> Study:
+    """Validate a study from its text (what a worker receives); expand its cases."""
+    path = Path(path) if path is not None else Path(f"{name}.toml")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise StudyError(f"{path}: TOML syntax error: {err}") from None
+    unknown = set(data) - SECTIONS
+    if unknown:
+        if "eps_Y" in unknown:
+            raise StudyError(f"{path}: {EPS_Y_AS_PARAMETER}")
+        raise StudyError(f"{path}: unknown section or key {sorted(unknown)[0]!r}; known: {', '.join(sorted(SECTIONS))}")
+    description = data.get("description", "")
+    if not isinstance(description, str):
+        raise StudyError(f"{path}: description must be a string")
+    base = check_parameters("[base]", data.get("base", {}))
+    grid_raw = data.get("grid", {})
+    if not isinstance(grid_raw, dict):
+        raise StudyError("[grid] must be a table of lists")
+    grid = {}
+    for key, values in grid_raw.items():
+        if key == "eps_Y":
+            raise StudyError(f"[grid]: {EPS_Y_AS_PARAMETER}")
+        if key not in PARAMETER_INFO and key not in SETTING_INFO:
+            raise StudyError(f"[grid]: unknown parameter {key!r}; known: "
+                             f"{', '.join([*PARAMETER_INFO, *SETTING_INFO])}")
+        if not isinstance(values, list) or not values:
+            raise StudyError(f"[grid] {key} must be a non-empty list of values")
+        for v in values:
+            check_value(f"[grid] {key} value", key, v, integer=key in ("Nmod", "subintervals", "max_steps"))
+        if len(set(values)) != len(values):
+            raise StudyError(f"[grid] {key} has duplicate values")
+        if key in base or key in data.get("solver", {}):
+            raise StudyError(f"{key} is both in [base] or [solver] and in [grid]")
+        grid[key] = list(values)
+    case_list = data.get("cases", [])
+    if not isinstance(case_list, list):
+        raise StudyError("[[cases]] must be an array of tables")
+    case_list = [check_parameters(f"[[cases]] #{i + 1}", c, settings=True, reference=True)
+                 for i, c in enumerate(case_list)]
+    if grid and case_list:
+        raise StudyError("a study has either [grid] or [[cases]], not both")
+    design, analysis = {}, {}
+    if "design" in data and (grid or case_list):
+        raise StudyError("a study has one of [grid], [[cases]] and [design], not two")
+    if grid_raw == {} and "grid" in data:
+        raise StudyError("[grid] is empty")
+    if "cases" in data and not case_list:
+        raise StudyError("[[cases]] is empty")
+    if not grid and not case_list:                 # [base] alone: one case, the base itself
+        case_list = [{}]
+    if case_list:
+        seen = set()
+        for i, c in enumerate(case_list):
+            key = json.dumps({**base, **{k: v for k, v in c.items() if k != "group"}}, sort_keys=True)
+            if key in seen:
+                raise StudyError(f"[[cases]] #{i + 1} repeats an earlier case")
+            seen.add(key)
+    output = check_output(data.get("output", {}))
+    if "design" in data:                           # its samples may repeat a point (Morris's grid)
+        from .design import check_design, design_cases, design_size
+        design = check_design(data["design"], base)
+        n = design_size(design)
+        if max_cases is not None and n > max_cases:
+            raise StudyError(f"the study has {n} cases (more than {max_cases}); add --yes to run it")
+        case_list = design_cases(design)
+    if "analysis" in data:
+        from .analysis import check_analysis
+        analysis = check_analysis(data["analysis"], design, output)
+    solver = check_solver(data.get("solver", {}))
+    extreme = data.get("accept_extreme_values", False)
+    if not isinstance(extreme, bool):
+        raise StudyError(f"{path}: accept_extreme_values must be true or false")
+    search = {}
+    if "search" in data:
+        from .search import check_search
+        if case_list and not design and case_list != [{}]:
+            raise StudyError("[search] runs over a [grid], a [design] or [base] alone, not [[cases]]")
+        search = check_search(data["search"], {*base, *grid, *(design.get("keys", {}))})
+        if analysis:
+            raise StudyError("[analysis] is computed over a [design]'s samples, not a [search]'s runs: a study has "
+                             "one of them")
+        if "reference" in data:
+            raise StudyError("[reference] is not run by a [search] (its runs are the bisection's): remove it")
+        from .search import check_bracket, search_points
+        check_bracket(search, {**base, **solver}, search_points(grid, case_list), extreme)
+        # the study's own cases are the points searched, at the bracket's low end (the key may
+        # have no default: a free floe's duration)
+        base = {**base, search["key"]: search["bracket"][0]}
+    reference = check_reference("[reference]", data["reference"]) if "reference" in data else {}
+    plots_table = data.get("plots", {})
+    if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
+        raise StudyError("[plots] takes one key: kinds = [...]")
+    plots = plots_table.get("kinds", ["diagnostics", "crack_onset"])
+    if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
+        raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
+    if design and "kinds" not in plots_table:
+        plots = ["design"] + (["sensitivity"] if analysis else [])
+        plots += ["emulator"] if analysis.get("method") == "pce" else []
+    if search and "kinds" not in plots_table:
+        plots = []                                 # the search draws search.png itself
+    study = Study(name=name, path=path, text=text, description=description, base=base,
+                  grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
+                  reference=reference, design=design, analysis=analysis, search=search)
+    masses = body_masses(study)
+    study.output["body"] = any(math.isfinite(m) for m in masses if isinstance(m, (int, float)))
+    if output["end"] == "separation" and not all(isinstance(m, (int, float)) and math.isfinite(m) for m in masses):
+        raise StudyError('[output] end = "separation" needs a free body in every case: give body_mass a '
+                         'finite value in [base], or finite values in [grid] or in every [[cases]] entry')
+    if not extreme:
+        check_ranges(study)
+    expand(study)
+    return study
+
+
+def expand(study: Study) -> None:
+    """Validate the cases of a study (each grid value once, each [[cases]] entry) and build
+    the reference runs; a grid's cases are built on demand (Study.case)."""
+    if study.grid:
+        check_grid_values(study)
+    else:
+        listed = []
+        for i, overrides in enumerate(study.case_list):
+            overrides = {k: v for k, v in overrides.items() if k not in ("reference", "group")}
+            label = ", ".join(f"{k}={v}" for k, v in overrides.items()) or "[base]"
+            if study.design:
+                label = f"[design] sample {i} ({label}, within [design.keys])"
+            values = {**study.base, **study.solver, **overrides}
+            try:
+                values = resolve_sample(values)
+            except ParameterError as err:
+                raise StudyError(f"{label if label.startswith('[') else 'case ' + label}: {err}") from None
+            listed.append(make_case((i,), values, study.output, label))
+        study._listed = listed
+    if study.n_cases == 0:
+        raise StudyError("the study has no cases")
+    ref_output = {**study.output, "fields": sorted(set(study.output["fields"]) | {"strain"})}
+    if study.reference or any("reference" in c for c in study.case_list):
+        if "strain" not in study.output["fields"]:
+            raise StudyError("a study with a [reference] must store the strain field (errors are "
+                             "measured on it): add \"strain\" to [output] fields")
+        for i in range(study.n_cases):
+            own = study.case_list[i].get("reference", {}) if study.case_list else {}
+            ref_overrides = {**study.reference, **own}
+            if not ref_overrides:
+                continue
+            case = study.case(i)
+            values = {**{k: case.value(k) for k in PARAMETER_INFO}, **case.settings.as_dict(), **ref_overrides}
+            study.references[i] = make_case((), values, ref_output, f"reference of case {i}")
+    # outputs past every case's stage are outside the model: refuse a study that asks only those
+    if study.output["times"]["unit"] == "t_sc":
+        first = coordinate_times(study.output["times"])
+        longest = longest_stage_in_t_sc(study)
+        if first.size > 1 and np.all(first[1:] > longest * (1 + 1e-12)):
+            raise StudyError(f"[output] times: every output time after 0 lies past every case's impact "
+                             f"stage (the longest is {longest:.4g} t_sc)")
+    # the same run may serve in several sweeps when its references differ (one file, several
+    # rows); a grid's cases differ by construction (its values are distinct), so a large grid
+    # is counted, not expanded, here
+    # a design's samples may repeat a point (Morris's trajectories share points of their grid):
+    # a repeated point is one run, computed once and stored at each of its samples
+    if (study._listed or study.references) and not study.design:
+        keyed = [(cid, study.references[i].case_id if i in study.references else None)
+                 for i, cid in enumerate(study.case_ids)]
+        if len(set(keyed)) != len(keyed):
+            raise StudyError("two cases of the study are identical")
