@@ -75,6 +75,9 @@ bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests/test_variables.py checks it)
 	$(PY) -m pipeline.common.variables
 
+layout-slots: setup  ## rewrite solver/layout.py's D_*, R_*, S_* slots from the tables of solver/outputs.py
+	$(PY) -m solver.outputs
+
 bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 25 cases (15 at the paper's rule, 8 Gauss, a floe under each), settings pinned, every output array
 	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)
 

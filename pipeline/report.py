@@ -57,10 +57,10 @@ def print_table(study, states: dict, stream=None, all_rows: bool = False, only=N
         for s in states.values():
             counts[s] = counts.get(s, 0) + 1
         text = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-        stream.write(f"{study.name}: {_count(study)}: {text}\n")
+        stream.write(f"{study.name}: {study_size(study)}: {text}\n")
 
 
-def _count(study) -> str:
+def study_size(study) -> str:
     """'N cases' with the distinct runs and reference runs where they differ."""
     n_ref = len(study.run_ids) - len(study.case_id_set)
     distinct = len(study.case_id_set)
@@ -76,7 +76,7 @@ def _fmt(value) -> str:
     return value if isinstance(value, str) else f"{value:g}"
 
 
-def _label(study, cid: str) -> str:
+def case_label(study, cid: str) -> str:
     if cid not in study.case_id_set:
         return "reference run"
     flat = study.first_position[cid]

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from .common.errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, WriteFailed, write_failed
 from .store.lock import StudyLock
-from .report import _count, _label, ledger_states, print_table
+from .report import study_size, case_label, ledger_states, print_table
 
 
 @dataclass
@@ -155,7 +155,7 @@ def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     todo = [cid for cid, _ in items]
     from .common.tables import FAILED
     failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
-    print(f"{study.name}: {_count(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
+    print(f"{study.name}: {study_size(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
           f"-> {out_dir}")
     if todo:
         print(f"would run ({len(todo)}):")
@@ -292,7 +292,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
               f"(b_mean/V: L^2/(6RV) for the paper's parabola); those times are not integrated and stay NaN",
               file=sys.stderr)
     skipped = len(study.run_ids) - len(items)
-    print(f"{study.name}: {_count(study)}, {len(items)} to run, {skipped} already done "
+    print(f"{study.name}: {study_size(study)}, {len(items)} to run, {skipped} already done "
           f"-> {out_dir}", file=sys.stderr)
     if items and study.n_cases > 1000 and "error_estimate" not in study.solver and "error_estimate" not in study.grid:
         print("note: every case also runs the error estimate's companion (0.79x the integration, measured); "
@@ -480,6 +480,6 @@ def _summary(study, ledger, states: dict, computed: set) -> None:
     for cid in new[:30]:
         entry = index.get(cid)
         msg = entry[0]["cases"][entry[1]][2] if entry else "no result yet"
-        print(f"  {cid} ({_label(study, cid)}): {states[cid]}: {msg}", file=sys.stderr)
+        print(f"  {cid} ({case_label(study, cid)}): {states[cid]}: {msg}", file=sys.stderr)
     if len(new) > 30:
         print(f"  ... and {len(new) - 30} more (python -m pipeline status {study.path})", file=sys.stderr)

@@ -182,9 +182,9 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     }
     coords = {}
     if study.grid:
-        from .store.combine import _parameter_coord
+        from .store.combine import parameter_coord
         for (k, values), d in zip(study.grid.items(), study.dims):
-            values_, attrs = _parameter_coord(k, values)
+            values_, attrs = parameter_coord(k, values)
             coords[d] = (d, values_, attrs)
     else:
         d = study.dims[0]

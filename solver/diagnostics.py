@@ -22,7 +22,7 @@ from .layout import (D_BODY_RESIDUAL, D_BOTTOM_SPEED, D_BOTTOM_T, D_BOTTOM_X, D_
 from .model.body import body_position, body_speed
 from .model.contact import count_contacts
 from .model.layer import layer_energy
-from .model.plate import _plus_plate_energy
+from .model.plate import plus_plate_energy
 
 #: what a run fills (arrays made by the caller): a, adot (T, N) and series (T, N_SERIES) at the
 #: output times reached; diag (N_DIAG,); level_t, level_x (2, levels) NaN on entry, the located
@@ -54,7 +54,7 @@ def record_output(model, out, k, t, state, jmax, carried, err_sum):
     series = out.series
     series[k, S_CONTACTS] = count_contacts(state.delta, jmax, model.basis.mirror)
     series[k, S_FORCE] = carried.force
-    series[k, S_E_PLATE] = _plus_plate_energy(0.0, model.plate, state.z)
+    series[k, S_E_PLATE] = plus_plate_energy(0.0, model.plate, state.z)
     series[k, S_DISSIPATED] = carried.dissipated
     series[k, S_E_LAYER] = layer_energy(model, state.a, body_position(model.body, t, state.yb), state.delta, jmax)
     series[k, S_WORK] = carried.work

@@ -31,7 +31,7 @@ from .model.basis import node_strain
 from .model.body import body_coefficients, body_position, body_residual, body_speed
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
-from .model.plate import OMEGA, STRAIN, _plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
+from .model.plate import OMEGA, STRAIN, plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
@@ -68,7 +68,7 @@ def _step_work(N, J):
 
 
 @kernel
-def _workspace(method, model, N, J, margin):
+def new_workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
@@ -147,12 +147,12 @@ def _residual(model, state, jm, w_new, e0):
         e_layer = acc[2]
     else:
         e_layer = node_energy(model, delta, jm)
-    e_new = _plus_plate_energy(e_layer, model.plate, z)
+    e_new = plus_plate_energy(e_layer, model.plate, z)
     return e_new, e_new + acc[0] - w_new - e0
 
 
 @kernel(inline="llvm")
-def _judge(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
+def judge_step(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
     """The verdict on a trial step from t (z0 at t) to new, trial = (status, W(t_new), jmax, t, h,
     error exponent), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
     scratch (N,): (verdict, h to retry with, error ratio, residual at t_new, run status,
@@ -246,7 +246,7 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 
 
 @kernel(inline="llvm")
-def _observe(model, observers, cur, new, carried, t, h, ends, records, diag):
+def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
     observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork, DenseMaxima), ends =
     (jmax at t, jmax and F at t + h, the stage rows of the step that reached new). Returns
@@ -285,7 +285,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     R_T..R_JOIN, first n valid) and the contact record (rows (t, count))."""
     N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
     start_diagnostics(diag, control.t_start)
-    ws = _workspace(method, model, N, J, control.zone_margin)
+    ws = new_workspace(method, model, N, J, control.zone_margin)
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
@@ -333,7 +333,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                                               new)
         rhs_count += 4
         expo = 1.0 / 3.0 if event else 0.25
-        verdict, h_try, ratio, resid_new, status, counted = _judge(adaptive, model, control, cur.z, new, gap0,
+        verdict, h_try, ratio, resid_new, status, counted = judge_step(adaptive, model, control, cur.z, new, gap0,
                                                                    step_work.rows[0],
                                                                    (st, w_new, jm5, t, h_step, expo),
                                                                    (e0, resid, work), diag)
@@ -365,7 +365,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
         else:
             node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
-        contacts, records, left = _observe(model, observers, cur, new, carried, t, h_eff,
+        contacts, records, left = observe_step(model, observers, cur, new, carried, t, h_eff,
                                            (jmax, jm5, F5, reached), records, diag)
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)

@@ -185,3 +185,35 @@ FIELD_INFO = {
     "compression": ("relative compression delta of the elastic layer", "1"),
 }
 FIELDS = tuple(FIELD_INFO)
+
+
+#: the slot constants of solver.layout, generated from the tables above: prefix, slots, count name
+LAYOUT_TABLES = (("D", SLOTS, "N_DIAG"), ("R", RECORD_SLOTS, "N_REC"), ("S", SERIES_SLOTS, "N_SERIES"))
+LAYOUT_BEGIN = "# -- generated from solver.outputs (make layout-slots; tests/test_architecture.py checks it) --"
+LAYOUT_END = "# -- end of the generated slots --"
+
+
+def layout_slots() -> str:
+    """solver.layout's block of slot constants, D_<slot>, R_<slot>, S_<slot> = their index in
+    DIAGNOSTICS, TENSION_RECORD and SERIES, as literal names (a grep or an editor finds them)."""
+    lines = [LAYOUT_BEGIN]
+    for prefix, slots, count in LAYOUT_TABLES:
+        lines += [f"{prefix}_{slot} = {index}" for index, slot in enumerate(slots)]
+        lines.append(f"{count} = {len(slots)}")
+    return "\n".join([*lines, LAYOUT_END]) + "\n"
+
+
+def write_layout_slots(path) -> bool:
+    """Rewrite the generated block of solver/layout.py at ``path``; returns whether it changed."""
+    from pathlib import Path
+    text = Path(path).read_text()
+    start, end = text.index(LAYOUT_BEGIN), text.index(LAYOUT_END) + len(LAYOUT_END) + 1
+    new = text[:start] + layout_slots() + text[end:]
+    if new != text:
+        Path(path).write_text(new)
+    return new != text
+
+
+if __name__ == "__main__":
+    from pathlib import Path
+    print("solver/layout.py", "rewritten" if write_layout_slots(Path(__file__).with_name("layout.py")) else "unchanged")

@@ -39,7 +39,7 @@ from collections import namedtuple
 
 from .compile.jit import kernel
 from .layout import B_D, B_U, ETD34
-from .model.body import _body_error, _step_work, body_accel, body_coefficients
+from .model.body import body_error, body_step_work, body_accel, body_coefficients
 from .model.contact import count_contacts
 from .model.layer import layer_forcing_at, layer_forcing_strain, rule_energy
 from .model.plate import (HALF_C, KIND, OMEGA, dissipation_rate, emul, mode_a, mode_adot, mode_phis, phi_from,
@@ -278,7 +278,7 @@ def _local_error(method, model, coeffs, w, start, h, event, out):
     else:
         for n in range(z.shape[0]):
             err[n] = C[8, n] * (N4[n] - N5[n])
-        _body_error(h, G[1], G[2], G[3], G[4], G[5], errb)      # 0 exactly for the prescribed body
+        body_error(h, G[1], G[2], G[3], G[4], G[5], errb)      # 0 exactly for the prescribed body
 
 
 @kernel
@@ -326,7 +326,7 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     _local_error(method, model, coeffs, w, start, h, event, (out.z, out.forcing, out.yb, out.err, out.errb))
     V = body.V
     F = w.table[F_ROW]
-    w_new = _step_work(body, h, carried.work, (F[1], F[2], F[3], F[4]),
+    w_new = body_step_work(body, h, carried.work, (F[1], F[2], F[3], F[4]),
                        (V - u, V - w.table[U_ROW, 2], V - w.table[U_ROW, 3], V - w.table[U_ROW, 4]))
     D, Lp = w.table[DISS_ROW], w.table[LP_ROW]
     out.acc[0] = (carried.dissipated + h * ((D[1] + carried.power) / 6.0 + (D[2] + Lp[2] + D[3] + Lp[3]) / 3.0

@@ -240,3 +240,39 @@ def test_tests_share_helpers_only_through_helpers_and_conftest():
             if any(name.startswith("test_") for name in names):
                 importing.append(path.name)
     assert not importing, f"these test files import from another test file: {sorted(set(importing))}"
+
+
+def test_the_layout_slots_are_literal_names_generated_from_their_tables():
+    """solver/layout.py's D_*, R_*, S_* are literal assignments (a grep finds D_MAX_FORCE; they
+    were made by globals().update) and are exactly what solver.outputs generates from its tables
+    (``make layout-slots`` rewrites them after a table changes)."""
+    from solver import layout, outputs
+    text = (ROOT / "solver" / "layout.py").read_text()
+    assert outputs.layout_slots() in text, "solver/layout.py's slots differ from solver.outputs: make layout-slots"
+    assert "globals()" not in text and "\nD_MAX_FORCE = " in text
+    for prefix, slots, count in outputs.LAYOUT_TABLES:
+        assert [getattr(layout, f"{prefix}_{slot}") for slot in slots] == list(range(len(slots)))
+        assert getattr(layout, count) == len(slots)
+
+
+def _private_imports(modules: dict) -> list:
+    """'module: name' for each name with a leading underscore that a module of the project
+    imports from another (dunders like __version__ excepted)."""
+    found = []
+    for name, (path, tree) in modules.items():
+        for node in ast.walk(tree):
+            internal = isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").split(".")[0]
+                                                              in ("solver", "pipeline"))
+            if internal:
+                found += [f"{name}: {a.name}" for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    return sorted(found)
+
+
+def test_no_module_imports_another_modules_private_names():
+    """What a module shares is public; its underscore names are its own (the parallel compile
+    imported the loop's _judge, _observe and _workspace; the runner the report's _count)."""
+    assert _private_imports({**_modules("solver"), **_modules("pipeline")}) == []
+    assert _private_imports({"m": (None, ast.parse("from .a import _b, c, __version__\nfrom numpy import _x"))}) \
+        == ["m: _b"]
+

@@ -67,7 +67,7 @@ def test_a_free_body_is_as_accurate_as_the_papers_body():
     """Every free body, light or heavy, is within 2x of the paper body's error at the default
     tolerance (N = 30, 0..2 t_sc, body_g = 0). Two defects of the step control made it 29x (M =
     1e12 kg/m) and 19x (M = 1e2) before: the body's error was measured against an energy that
-    held its own M U^2 / 2, and its embedded estimate read ~h^6 (kernels._body_error). Measured
+    held its own M U^2 / 2, and its embedded estimate read ~h^6 (kernels.body_error). Measured
     now: 0.15x (1e3) to 0.72x (1e10) of it, 0.14x to 0.90x with numba generic."""
     p = Parameters(Nmod=30)
     t_end = 2 * p.time_scale

@@ -226,14 +226,14 @@ def test_the_bessel_table_is_scipys():
     scipy.special.jv for n = 0..200, x from 1e-4 to 1600 (the depth correction's range at
     H / L = 1/80): within 3.5e-14 measured, at 1/40 of jv's time."""
     from scipy import special
-    from solver.model.floe import bessel_table
+    from solver.model.depth import bessel_table
     x = np.concatenate([np.geomspace(1e-4, 5.0, 300), np.linspace(5.0, 1600.0, 3000), [200.0, 199.5, 200.5]])
     table = bessel_table(200, x)
     assert np.max(np.abs(table - special.jv(np.arange(201)[:, None], x[None, :]))) < 1e-13
 
 
 def test_added_mass_on_finite_depth():
-    """The floe's added mass on water of depth H (floe.added_mass, floe.depth_correction):
+    """The floe's added mass on water of depth H (floe.added_mass, depth.depth_correction):
     as H -> inf the deep water's matrix (1/H^2: 2.0e-3 of heave at H / L = 10, 2.1e-5 at 100);
     as H / L -> 0 the shallow water's heave 2 rho L^3 / (3H) (H phi_xx = -w_t under the floe,
     phi = 0 at its edges; ratio 1.040, 1.013 at H / L = 0.03, 0.01: as 1 + 1.3 H / L); at H / L =
@@ -348,10 +348,11 @@ def test_the_depth_correction_in_chunks_and_past_round_off(monkeypatch):
     """Its k-nodes a chunk at a time (a floe of L = 1000 m on H = 0.01 m needed 7.7 GiB at once):
     the same matrix to round-off; a depth beyond DEEP_ENOUGH L gives zero (H = 1e300 made the
     Bessel recurrence overflow: an internal error), and such a floe runs as on deep water."""
-    whole = floe.depth_correction(30, 6.0, 0.5)
-    monkeypatch.setattr(floe, "DEPTH_NODES_AT_ONCE", 100)
-    np.testing.assert_allclose(floe.depth_correction(30, 6.0, 0.5), whole, rtol=0, atol=1e-14 * np.abs(whole).max())
-    assert not floe.depth_correction(30, 6.0, 6.0 * floe.DEEP_ENOUGH * 2).any()
+    from solver.model import depth
+    whole = depth.depth_correction(30, 6.0, 0.5)
+    monkeypatch.setattr(depth, "DEPTH_NODES_AT_ONCE", 100)
+    np.testing.assert_allclose(depth.depth_correction(30, 6.0, 0.5), whole, rtol=0, atol=1e-14 * np.abs(whole).max())
+    assert not depth.depth_correction(30, 6.0, 6.0 * depth.DEEP_ENOUGH * 2).any()
     p = dict(Nmod=10, edges="free", duration=0.05)
     deep, far = (solve(Parameters(**p, H=H), Settings(error_estimate=False), fields=()) for H in (math.inf, 1e300))
     assert far.status == deep.status == "ok"

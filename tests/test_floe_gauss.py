@@ -33,7 +33,7 @@ def test_dry_mode_kernels_are_the_modes(full):
     floe.floe_dry(packed, c, d)
     x = np.linspace(0.0, tab.xq[-1], 41)
     for field, order, scale in ((0, 0, 1.0), (1, 2, -0.5 * p.hi)):
-        exact = [scale * (fl["Q"].T @ floe._dry_values(fl["kinds"], fl["betas"], fl["norms"], p.L,
+        exact = [scale * (fl["Q"].T @ floe.dry_values(fl["kinds"], fl["betas"], fl["norms"], p.L,
                                                           x + tab.origin, order + k)).T @ c for k in range(3)]
         got = np.array([floe.floe_dry_sums(packed, d, xi, field) for xi in x]).T
         for k in range(3):

@@ -19,7 +19,7 @@ from scipy.integrate import solve_ivp
 from solver import Parameters, Settings, solve
 from solver.cubic import cubic_first_reach, cubic_max, cubic_sign_changes, hermite
 from solver.model.assemble import Tables
-from solver.model.basis import _add_segment, modal_sum, modal_sum_strain, strain_nodes
+from solver.model.basis import add_segment, modal_sum, modal_sum_strain, strain_nodes
 from solver.model.body import body_extent
 from solver.model.contact import contact_bound, count_contacts, reach_in_step
 from solver.model.layer import layer_forcing, layer_forcing_at
@@ -128,12 +128,12 @@ def test_forcing_projection_equals_hat_weight_matrix(t_tilde):
             x0, x1 = j * tab.dx, (j + 1) * tab.dx
             if d0 > 0:
                 xs = x0 + tab.dx * fvals[j] / (fvals[j] - d1)
-                _add_segment(extra, tab.lam[0], x0, x1, fvals[j], 0.0, -1.0)
-                _add_segment(extra, tab.lam[0], x0, xs, fvals[j], 0.0, 1.0)
+                add_segment(extra, tab.lam[0], x0, x1, fvals[j], 0.0, -1.0)
+                add_segment(extra, tab.lam[0], x0, xs, fvals[j], 0.0, 1.0)
             else:
                 xs = x0 + tab.dx * (-d0) / (fvals[j + 1] - d0)
-                _add_segment(extra, tab.lam[0], x0, x1, 0.0, fvals[j + 1], -1.0)
-                _add_segment(extra, tab.lam[0], xs, x1, 0.0, fvals[j + 1], 1.0)
+                add_segment(extra, tab.lam[0], x0, x1, 0.0, fvals[j + 1], -1.0)
+                add_segment(extra, tab.lam[0], xs, x1, 0.0, fvals[j + 1], 1.0)
     assert np.allclose(P, nodal + p.K * tab.coef * extra, rtol=1e-12, atol=1e-12 * np.abs(P).max())
 
 

@@ -45,7 +45,7 @@ FLUSH_BYTES = 16 * 2**20
 RECORD_CHUNK = 2**21
 
 
-def _parameter_coord(key, values):
+def parameter_coord(key, values):
     long_name, units = PARAMETER_INFO[key] if key in PARAMETER_INFO else SETTING_INFO[key]
     if key in NAMED_SETTINGS or key in CHOICES:          # names, not numbers
         return np.asarray(values, dtype=object), {"long_name": long_name}
@@ -201,7 +201,7 @@ class StudyWriter:
         eps.setncatts({"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
         if study.grid:
             for (key, values), dim in zip(study.grid.items(), study.dims):
-                data, attrs = _parameter_coord(key, values)
+                data, attrs = parameter_coord(key, values)
                 var = nc.createVariable(dim, str if data.dtype == object else data.dtype, (dim,))
                 var[:] = data
                 var.setncatts(attrs)
@@ -213,7 +213,7 @@ class StudyWriter:
             var.long_name = "sample number of the design" if study.design else "case number in [[cases]]"
             varying = list(study.design["keys"]) if study.design else study.varying_keys
             for key in varying:
-                data, attrs = _parameter_coord(key, [c.value(key) for c in study._listed])
+                data, attrs = parameter_coord(key, [c.value(key) for c in study._listed])
                 v = nc.createVariable(key, str if data.dtype == object else data.dtype, (dim,))
                 v[:] = data
                 v.setncatts(attrs)

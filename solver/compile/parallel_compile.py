@@ -8,7 +8,7 @@ process can compile part of the call tree and leave it where the first one finds
 * this process compiles ``integrate`` as usual, from its first line: the work space, the
   initial state (the layer's reaction under the Gauss rule, the largest subtree), and on;
 * the helper compiles subtrees this process reaches late (:func:`helper_jobs`): the observers
-  (``_observe``), the step, the event search (it takes steps) and the step's verdict, then the
+  (``observe_step``), the step, the event search (it takes steps) and the step's verdict, then the
   crack-onset kernels;
 * a function is compiled by one process only: before compiling, a process claims it (a file
   named by the function and its signature, in the key's directory); a process that finds it
@@ -144,7 +144,7 @@ def helper_jobs():
     them at in compile_kernels' first solve."""
     from ..control import make_control
     from ..diagnostics import Outputs
-    from ..loop import _judge, _observe, _workspace, new_state
+    from ..loop import judge_step, observe_step, new_workspace, new_state
     from ..model.assemble import Tables
     from ..observe.events import locate_event
     from ..step import Carried, Coefficients, Start, take_step
@@ -153,7 +153,7 @@ def helper_jobs():
     f8, i8, a1 = types.float64, types.int64, typeof(np.empty(1))
     control = typeof(make_control(0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1, 0.0))
     diag = _field(typeof(Outputs(*(np.empty((1, 1)),) * 3, np.empty(1), *(np.empty((1, 1)),) * 2)), "diag")
-    ws = _returns(_workspace, i8, model, i8, i8, f8)
+    ws = _returns(new_workspace, i8, model, i8, i8, f8)
     state = _returns(new_state, i8, i8)
     work, rows = _field(ws, "work"), _field(_field(ws, "work"), "rows")
     carried = typeof(Carried(0.0, 0.0, 0.0, 0.0, 0))
@@ -161,11 +161,11 @@ def helper_jobs():
     records = typeof((np.empty((1, 1)), 0) * 5)       # (tension upper, lower; contacts; zone upper, lower)
     observers = types.Tuple([_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")])
     return [
-        (_observe, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, rows)), records, diag)),
+        (observe_step, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, rows)), records, diag)),
         (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
                      start, carried, f8, f8, f8, state)),
         (locate_event, (_field(ws, "stepper"), f8, f8, start, carried, f8, f8, a1, state, a1)),
-        (_judge, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
+        (judge_step, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
                   types.Tuple((i8, f8, i8, f8, f8, f8)), types.UniTuple(f8, 3), diag)),
     ]
 

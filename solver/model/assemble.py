@@ -17,7 +17,7 @@ import numpy as np
 
 from .basis import QUADRATURE_CODES, Basis
 from .body import Body
-from .floe import _dry_values, floe_tables
+from .floe import dry_values, floe_tables
 from .layer import LAW_CODES, Layer
 from .plate import COEF, MASS, STRAIN, Plate, make_plate
 from .quadrature import PANEL_POINTS, legendre_rule
@@ -107,7 +107,7 @@ class Tables:
             return cos if field == "deflection" else cos * self.strain_coef
         fl = self.floe
         order = 0 if field == "deflection" else 2
-        values = (fl["Q"].T @ _dry_values(fl["kinds"], fl["betas"], fl["norms"], self.floe_length,
+        values = (fl["Q"].T @ dry_values(fl["kinds"], fl["betas"], fl["norms"], self.floe_length,
                                           ax + self.origin, order)).T
         return values if field == "deflection" else -0.5 * self.hi * values
 

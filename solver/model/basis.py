@@ -9,7 +9,7 @@ cosq[n, j] = cos(lambda_n x_j) and the hat weights of the paper's quadrature:
     int hat_j(x) cos(lambda x) dx = c_j dx cos(lambda x_j) sinc^2(lambda dx / 2),
 
 c_j = 1/2 at the ends, 1 inside (wq_n = dx sinc^2(lambda_n dx / 2)); and the exact integral of a
-linear function against cos(lambda_n x) on a segment (``_add_segment``). Everything that knows
+linear function against cos(lambda_n x) on a segment (``add_segment``). Everything that knows
 the basis is a cosine series is here: another basis replaces this module.
 
 Peaks: the largest value of a modal field over continuous x near a node (``continuous_peak``,
@@ -53,7 +53,7 @@ PEAK_MARGIN = 0.02
 
 
 @kernel
-def _add_segment(P, lam1, alpha, beta, ga, gb, sign):
+def add_segment(P, lam1, alpha, beta, ga, gb, sign):
     """P_n += sign * int_alpha^beta g(x) cos(lambda_n x) dx, g linear from ga to gb (exact).
 
     With c = (alpha + beta)/2, r = (beta - alpha)/2, gbar = (ga + gb)/2:
@@ -280,7 +280,7 @@ def mode_sums(w, c, lam1, x):
 
 
 @kernel
-def _newton_move(x, d1, d2, xlo, xhi, stop):
+def newton_move(x, d1, d2, xlo, xhi, stop):
     """One safeguarded Newton step towards a maximum, from the first and second derivative d1,
     d2 at x, kept in [xlo, xhi]: (new x, done); done when the move is below stop, or at once
     (x kept) when the curvature does not point to a maximum."""
@@ -308,7 +308,7 @@ def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     xhi = (j + 1) * dx
     for _ in range(8):
         s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
-        x, done = _newton_move(x, sign * scale * s1 + 2.0 * q2 * x, sign * scale * s2 + 2.0 * q2, xlo, xhi,
+        x, done = newton_move(x, sign * scale * s1 + 2.0 * q2 * x, sign * scale * s2 + 2.0 * q2, xlo, xhi,
                                NEWTON_STOP * dx)
         if done:
             break
@@ -374,7 +374,7 @@ def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
         return dry_newton_peak(floe, d, x, xlo, xhi, sign, field[1])
     for _ in range(8):
         s0, s1, s2 = field_sums(lam1, floe, field, c, x)
-        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
+        x, done = newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
         if done:
             break
     return x
@@ -386,7 +386,7 @@ def dry_newton_peak(floe, d, x, xlo, xhi, sign, code):
     its dry coefficients d (floe_dry): O(N) a step."""
     for _ in range(8):
         s0, s1, s2 = floe_dry_sums(floe, d, x, code)
-        x, done = _newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
+        x, done = newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))
         if done:
             break
     return x

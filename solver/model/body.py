@@ -119,7 +119,7 @@ def body_coefficients(h, Cb):
 
 
 @kernel
-def _body_error(h, G1, G2, G3, G4, G5, errb):
+def body_error(h, G1, G2, G3, G4, G5, errb):
     """A free body's local error against genuine third-order companions (docs/model.md, "A
     body of finite mass"). The modes' embedded estimate h (4 phi3 - phi2)(G4 - G5) reads ~ h^6
     on the body: its acceleration depends on its position, and stage 4's position differs from
@@ -159,7 +159,7 @@ def body_residual(body, t, yb, work):
 
 
 @kernel
-def _step_work(body, h, work, F, U):
+def body_step_work(body, h, work, F, U):
     """W(t + h) = W + int F U dt by the step's weights (1, 2, 2, 1)/6 over its stages: F and U
     are the forces and the body's speeds at the four stages."""
     F1, F2, F3, F4 = F

@@ -18,7 +18,7 @@ step; the contact observer on the bounded nodes equals the observer on every nod
 """
 import numpy as np
 
-from .basis import (NEWTON_STOP, _newton_move, argmax_node, continuous_peak, field_sum, field_sums,
+from .basis import (NEWTON_STOP, newton_move, argmax_node, continuous_peak, field_sum, field_sums,
                     modal_sum_range, refine)
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
 from ..compile.jit import kernel
@@ -155,7 +155,7 @@ def shape_peak(model, delta, j, n, a, s):
     for _ in range(8):
         s0, s1, s2 = field_sums(model.basis.lam1, model.basis.floe, deflection, a, x)
         b1, b2 = body_slope_curvature(x, model.body)
-        x, done = _newton_move(x, s1 - b1, s2 - b2, xlo, xhi, NEWTON_STOP * dx)
+        x, done = newton_move(x, s1 - b1, s2 - b2, xlo, xhi, NEWTON_STOP * dx)
         if done:
             break
     s0, s1, s2 = field_sums(model.basis.lam1, model.basis.floe, deflection, a, x)

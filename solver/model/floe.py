@@ -22,7 +22,7 @@ Dirichlet-to-Neumann map has these eigenfunctions), so shapes psi_m, psi_n have 
 trigonometric degree). Benchmarks: heave rho_w pi L^2 / 2 and pitch rho_w pi L^4 / 16 of a rigid
 strip (in units of x / L: rho_w pi L^2 / 16), tests/test_floe.py. On water of depth H the same
 basis gives a Galerkin matrix, the deep one less an exponentially convergent k-integral
-(added_mass, depth_correction): checked against the deep and the shallow limits and a
+(added_mass, solver.model.depth): checked against the deep and the shallow limits and a
 finite-difference solve (tests/test_floe.py::test_added_mass_on_finite_depth).
 
 **Wet modes.** With G_m = int psi_m^2 dx, the equations of the dry amplitudes q are
@@ -42,6 +42,7 @@ import math
 import numpy as np
 
 from ..compile.jit import kernel
+from .depth import depth_correction
 
 #: A floe's Basis.floe is one 1-D array (fewer arrays in the Basis tuple: numba counts a reference
 #: to each at every call that takes it): the four tables TABLE_* (N, J) one after the other, the
@@ -160,83 +161,6 @@ def added_mass(kinds, betas, L, rho_w, norms=None, H=math.inf):
         return rho_w * L * L * (np.pi / 2.0) * (P / k) @ P.T
     G = np.diag(np.pi * k / 2.0) - depth_correction(k.size, L, H)
     return rho_w * (L * np.pi / 2.0) ** 2 * P @ np.linalg.solve(G, P.T)
-
-
-def bessel_table(n_max, x):
-    """J_n(x) for n = 0..n_max at every x > 0, (n_max + 1, x.size): by the recurrence
-    J_{n-1} + J_{n+1} = (2n / x) J_n, forward from scipy's J_0 and J_1 where x >= n_max (stable
-    for n < x), and backward (Miller's algorithm, normalised by J_0 + 2 sum J_2k = 1) from
-    n_max + 16 + sqrt(40 n_max) above elsewhere. 40 times faster than scipy.special.jv on the
-    depth correction's table and within 1e-14 of it (tests/test_floe.py)."""
-    from scipy import special          # (here: a floe on finite depth only)
-    x = np.asarray(x, dtype=float)
-    out = np.zeros((n_max + 1, x.size))
-    big = x >= n_max
-    if big.any():
-        xb = x[big]
-        rows = out[:, big]
-        rows[0] = special.j0(xb)
-        if n_max >= 1:
-            rows[1] = special.j1(xb)
-        for n in range(1, n_max):
-            rows[n + 1] = (2.0 * n / xb) * rows[n] - rows[n - 1]
-        out[:, big] = rows
-    small = ~big
-    if small.any():
-        xs = x[small]
-        start = 2 * ((max(n_max, int(xs.max())) + 16 + int(math.sqrt(40.0 * max(n_max, xs.max())))) // 2)
-        rows = np.zeros((n_max + 1, xs.size))
-        above, here = np.zeros(xs.size), np.full(xs.size, 1e-30)
-        total = np.zeros(xs.size)
-        for n in range(start, 0, -1):
-            below = (2.0 * n / xs) * here - above
-            above, here = here, below
-            if n - 1 <= n_max:
-                rows[n - 1] = here
-            if (n - 1) % 2 == 0:
-                total += (2.0 if n - 1 > 0 else 1.0) * here
-            huge = np.abs(here) > 1e250
-            if huge.any():                 # rescale those columns, and what they stored
-                above[huge] *= 1e-250
-                here[huge] *= 1e-250
-                total[huge] *= 1e-250
-                rows[:, huge] *= 1e-250
-        out[:, small] = rows / total
-    return out
-
-
-#: the depth correction integrates this many k-nodes at a time (its memory: J of them in floats)
-DEPTH_NODES_AT_ONCE = 2**16
-#: beyond this depth over half-length the correction, O((L / H)^2), is below round-off: zero
-DEEP_ENOUGH = 1e8
-
-
-def depth_correction(J, L, H):
-    """C_ij = pi i j (-1)^((j - i)/2) int_0^inf (1 - tanh kH) J_i(kL) J_j(kL) / k dk for i + j even
-    (0 otherwise), i, j = 1..J: what the bottom at depth H takes from the deep water's map on
-    b_j, whose Fourier transform is pi j (-i)^(j-1) J_j(kL) / k. 1 - tanh kH = 2 / (e^{2kH} + 1)
-    falls below 1e-17 at kH = 20, where the integral stops: Gauss-Legendre, 16 nodes on each
-    half period pi / L of the Bessel functions (bessel_table). Its cost grows as L / H, its memory
-    does not (DEPTH_NODES_AT_ONCE nodes at a time); past H = DEEP_ENOUGH L it is zero (O((L/H)^2))."""
-    if H > DEEP_ENOUGH * L:
-        return np.zeros((J, J))
-    kmax = 20.0 / H
-    panels = max(1, int(math.ceil(kmax * L / math.pi)))
-    gx, gw = np.polynomial.legendre.leggauss(16)
-    j = np.arange(1, J + 1)
-    total = np.zeros((J, J))
-    every = np.linspace(0.0, kmax, panels + 1)
-    step = max(1, DEPTH_NODES_AT_ONCE // 16)
-    for first in range(0, panels, step):                 # panels [first, last): their nodes at once
-        last = min(panels, first + step)
-        edges = every[first:last + 1]
-        half = 0.5 * np.diff(edges)[:, None]
-        kk = (0.5 * (edges[:-1, None] + edges[1:, None]) + half * gx[None, :]).ravel()
-        weight = (half * gw[None, :]).ravel() * 2.0 / (np.exp(2.0 * kk * H) + 1.0) / kk
-        B = bessel_table(J, kk * L)[1:]
-        total += (B * weight) @ B.T
-    sign = np.where((j[:, None] + j[None, :]) % 2 == 0, (-1.0) ** ((j[None, :] - j[:, None]) // 2), 0.0)
-    return np.pi * np.outer(j, j) * sign * total
 
 
 def mode_norms(kinds, betas, L, points: int = 0):
@@ -508,7 +432,7 @@ def floe_segment(P, cosq, floe, dx, j, segment, sign):
     beta, ga, gb) inside the subinterval [x_j, x_j+1]: Psi_n there is the quintic Hermite of its
     values, slopes and curvatures at the two nodes (error ~ (beta_N dx)^6 / 46080: 1e-9 at
     beta_N dx = 0.2), times g by the 4-node Gauss rule (exact for the product): the split
-    subintervals of the paper's rule on a floe's wet modes (the cosines' _add_segment)."""
+    subintervals of the paper's rule on a floe's wet modes (the cosines' add_segment)."""
     alpha, beta, ga, gb = segment
     r = 0.5 * (beta - alpha)
     if r <= 0.0:
@@ -531,7 +455,7 @@ def floe_segment(P, cosq, floe, dx, j, segment, sign):
                               + h3 * cosq[n, j + 1] + h4 * slope[n, j + 1] + h5 * curv[n, j + 1])
 
 
-def _dry_values(kinds, betas, norms, L, x, order):
+def dry_values(kinds, betas, norms, L, x, order):
     """(Nd, X): the normalised dry modes' derivatives of the given order at x in -L..L."""
     return np.array([n * dry_mode(int(k), b, L, x, order) for k, b, n in zip(kinds, betas, norms)])
 
@@ -550,9 +474,9 @@ def floe_tables(p, xq, full: bool):
     origin = -L if full else 0.0
     x = np.asarray(xq, dtype=float) + origin
     fine = np.linspace(origin, L, 8 * (x.size - 1) + 1)
-    scale = np.max(np.abs(Q.T @ _dry_values(kinds, betas, norms, L, fine, 0)), axis=1)
+    scale = np.max(np.abs(Q.T @ dry_values(kinds, betas, norms, L, fine, 0)), axis=1)
     Qs = Q / scale                                   # each wet mode of largest |Psi_k| = 1
-    values = [Qs.T @ _dry_values(kinds, betas, norms, L, x, order) for order in range(3)]
+    values = [Qs.T @ dry_values(kinds, betas, norms, L, x, order) for order in range(3)]
     tables = np.empty((4,) + values[0].shape)
     tables[TABLE_STRAIN] = -0.5 * p.hi * values[2]
     tables[TABLE_SLOPE] = values[1]
@@ -592,7 +516,7 @@ def _hat_weights(Qs, kinds, betas, norms, L, x):
     dx = x[1] - x[0]
     t = 0.5 * (gx + 1.0)                              # in [0, 1] along a subinterval
     pts = (x[:-1, None] + dx * t[None, :]).ravel()
-    vals = (Qs.T @ _dry_values(kinds, betas, norms, L, pts, 0)).reshape(Qs.shape[1], x.size - 1, 8)
+    vals = (Qs.T @ dry_values(kinds, betas, norms, L, pts, 0)).reshape(Qs.shape[1], x.size - 1, 8)
     w = 0.5 * dx * gw
     hat = np.zeros((Qs.shape[1], x.size))
     hat[:, :-1] += vals @ (w * (1.0 - t))             # the falling half of hat_j on [x_j, x_j+1]

@@ -30,7 +30,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .basis import _add_segment, modal_projection, modal_sum, modal_sum_strain, node_strain
+from .basis import add_segment, modal_projection, modal_sum, modal_sum_strain, node_strain
 from .floe import TABLE_HAT, floe_plane, floe_segment
 from .contact import contact_bound
 from ..compile.jit import kernel
@@ -291,11 +291,11 @@ def split_segments(basis, jmax, delta, fvals, P, force):
 @kernel(inline="always")
 def _segment(P, basis, j, segment, sign):
     """P_n += sign * int g(x) mode_n(x) dx over segment = (alpha, beta, ga, gb) in the
-    subinterval j, g linear from ga to gb: exact on the cosines (_add_segment), by the quintic
+    subinterval j, g linear from ga to gb: exact on the cosines (add_segment), by the quintic
     Hermite of the modes on a floe (solver.model.floe.floe_segment)."""
     alpha, beta, ga, gb = segment
     if basis.kind == 0.0:
-        _add_segment(P, basis.lam1, alpha, beta, ga, gb, sign)
+        add_segment(P, basis.lam1, alpha, beta, ga, gb, sign)
     else:
         floe_segment(P, basis.cosq, basis.floe, basis.dx, j, segment, sign)
 

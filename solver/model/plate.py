@@ -209,7 +209,7 @@ def mode_acceleration(plate, a, v, P, out):
 
 
 @kernel
-def _plus_plate_energy(e, plate, z):
+def plus_plate_energy(e, plate, z):
     """e + E_plate, E_plate = sum_n L M_n (a_n'^2 + omega_n^2 a_n^2) / 2 [J m-1] (added term by
     term to e): L M_n |z_n|^2 / 2 for the undamped plate."""
     LM = plate.modes[MASS]

@@ -265,6 +265,38 @@ def _track(args, lo, hi):
 
 
 @kernel
+def _with_plate_best(pb, t0, h, zone, found):
+    """The step's zone maximum ``found`` (value, t, x, edge, speed), or the plate-wide one ``pb``
+    (rows of plate_best: value, t, x) where it is larger and was in the zone, its ends moving
+    linearly over the step from zone[:2] to zone[2:]."""
+    if pb[0] > found[0] and h > 0.0:
+        th = (pb[1] - t0) / h
+        if zone[0] + th * (zone[2] - zone[0]) <= pb[2] <= zone[1] + th * (zone[3] - zone[1]):
+            return pb[0], pb[1], pb[2], 0.0, 0.0
+    return found
+
+
+@kernel
+def _report(zw, s, diag, best, tb, xb, edge, speed):
+    """Surface s's maximum over the step: into the diagnostics where it raises them (NaN before
+    the first value), and kept as the step's best."""
+    if not best <= diag[D_ZONE_UPPER + 3 * s]:
+        diag[D_ZONE_UPPER + 3 * s] = best
+        diag[D_ZONE_UPPER_T + 3 * s] = tb
+        diag[D_ZONE_UPPER_X + 3 * s] = xb
+        diag[D_ZONE_UPPER_EDGE + s] = 1.0 if edge > 0.0 else 0.0
+    zw.best[s, 0], zw.best[s, 1], zw.best[s, 2], zw.best[s, 3], zw.best[s, 4] = best, tb, xb, edge, speed
+
+
+@kernel
+def _shift(p0, p1, fixed_rate):
+    """The step's end peak becomes the next step's start, with its rate at a fixed place."""
+    for col in range(5):
+        p0[col] = p1[col]
+    p0[1] = fixed_rate
+
+
+@kernel
 def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     """The zone's peaks of both surfaces at the end of the accepted step [t0, t0 + h], their
     largest values over it and their running-maximum records (module docstring); ends = (eps at
@@ -339,21 +371,8 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
                 rec_up, n_up = _store_chain(t0, h, chain, rec_up, n_up, zw.marks, s)
             else:
                 rec_lo, n_lo = _store_chain(t0, h, chain, rec_lo, n_lo, zw.marks, s)
-        pb = plate_best[s]                          # the plate-wide maximum, where it was in the zone
-        if pb[0] > best and h > 0.0:
-            th = (pb[1] - t0) / h
-            if zone[0] + th * (lo - zone[0]) <= pb[2] <= zone[1] + th * (hi - zone[1]):
-                best, tb, xb, edge, speed = pb[0], pb[1], pb[2], 0.0, 0.0
-        if not best <= diag[D_ZONE_UPPER + 3 * s]:  # (NaN before the first value)
-            diag[D_ZONE_UPPER + 3 * s] = best
-            diag[D_ZONE_UPPER_T + 3 * s] = tb
-            diag[D_ZONE_UPPER_X + 3 * s] = xb
-            diag[D_ZONE_UPPER_EDGE + s] = 1.0 if edge > 0.0 else 0.0
-        zw.best[s, 0], zw.best[s, 1], zw.best[s, 2], zw.best[s, 3], zw.best[s, 4] = best, tb, xb, edge, speed
-        for col in range(5):
-            p0[col] = p1[col]
-        p0[1] = fixed_rate
-    zw.reach[2] = lo
-    zw.reach[3] = hi
-    zw.reach[4] = c
+        best, tb, xb, edge, speed = _with_plate_best(plate_best[s], t0, h, zone, (best, tb, xb, edge, speed))
+        _report(zw, s, diag, best, tb, xb, edge, speed)
+        _shift(p0, p1, fixed_rate)
+    zw.reach[2], zw.reach[3], zw.reach[4] = lo, hi, c
     return rec_up, n_up, rec_lo, n_lo
