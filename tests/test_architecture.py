@@ -3,6 +3,7 @@ the solver's files and kernels small, the solver free of files, xarray, dask and
 command line a parser that calls one function per command."""
 import ast
 import re
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -275,4 +276,19 @@ def test_no_module_imports_another_modules_private_names():
     assert _private_imports({**_modules("solver"), **_modules("pipeline")}) == []
     assert _private_imports({"m": (None, ast.parse("from .a import _b, c, __version__\nfrom numpy import _x"))}) \
         == ["m: _b"]
+
+
+def test_the_layout_block_names_every_folder():
+    """docs/architecture.md's Layout block (its last code block) names folders that exist, and
+    every folder of the repository that git tracks files in, down to solver/'s and pipeline/'s
+    subpackages (it listed neither the floe, the zone nor the compile modules once)."""
+    text = (ROOT / "docs" / "architecture.md").read_text()
+    block = text.split("## Layout", 1)[1].split("```")[1]
+    named = {m.group(1) for m in re.finditer(r"^([\w.]+(?:/[\w.]+)*)/\s", block, re.M)}
+    assert sorted(name for name in named if not (ROOT / name).is_dir()) == []
+    tracked = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True).stdout.split()
+    folders = {path.split("/")[0] for path in tracked if "/" in path}
+    folders |= {str(Path(path).parent) for path in tracked if path.startswith(("solver/", "pipeline/"))
+                and path.endswith("/__init__.py")}
+    assert sorted(folders - named) == [], "the Layout block does not name these folders"
 
