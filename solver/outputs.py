@@ -11,6 +11,7 @@ strain maxima (value, x, time) are consecutive, each surface's after the upper's
 reach the lower surface's at the upper's slot + 3, and its zone edge flag at the upper's + 1.
 """
 from collections import namedtuple
+from pathlib import Path
 
 #: one diagnostic: the kernel's slot name, the stored name, units, long name, a position on the plate
 Diagnostic = namedtuple("Diagnostic", "slot name units long_name position", defaults=(False,))
@@ -205,7 +206,6 @@ def layout_slots() -> str:
 
 def write_layout_slots(path) -> bool:
     """Rewrite the generated block of solver/layout.py at ``path``; returns whether it changed."""
-    from pathlib import Path
     text = Path(path).read_text()
     start, end = text.index(LAYOUT_BEGIN), text.index(LAYOUT_END) + len(LAYOUT_END) + 1
     new = text[:start] + layout_slots() + text[end:]
@@ -215,5 +215,4 @@ def write_layout_slots(path) -> bool:
 
 
 if __name__ == "__main__":
-    from pathlib import Path
     print("solver/layout.py", "rewritten" if write_layout_slots(Path(__file__).with_name("layout.py")) else "unchanged")
