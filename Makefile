@@ -68,6 +68,9 @@ test-cluster: setup  ## a one-node SLURM from Debian's packages (root; installed
 test-slow: setup  ## only the long tests (marked slow)
 	$(PY) -m pytest -q -n 2 --dist loadfile -m slow --durations=10
 
+bench-compile: setup  ## the first compile from an empty cache, beside the number README.md gives (CI prints it)
+	$(PY) benchmarks/first_compile.py
+
 bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 	$(PY) benchmarks/bench_solver.py
 	$(PY) benchmarks/bench_study.py
