@@ -205,7 +205,7 @@ def output_size(study) -> tuple:
     """(bytes one case holds in a worker's memory, bytes the study writes to disk), estimated
     from the output request: each field is times x x_points doubles."""
     times = study.case(0).requested_times().size
-    fields = len(study.output["fields"]) * times * study.output["x_points"] * 8
+    fields = len(study.output.fields) * times * study.output.x_points * 8
     per_case = fields + 3 * times * 8 + CASE_OVERHEAD
     memory = 4 * fields + CASE_OVERHEAD                   # the solver's, the case's and the batch's copies
     disk = 2 * per_case * len(study.run_ids)              # batch files and study.nc

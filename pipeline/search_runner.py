@@ -37,7 +37,7 @@ def _evaluation_text(study, cases: list) -> str:
     eps = study.search["eps_Y"]
     if eps:
         given = output.get("eps_Y")
-        output["eps_Y"] = sorted(set(eps) | set(given if isinstance(given, list) else study.output["eps_Y"]))
+        output["eps_Y"] = sorted(set(eps) | set(given if isinstance(given, list) else study.output.eps_Y))
     table = {"description": f"the runs of the search of study {study.name}", "base": data.get("base", {}),
              "solver": data.get("solver", {}), "output": output, "cases": cases}
     if data.get("accept_extreme_values"):

@@ -263,7 +263,7 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
             ax_s.plot(t_rec * 1e3, sign * m_rec, color=color, lw=1.0, ls="--", drawstyle="steps-post",
                       label=f"largest tension so far, {surface} surface" + (" (−)" if sign < 0 else ""))
     from solver import crack_onset
-    eps_Y = sorted(float(e) for e in study.output.get("eps_Y") or [])
+    eps_Y = sorted(float(e) for e in study.output.eps_Y)
     upper = records.get("upper") if records else None
     top = float(np.nanmax(upper[:, 1])) if upper is not None and len(upper) else np.nan
     # the yield strains the figure can show: at most three, spread over those above 5% of the

@@ -47,4 +47,4 @@ def test_generated_axes_are_decimal():
 def test_a_study_eps_Y_range_is_decimal():
     study = load_study_text('[base]\nNmod = 4\n[grid]\nV = [5.0]\n[output]\n'
                             'eps_Y = { min = 1e-5, max = 1e-1, count = 5 }\n', "axes")
-    assert study.output["eps_Y"] == [1e-5, 1e-4, 1e-3, 1e-2, 1e-1]
+    assert study.output.eps_Y == (1e-5, 1e-4, 1e-3, 1e-2, 1e-1)

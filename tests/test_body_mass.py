@@ -207,7 +207,7 @@ def test_case_ids_hold_for_the_papers_body():
     assert before.case_ids == paper.case_ids == [c.case_id for c in paper.cases]
     swept = load_study_text(STUDY.format(base="", masses="[1000.0, inf]", end="stage"), "s")
     assert swept.case_ids == [c.case_id for c in swept.cases] and swept.case_ids[1] == before.case_ids[0]
-    assert swept.output["body"] and not before.output["body"]
+    assert swept.output.body and not before.output.body
 
 
 def test_separation_end_needs_a_free_body(tmp_path):

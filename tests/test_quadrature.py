@@ -214,8 +214,9 @@ def test_the_quadrature_is_part_of_a_case_id():
     (a study that names the paper's rule, its 1000 subintervals and tolerance 1e-8, the defaults
     before issue 24, finds its finished cases)."""
     from pipeline.study.identity import case_id, used_settings
+    from pipeline.study.sections import Output
     p = Parameters()
-    output = {"times": [0.5], "fields": [], "x_points": 11, "end": "stage"}
+    output = Output(times={"unit": "stage", "count": 2}, fields=(), x_points=11, eps_Y=(), end="stage", records=True)
     paper = Settings(quadrature="paper")
     assert "quadrature" not in used_settings(paper)
     assert used_settings(Settings())["quadrature"] == "gauss"

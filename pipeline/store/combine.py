@@ -58,10 +58,10 @@ def parameter_coord(key, values):
 def per_case_variables(study: Study) -> list:
     """(name, tail dims, kind, attrs) of every study.nc variable stored per case."""
     out = []
-    for name in study.output["fields"]:
+    for name in study.output.fields:
         long_name, units = FIELD_INFO[name]
         out.append((name, ("t", "x"), "f", {"long_name": long_name, "units": units}))
-    for name, (long_name, units) in {**SERIES_INFO, **(BODY_SERIES_INFO if study.output.get("body") else {})}.items():
+    for name, (long_name, units) in {**SERIES_INFO, **(BODY_SERIES_INFO if study.output.body else {})}.items():
         out.append((name, ("t",), "f", {"long_name": long_name, "units": units}))
     for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
         out.append((name, (), "f", {"long_name": long_name, "units": units}))
@@ -75,7 +75,7 @@ def per_case_variables(study: Study) -> list:
         for name, (long_name, units) in ERROR_INFO.items():
             out.append((name, (), "f", {"long_name": long_name, "units": units}))
         out.append(("reference_case_id", (), "s", {"long_name": "id of the reference run"}))
-    if study.output["records"]:
+    if study.output.records:
         out.append(("tension_record_count", ("tension_record",), "i",
                     {"long_name": "nodes of the case's tension record", "units": "1",
                      "sample_dimension": "tension_node"}))
@@ -143,11 +143,11 @@ class StudyWriter:
         for d, n in zip(self.dims, self.shape):
             nc.createDimension(d, n)
         nc.createDimension("t", len(t_coord))
-        if study.output["fields"]:
+        if study.output.fields:
             nc.createDimension("x", len(x_fraction))
         nc.createDimension("tension_record", len(RECORD_NAMES))
-        nc.createDimension("eps_Y", len(study.output["eps_Y"]))
-        if study.output["records"]:
+        nc.createDimension("eps_Y", len(study.output.eps_Y))
+        if study.output.records:
             nc.createDimension("tension_node", None)
             nc.createDimension("contact_change", None)
         # a [[cases]] or [design] study's variables name their per-case coordinates (CF): the
@@ -164,7 +164,7 @@ class StudyWriter:
             else:
                 var = nc.createVariable(name, str, dims)
             var.setncatts({**attrs, "coordinates": coordinates} if coordinates else attrs)
-        if study.output["records"]:
+        if study.output.records:
             for name, (long_name, units) in {**TENSION_RECORD_INFO, **CONTACT_RECORD_INFO}.items():
                 dim = "tension_node" if name in TENSION_RECORD_INFO else "contact_change"
                 nc.createVariable(name, "f8", (dim,), fill_value=np.nan).setncatts(
@@ -180,9 +180,9 @@ class StudyWriter:
         first = study.case(0)
         t = nc.createVariable("t", "f8", ("t",))
         t[:] = t_coord
-        long_name, units = time_coordinate_attrs(study.output["times"]["unit"])
+        long_name, units = time_coordinate_attrs(study.output.times["unit"])
         t.setncatts({"long_name": long_name, "units": units})
-        if study.output["fields"]:
+        if study.output.fields:
             x = nc.createVariable("x", "f8", ("x",))
             L_values = {v for v in study.grid.get("L", [])} or {c.parameters.L for c in
                                                                 (study._listed or [first])}
@@ -197,7 +197,7 @@ class StudyWriter:
         record.long_name = RECORD_LONG_NAME
         from solver import EPS_Y_INFO
         eps = nc.createVariable("eps_Y", "f8", ("eps_Y",))
-        eps[:] = study.output["eps_Y"]
+        eps[:] = study.output.eps_Y
         eps.setncatts({"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
         if study.grid:
             for (key, values), dim in zip(study.grid.items(), study.dims):
@@ -282,7 +282,7 @@ class StudyWriter:
         if not self.buffer:
             return
         self.buffer.sort(key=lambda item: int(item[0][0]) if item[0].size else -1)
-        if self.study.output["records"]:
+        if self.study.output.records:
             for flat, data in self.buffer:
                 self._append_records(data)
                 if flat.size:
@@ -312,7 +312,7 @@ class StudyWriter:
                     filler[name] = np.full(k, "", dtype=object)
             for name, values in filler.items():
                 self._put(name, missing, values)
-        if self.study.output["records"]:
+        if self.study.output.records:
             self._records_in_grid_order()
         self.nc.setncatts(attrs)
         self.nc.close()
@@ -407,7 +407,7 @@ def stream_spec(study: Study):
     come from other batches)."""
     if study.references:
         return None
-    return [study.output["eps_Y"], [v[0] for v in per_case_variables(study)], study.output["records"]]
+    return [study.output.eps_Y, [v[0] for v in per_case_variables(study)], study.output.records]
 
 
 def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=None,
@@ -430,8 +430,8 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
         elif not unseen.all():      # some positions streamed (a Morris design's repeated point): the others
             groups[file][1] = [f for f, u in zip(groups[file][1], unseen) if u]
             groups[file][2] = [r for r, u in zip(groups[file][2], unseen) if u]
-    tasks = [(file, (str(out_dir / BATCHES / file), sha, rows, study.output["eps_Y"], names,
-                     study.output["records"], refs)) for file, (sha, flat, rows, refs) in groups.items()]
+    tasks = [(file, (str(out_dir / BATCHES / file), sha, rows, study.output.eps_Y, names,
+                     study.output.records, refs)) for file, (sha, flat, rows, refs) in groups.items()]
     mapper = mapper or _serial
     damaged = set()
     try:

@@ -211,8 +211,8 @@ SLOW_SUBINTERVALS = 20_000
 
 def cases_past_their_stage(study) -> int:
     """How many cases have output times past their impact stage (those are not integrated)."""
-    if study.output["times"]["unit"] != "t_sc":
+    if study.output.times["unit"] != "t_sc":
         return 0
-    last = float(coordinate_times(study.output["times"])[-1])
+    last = float(coordinate_times(study.output.times)[-1])
     ratio = np.broadcast_to(stage_in_t_sc(study), study.shape)
     return int(np.sum(last > ratio * (1 + 1e-12)))

@@ -26,7 +26,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from pathlib import Path
 
@@ -38,7 +38,7 @@ from .case import Case, coordinate_times
 from .consistency import body_masses, check_grid_values, check_ranges, longest_stage_in_t_sc
 from ..common.errors import StudyError
 from .identity import grid_case_ids, grid_label, make_case, resolve_sample
-from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, check_output, check_parameters, check_reference,
+from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, Output, check_output, check_parameters, check_reference,
                        check_solver, check_value)
 
 #: the plot kinds a study can ask for ([plots]); pipeline.figures.KINDS draws each, one entry
@@ -62,7 +62,7 @@ class Study:
     base: dict
     grid: dict                      # key -> list of values, in file order
     case_list: list                 # explicit [[cases]] (overrides), or []
-    output: dict
+    output: Output
     solver: dict
     plots: list
     reference: dict = field(default_factory=dict)
@@ -267,8 +267,8 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference, design=design, analysis=analysis, search=search)
     masses = body_masses(study)
-    study.output["body"] = any(math.isfinite(m) for m in masses if isinstance(m, (int, float)))
-    if output["end"] == "separation" and not all(isinstance(m, (int, float)) and math.isfinite(m) for m in masses):
+    study.output = replace(study.output, body=any(math.isfinite(m) for m in masses if isinstance(m, (int, float))))
+    if output.end == "separation" and not all(isinstance(m, (int, float)) and math.isfinite(m) for m in masses):
         raise StudyError('[output] end = "separation" needs a free body in every case: give body_mass a '
                          'finite value in [base], or finite values in [grid] or in every [[cases]] entry')
     if not extreme:
@@ -298,9 +298,9 @@ def expand(study: Study) -> None:
         study._listed = listed
     if study.n_cases == 0:
         raise StudyError("the study has no cases")
-    ref_output = {**study.output, "fields": sorted(set(study.output["fields"]) | {"strain"})}
+    ref_output = replace(study.output, fields=tuple(sorted(set(study.output.fields) | {"strain"})))
     if study.reference or any("reference" in c for c in study.case_list):
-        if "strain" not in study.output["fields"]:
+        if "strain" not in study.output.fields:
             raise StudyError("a study with a [reference] must store the strain field (errors are "
                              "measured on it): add \"strain\" to [output] fields")
         for i in range(study.n_cases):
@@ -312,8 +312,8 @@ def expand(study: Study) -> None:
             values = {**{k: case.value(k) for k in PARAMETER_INFO}, **case.settings.as_dict(), **ref_overrides}
             study.references[i] = make_case((), values, ref_output, f"reference of case {i}")
     # outputs past every case's stage are outside the model: refuse a study that asks only those
-    if study.output["times"]["unit"] == "t_sc":
-        first = coordinate_times(study.output["times"])
+    if study.output.times["unit"] == "t_sc":
+        first = coordinate_times(study.output.times)
         longest = longest_stage_in_t_sc(study)
         if first.size > 1 and np.all(first[1:] > longest * (1 + 1e-12)):
             raise StudyError(f"[output] times: every output time after 0 lies past every case's impact "

@@ -83,8 +83,8 @@ RELEVANT_SETTINGS = {
 def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
     """The canonical JSON a case id hashes (sorted keys, no spaces)."""
     payload = {"schema": SCHEMA_VERSION, "parameters": parameters, "settings": settings,
-               "output": {"times": output["times"], "fields": sorted(output["fields"]),
-                          "x_points": output["x_points"], "end": output["end"]}}
+               "output": {"times": output.times, "fields": sorted(output.fields),
+                          "x_points": output.x_points, "end": output.end}}
     return json.dumps(payload, sort_keys=True, separators=(",", ":"))
 
 
@@ -121,8 +121,8 @@ def make_case(index, values: dict, output: dict, label: str) -> Case:
         check_combination(p, s)
     except ParameterError as err:
         raise StudyError(f"{label if label.startswith('[') else 'case ' + label}: {err}") from None
-    return Case(case_id(p, s, output), tuple(index), p, s, output["times"], tuple(output["fields"]),
-                output["x_points"], output["end"], output.get("body", False))
+    return Case(case_id(p, s, output), tuple(index), p, s, output.times, tuple(output.fields),
+                output.x_points, output.end, output.body)
 
 
 def grid_label(grid: dict, idx: tuple) -> str:

@@ -5,6 +5,7 @@ pipeline.study.consistency's."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Settings, default_eps_Y
 from solver.axes import log_axis
@@ -107,7 +108,27 @@ def check_reference(where: str, table) -> dict:
     return check_parameters(where, table, settings=True)
 
 
-def check_output(out) -> dict:
+@dataclass(frozen=True)
+class Output:
+    """[output], checked: what every case stores and over what time (docs/user_guide.md).
+
+    times: the output times, {"unit": "t_sc" or "s", "step", "stop"} or {"unit": "stage",
+    "count"}; fields: the fields stored on the x grid, of solver.FIELDS; x_points: that grid's
+    points; eps_Y: the yield strains crack onset is given for (sorted); end: how far a case runs
+    ("stage", "last_output", "separation"); records: whether the tension records are stored
+    (crack onset for any eps_Y afterwards); body: whether some case has a free body (its series
+    are stored), set by the study from its cases, not by the table."""
+
+    times: dict
+    fields: tuple
+    x_points: int
+    eps_Y: tuple
+    end: str
+    records: bool
+    body: bool = False
+
+
+def check_output(out) -> Output:
     if not isinstance(out, dict):
         raise StudyError("[output] must be a table")
     unknown = set(out) - OUTPUT_KEYS
@@ -153,7 +174,8 @@ def check_output(out) -> dict:
         raise StudyError(f"[output] end must be one of {', '.join(repr(e) for e in ENDS)}, got {result['end']!r}")
     if not isinstance(result["records"], bool):
         raise StudyError(f"[output] records must be true or false, got {result['records']!r}")
-    return result
+    return Output(times=result["times"], fields=tuple(fields), x_points=result["x_points"],
+                  eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"])
 
 
 def check_eps_Y(spec) -> list:
