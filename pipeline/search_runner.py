@@ -48,7 +48,7 @@ def _evaluation_text(study, cases: list) -> str:
 def _point_values(study, i: int) -> dict:
     """The keys that place point i (its grid or design values) for a [[cases]] entry."""
     case = study.case(i)
-    keys = study.design["keys"] if study.design else (study.grid if study.grid else {})
+    keys = study.design.keys if study.design else (study.grid if study.grid else {})
     return {k: case.value(k) for k in keys}
 
 

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import pipeline
-from pipeline.study.design import design_points, unit_points
+from pipeline.study.design import Design, design_points, unit_points
 from pipeline.store.ledger import Ledger
 from pipeline.study.definition import load_study_text
 from helpers import kill_runner_then_resume, run_cli as command
@@ -51,8 +51,8 @@ def test_each_key_is_stratified(method):
     """Scrambled Sobol' (2^m points) and a Latin hypercube put exactly one point in each of the
     n equal slices of every key's range: on a log scale for a log key."""
     n = 64
-    points = design_points({"method": method, "samples": n, "seed": 11,
-                            "keys": {"V": (1.0, 100.0, True), "hi": (0.3, 1.0, False)}})
+    points = design_points(Design(method=method, samples=n, seed=11,
+                                  keys={"V": (1.0, 100.0, True), "hi": (0.3, 1.0, False)}))
     V, hi = np.array(points["V"]), np.array(points["hi"])
     assert sorted(np.floor(np.log(V / 1.0) / np.log(100.0) * n).astype(int)) == list(range(n))
     assert sorted(np.floor((hi - 0.3) / 0.7 * n).astype(int)) == list(range(n))

@@ -14,7 +14,7 @@ import xarray as xr
 pytest.importorskip("openturns")
 
 import pipeline  # noqa: E402
-from pipeline.study.design import design_points  # noqa: E402
+from pipeline.study.design import Design, design_points  # noqa: E402
 from pipeline.analyse.emulator import Emulator, EmulatorError  # noqa: E402
 from pipeline.analyse.sensitivity import analyze  # noqa: E402
 from pipeline.study.definition import load_study_text  # noqa: E402
@@ -32,7 +32,7 @@ def _fake_study(design, outputs: dict, time_reached=1.0) -> xr.Dataset:
     """A study.nc as the runner writes it for a design: the keys along sample, the outputs."""
     points = design_points(design)
     n = len(next(iter(points.values())))
-    X = np.column_stack([points[k] for k in design["keys"]])
+    X = np.column_stack([points[k] for k in design.keys])
     data = {name: ("sample", f(X)) for name, f in outputs.items()}
     data.update(status=("sample", np.array(["ok"] * n, dtype=object)), time_reached=("sample", np.full(n, time_reached)),
                 run_time=("sample", np.full(n, 0.01)))
@@ -54,8 +54,8 @@ def test_ishigami_indices_through_the_analysis_lie_within_their_intervals(method
     """At <= 200 runs of either design every S1 and ST lies within its interval of the exact value
     (measured: degree 12, Q2 > 0.9999999, S1 and ST within 9.2e-6 (sobol, 128 runs) and 9.1e-6
     (latin hypercube, 200), widest interval 5.3e-4 and 2.1e-4)."""
-    design = {"method": method, "samples": samples, "seed": 4,
-              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}}
+    design = Design(**{"method": method, "samples": samples, "seed": 4,
+              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}})
     idx = analyze(_fake_study(design, {"max_strain": ishigami}), design, _analysis(["max_strain"]))
     sel = idx.sel(output="max_strain")
     assert float(sel["q2"]) > 0.999 and int(sel["refused"]) == 0 and idx.sizes["sample"] == samples
@@ -80,7 +80,7 @@ def test_an_output_zero_on_part_of_the_box_widens_its_intervals_or_is_refused():
     keys = {"V": (0.0, 1.0, False), "hi": (0.0, 1.0, False), "K": (0.0, 1.0, False)}
     exact = _jansen_total(lambda X: np.nan_to_num(bottoming(X), nan=1.0), 3)
     for samples in (64, 128, 256):
-        design = {"method": "sobol", "samples": samples, "seed": 2, "keys": keys}
+        design = Design(**{"method": "sobol", "samples": samples, "seed": 2, "keys": keys})
         idx = analyze(_fake_study(design, {"bottoming_time": bottoming, "max_strain": lambda X: X[:, 0] + X[:, 1] ** 2}),
                       design, _analysis(["bottoming_time", "max_strain"]))
         sel = idx.sel(output="bottoming_time")
@@ -107,8 +107,8 @@ def _jansen_total(f, d, m=20):
 
 
 def test_an_output_the_expansion_cannot_predict_is_refused_alone():
-    design = {"method": "sobol", "samples": 64, "seed": 0,
-              "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}}
+    design = Design(**{"method": "sobol", "samples": 64, "seed": 0,
+              "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     noise = np.random.default_rng(3).normal(size=64)
     ds = _fake_study(design, {"max_strain": lambda X: X[:, 0] * X[:, 1], "max_force": lambda X: noise})
     idx = analyze(ds, design, _analysis(["max_strain", "max_force"]))
@@ -122,7 +122,7 @@ def test_an_output_the_expansion_cannot_predict_is_refused_alone():
 
 def test_the_logarithm_of_an_output_is_analysed_where_asked():
     """y = exp(3 V) hi: log y = 3 V + log hi is additive, so ST = S1 and the indices sum to 1."""
-    design = {"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (0.0, 1.0, False), "hi": (1.0, 2.0, False)}}
+    design = Design(**{"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (0.0, 1.0, False), "hi": (1.0, 2.0, False)}})
     ds = _fake_study(design, {"max_strain": lambda X: np.exp(3 * X[:, 0]) * X[:, 1]})
     idx = analyze(ds, design, _analysis(["max_strain"], log=["max_strain"]))
     sel = idx.sel(output="log(max_strain)")
@@ -139,7 +139,7 @@ def test_an_output_no_run_produced_is_refused_not_fitted(output):
     """Every value NaN (the estimate off, a driven body's separation, a maximum no run has): the
     stand-in values (0, or the run's end) fitted to Q2 = 1 with indices 0, or S1(V) = 1 from the
     run's end. It is refused with its reason; the other outputs are kept."""
-    design = {"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (1.0, 2.0, False)}}
+    design = Design(**{"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (1.0, 2.0, False)}})
     ds = _fake_study(design, {output: lambda X: np.full(X.shape[0], np.nan),
                               "max_force": lambda X: X[:, 0] + X[:, 1] ** 2}, time_reached=1.0)
     ds["time_reached"] = ds["time_reached"] * ds["V"]             # the run's end varies, as a stage does
@@ -148,7 +148,7 @@ def test_an_output_no_run_produced_is_refused_not_fitted(output):
     assert "no sample produced it" in json.loads(idx.attrs["refusals"])[output]
     assert int(idx["refused"].sel(output="max_force")) == 0 and float(idx["q2"].sel(output="max_force")) > 0.99
     sobol = {"method": "sobol", "outputs": [output], "eps_Y": [], "conf_level": 0.95, "resamples": 50, "seed": 0}
-    saltelli = {"method": "saltelli", "samples": 16, "seed": 0, "keys": design["keys"]}
+    saltelli = Design(**{"method": "saltelli", "samples": 16, "seed": 0, "keys": design.keys})
     with pytest.raises(pipeline.StudyError, match=f"{output}: no sample produced it"):
         analyze(_fake_study(saltelli, {output: lambda X: np.full(X.shape[0], np.nan)}), saltelli, sobol)
 
@@ -157,7 +157,7 @@ def test_the_emulator_predicts_within_its_error_estimate_and_refuses_what_it_can
     """A smooth output of two keys (one on a log scale), 64 runs: at 500 points it never saw the
     RMS error is below the error estimate, the cross-validated RMSE (measured: 8.0e-7 against the
     estimate 2.2e-6, the largest error 5.1e-6)."""
-    design = {"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (1.0, 10.0, True), "hi": (0.3, 1.0, False)}}
+    design = Design(**{"method": "sobol", "samples": 64, "seed": 0, "keys": {"V": (1.0, 10.0, True), "hi": (0.3, 1.0, False)}})
     f = lambda X: np.log(X[:, 0]) * np.exp(-X[:, 1]) + X[:, 1] ** 2  # noqa: E731
     idx = analyze(_fake_study(design, {"max_strain": f}), design, _analysis(["max_strain"]))
     emulator = Emulator(idx)
@@ -248,7 +248,7 @@ def test_a_pce_study_writes_indices_emulator_and_figures_and_extends(tmp_path):
 
 
 def test_the_emulator_of_a_sobol_analysis_is_refused(tmp_path):
-    design = {"method": "saltelli", "samples": 16, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}}
+    design = Design(**{"method": "saltelli", "samples": 16, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     pytest.importorskip("SALib")
     idx = analyze(_fake_study(design, {"max_strain": lambda X: X[:, 0]}), design,
                   {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [], "conf_level": 0.95, "resamples": 20,

@@ -4,6 +4,8 @@ on functions whose indices are known, then on the solver end to end; bad [analys
 one line."""
 import math
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -12,7 +14,7 @@ pytest.importorskip("SALib")
 
 import pipeline  # noqa: E402
 from pipeline.analyse.sensitivity import analyze  # noqa: E402
-from pipeline.study.design import design_points  # noqa: E402
+from pipeline.study.design import Design, design_points  # noqa: E402
 from pipeline.study.definition import load_study_text  # noqa: E402
 
 PI = math.pi
@@ -26,7 +28,7 @@ def _fake_study(design, outputs: dict) -> xr.Dataset:
     points = design_points(design)
     n = len(next(iter(points.values())))
     coords = {k: ("sample", np.array(v)) for k, v in points.items()}
-    X = np.column_stack([points[k] for k in design["keys"]])
+    X = np.column_stack([points[k] for k in design.keys])
     data = {name: ("sample", f(X)) for name, f in outputs.items()}
     data.update(status=("sample", np.array(["ok"] * n, dtype=object)), time_reached=("sample", np.full(n, 1.0)),
                 run_time=("sample", np.full(n, 0.01)))
@@ -38,8 +40,8 @@ def ishigami(X):
 
 
 def test_sobol_indices_of_the_ishigami_function_within_their_intervals():
-    design = {"method": "saltelli", "samples": 1024, "seed": 2,
-              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}}
+    design = Design(**{"method": "saltelli", "samples": 1024, "seed": 2,
+              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}})
     ds = _fake_study(design, {"max_strain": ishigami})
     analysis = {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
                 "resamples": 1000, "seed": 2}
@@ -53,8 +55,8 @@ def test_sobol_indices_of_the_ishigami_function_within_their_intervals():
 
 def test_morris_effects_of_a_linear_function():
     """y = 2 V + 0.5 hi on unit ranges: every elementary effect is the coefficient, exactly."""
-    design = {"method": "morris", "samples": 20, "seed": 1,
-              "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False), "K": (1e6, 1e8, True)}}
+    design = Design(**{"method": "morris", "samples": 20, "seed": 1,
+              "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False), "K": (1e6, 1e8, True)}})
     ds = _fake_study(design, {"max_strain": lambda X: 2.0 * X[:, 0] + 0.5 * X[:, 1]})
     analysis = {"method": "morris", "outputs": ["max_strain"], "eps_Y": [], "conf_level": 0.95,
                 "resamples": 100, "seed": 1}
@@ -64,8 +66,8 @@ def test_morris_effects_of_a_linear_function():
 
 
 def test_an_output_that_did_not_happen_enters_censored_and_says_so():
-    design = {"method": "saltelli", "samples": 64, "seed": 0,
-              "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}}
+    design = Design(**{"method": "saltelli", "samples": 64, "seed": 0,
+              "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     ds = _fake_study(design, {"bottoming_time": lambda X: np.where(X[:, 0] > 1.5, 0.1 / X[:, 0], np.nan)})
     analysis = {"method": "sobol", "outputs": ["bottoming_time"], "eps_Y": [], "conf_level": 0.95,
                 "resamples": 100, "seed": 0}
@@ -81,15 +83,15 @@ def test_an_output_that_did_not_happen_enters_censored_and_says_so():
 def test_a_seed_of_0_gives_the_same_intervals_every_run():
     """SALib seeds its bootstrap only from a truthy seed: seed = 0 (the default) drew other
     intervals each run before."""
-    design = {"method": "saltelli", "samples": 64, "seed": 0,
-              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}}
+    design = Design(**{"method": "saltelli", "samples": 64, "seed": 0,
+              "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}})
     ds = _fake_study(design, {"max_strain": ishigami})
     runs = [analyze(ds, design, {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5],
                                  "conf_level": 0.95, "resamples": 200, "seed": 0}) for _ in range(3)]
     for other in runs[1:]:
         np.testing.assert_array_equal(other["S1_conf"].values, runs[0]["S1_conf"].values)
         np.testing.assert_array_equal(other["ST_conf"].values, runs[0]["ST_conf"].values)
-    design_m = {"method": "morris", "samples": 10, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}}
+    design_m = Design(**{"method": "morris", "samples": 10, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     ds_m = _fake_study(design_m, {"max_strain": lambda X: X[:, 0] ** 3 + X[:, 0] * X[:, 1]})
     runs = [analyze(ds_m, design_m, {"method": "morris", "outputs": ["max_strain"], "eps_Y": [],
                                      "conf_level": 0.95, "resamples": 200, "seed": 0}) for _ in range(2)]
@@ -104,11 +106,11 @@ def test_indices_outside_the_unit_interval_are_flagged(seed):
     analysis = {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
                 "resamples": 100, "seed": seed}
     keys = {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}
-    few = {"method": "saltelli", "samples": 1, "seed": seed, "keys": keys}
+    few = Design(**{"method": "saltelli", "samples": 1, "seed": seed, "keys": keys})
     idx = analyze(_fake_study(few, {"max_strain": ishigami}), few, analysis)
     assert int(idx["outside_unit_interval"].sel(output="max_strain")) == 1
     assert doubtful_outputs(idx) == ["max_strain"]
-    many = {**few, "samples": 1024}
+    many = replace(few, samples=1024)
     idx = analyze(_fake_study(many, {"max_strain": ishigami}), many, analysis)
     assert int(idx["outside_unit_interval"].sel(output="max_strain")) == 0 and doubtful_outputs(idx) == []
 

@@ -7,6 +7,7 @@ pipeline.analyse.emulator reads."""
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 
 import numpy as np
 
@@ -16,7 +17,7 @@ from ..common.errors import StudyError
 
 def problem(design: dict) -> dict:
     """SALib's problem on the unit cube (the keys' own scales are mapped by pipeline.study.design)."""
-    keys = list(design["keys"])
+    keys = list(design.keys)
     return {"num_vars": len(keys), "names": keys, "bounds": [[0.0, 1.0]] * len(keys)}
 
 
@@ -52,8 +53,8 @@ def analyze(ds, design: dict, analysis: dict):
         raise StudyError(f"{int(broken.sum())} of {status.size} samples failed or are missing "
                          f"({', '.join(sorted(set(status[broken])))}): no sensitivity indices (run again, or "
                          f"with --rerun-failed)")
-    keys = list(design["keys"])
-    X = np.column_stack([unit_scale(np.asarray(ds[k].values, dtype=float), *design["keys"][k]) for k in keys])
+    keys = list(design.keys)
+    X = np.column_stack([unit_scale(np.asarray(ds[k].values, dtype=float), *design.keys[k]) for k in keys])
     rows, labels, censored = [], [], []
     for name in analysis["outputs"]:
         for eps in (analysis["eps_Y"] if name in CRACK_OUTPUTS else [None]):
@@ -199,8 +200,8 @@ def _coordinates(labels, keys) -> dict:
 def _attributes(design: dict, analysis: dict, ds) -> dict:
     from ..common import provenance
     return {"title": f"floe-impact sensitivity of study {ds.attrs.get('study_name', '')}",
-            "analysis": json.dumps(analysis), "design": json.dumps(design),
-            "samples": int(ds.sizes["sample"]), "base_samples": int(design["samples"]),
+            "analysis": json.dumps(analysis), "design": json.dumps(asdict(design)),
+            "samples": int(ds.sizes["sample"]), "base_samples": int(design.samples),
             "conf_level": analysis["conf_level"],
             "solver_time_total": float(np.nansum(np.asarray(ds["run_time"].values, dtype=float))),
             "censoring": "event times that did not happen enter as time_reached; infinite values as the "

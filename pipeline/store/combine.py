@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -211,7 +212,7 @@ class StudyWriter:
             var = nc.createVariable(dim, "i4", (dim,))
             var[:] = np.arange(study.n_cases)
             var.long_name = "sample number of the design" if study.design else "case number in [[cases]]"
-            varying = list(study.design["keys"]) if study.design else study.varying_keys
+            varying = list(study.design.keys) if study.design else study.varying_keys
             for key in varying:
                 data, attrs = parameter_coord(key, [c.value(key) for c in study._listed])
                 v = nc.createVariable(key, str if data.dtype == object else data.dtype, (dim,))
@@ -455,7 +456,7 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
         if study.references:
             attrs["reference"] = json.dumps(study.reference)
         if study.design:
-            attrs["design"] = json.dumps(study.design)
+            attrs["design"] = json.dumps(asdict(study.design))
         path = writer.finish(attrs)
     except BaseException:
         writer.abandon()

@@ -84,7 +84,7 @@ def outputs_known() -> list:
                                                          "error_estimate_quadrature"})
 
 
-def check_analysis(table, design: dict, output: dict) -> dict:
+def check_analysis(table, design, output) -> dict:
     """Validate an [analysis] table against the study's design and output; one line if bad."""
     check_table("[analysis]", table, ANALYSIS_KEYS)
     method = table.get("method")
@@ -94,9 +94,9 @@ def check_analysis(table, design: dict, output: dict) -> dict:
     if not design:
         raise StudyError(f"[analysis] needs a [design] (method = {designs} for method = \"{method}\"): it analyses "
                          f"a design's samples, not a grid, a list of cases or a search")
-    if design["method"] not in METHODS[method]:
+    if design.method not in METHODS[method]:
         raise StudyError(f"[analysis] method = \"{method}\" needs [design] method = {designs}, "
-                         f"got \"{design['method']}\"")
+                         f"got \"{design.method}\"")
     for key in PCE_KEYS:
         if key in table and method != "pce":
             raise StudyError(f"[analysis] {key} is a setting of method = \"pce\", not of \"{method}\"")
@@ -104,7 +104,7 @@ def check_analysis(table, design: dict, output: dict) -> dict:
         import importlib.util
         if importlib.util.find_spec("openturns") is None:
             raise StudyError("[analysis] method = \"pce\" needs OpenTURNS: pip install 'floe-impact[surrogate]'")
-    if len(design["keys"]) < 2:
+    if len(design.keys) < 2:
         raise StudyError("[analysis] needs at least two sampled keys in [design.keys]")
     outputs = table.get("outputs")
     known = outputs_known()
@@ -136,10 +136,10 @@ def check_analysis(table, design: dict, output: dict) -> dict:
             raise StudyError(f"[analysis] log: {name!r} is not among [analysis] outputs")
     if len(set(logs)) != len(logs):
         raise StudyError(f"[analysis] log: {_repeated(logs)!r} is listed twice")
-    smallest = MIN_SAMPLES[method] if method != "pce" else pce_min_samples(len(design["keys"]))
-    if design["samples"] < smallest:
+    smallest = MIN_SAMPLES[method] if method != "pce" else pce_min_samples(len(design.keys))
+    if design.samples < smallest:
         raise StudyError(f"[analysis] method = \"{method}\" needs [design] samples >= {smallest}, got "
-                         f"{design['samples']}: fewer give indices and intervals that mean nothing (Sobol' "
+                         f"{design.samples}: fewer give indices and intervals that mean nothing (Sobol' "
                          f"indices outside [0, 1] with intervals of width 0)")
     conf = table.get("conf_level", 0.95)
     if isinstance(conf, bool) or not isinstance(conf, float) or not 0.5 <= conf < 1:
@@ -150,7 +150,7 @@ def check_analysis(table, design: dict, output: dict) -> dict:
     if method == "pce" and not 20 <= resamples <= 2000:
         raise StudyError(f"[analysis] resamples (the expansion's bootstrap refits) must be from 20 to 2000 with "
                          f"method = \"pce\", got {resamples}")
-    seed = table.get("seed", design["seed"])
+    seed = table.get("seed", design.seed)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise StudyError(f"[analysis] seed must be a non-negative integer, got {seed!r}")
     checked = {"method": method, "outputs": list(outputs), "eps_Y": [float(e) for e in eps],
@@ -170,19 +170,19 @@ def _training_runs(samples: int) -> int:
     return samples * (FOLDS - 1) // FOLDS
 
 
-def _check_pce(table, design: dict) -> dict:
+def _check_pce(table, design) -> dict:
     """q2_min and the highest degree tried: a degree the runs cannot fit is refused."""
     q2_min = table.get("q2_min", Q2_MIN)
     if isinstance(q2_min, bool) or not isinstance(q2_min, (int, float)) or not 0 < q2_min < 1:
         raise StudyError(f"[analysis] q2_min must be a number in (0, 1), got {q2_min!r}")
-    keys, runs = len(design["keys"]), _training_runs(design["samples"])
+    keys, runs = len(design.keys), _training_runs(design.samples)
     fittable = max((p for p in range(1, MAX_DEGREE + 1) if p < runs and (p == 1 or basis_size(keys, p) <= MAX_TERMS)),
                    default=1)
     degree = table.get("degree", fittable)
     if isinstance(degree, bool) or not isinstance(degree, int) or not 1 <= degree <= MAX_DEGREE:
         raise StudyError(f"[analysis] degree must be an integer from 1 to {MAX_DEGREE}, got {degree!r}")
     if degree >= runs:
-        raise StudyError(f"[analysis] degree = {degree} cannot be fitted from {design['samples']} runs: each fold of the "
+        raise StudyError(f"[analysis] degree = {degree} cannot be fitted from {design.samples} runs: each fold of the "
                          f"cross-validation trains on {runs}, and a polynomial of degree {degree} in one key needs "
                          f"{degree + 1} of them; raise [design] samples or lower degree (at most {fittable})")
     if degree > 1 and basis_size(keys, degree) > MAX_TERMS:

@@ -37,6 +37,7 @@ from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
 from .case import Case, coordinate_times
 from .consistency import body_masses, check_grid_values, check_ranges, longest_stage_in_t_sc
 from ..common.errors import StudyError
+from .design import Design
 from .identity import grid_case_ids, grid_label, make_case, resolve_sample
 from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, Output, check_output, check_parameters, check_reference,
                        check_solver, check_value)
@@ -66,7 +67,7 @@ class Study:
     solver: dict
     plots: list
     reference: dict = field(default_factory=dict)
-    design: dict = field(default_factory=dict)          # a checked [design] (pipeline.study.design), or {}
+    design: Design | None = None                        # a checked [design] (pipeline.study.design)
     analysis: dict = field(default_factory=dict)        # a checked [analysis] (pipeline.study.analysis), or {}
     search: dict = field(default_factory=dict)          # a checked [search] (pipeline.study.search), or {}
     references: dict = field(default_factory=dict)     # position in cases -> its reference Case
@@ -204,7 +205,7 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
                  for i, c in enumerate(case_list)]
     if grid and case_list:
         raise StudyError("a study has either [grid] or [[cases]], not both")
-    design, analysis = {}, {}
+    design, analysis = None, {}
     if "design" in data and (grid or case_list):
         raise StudyError("a study has one of [grid], [[cases]] and [design], not two")
     if grid_raw == {} and "grid" in data:
@@ -240,7 +241,7 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         from .search import check_search
         if case_list and not design and case_list != [{}]:
             raise StudyError("[search] runs over a [grid], a [design] or [base] alone, not [[cases]]")
-        search = check_search(data["search"], {*base, *grid, *(design.get("keys", {}))})
+        search = check_search(data["search"], {*base, *grid, *(design.keys if design else ())})
         if analysis:
             raise StudyError("[analysis] is computed over a [design]'s samples, not a [search]'s runs: a study has "
                              "one of them")

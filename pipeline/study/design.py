@@ -22,6 +22,7 @@ case; a Latin hypercube is not (another size draws other points).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -62,8 +63,21 @@ def _check_bound(where: str, key: str, bound: float, base: dict) -> None:
             raise StudyError(f"{where} = {bound:g}: {err}") from None
 
 
-def check_design(table, base: dict) -> dict:
-    """Validate a [design] table; returns {"method", "samples", "seed", "keys": {key: (lo, hi, log)}}."""
+@dataclass(frozen=True)
+class Design:
+    """[design], checked: ``method`` (of METHODS), ``samples`` (base samples: saltelli makes
+    samples x (keys + 2) cases, morris samples x (keys + 1)), ``seed``, and ``keys``: each sampled
+    key -> (min, max, log), in file order. Stored as JSON in study.nc's ``design`` attribute
+    (dataclasses.asdict, these fields in this order)."""
+
+    method: str
+    samples: int
+    seed: int
+    keys: dict
+
+
+def check_design(table, base: dict) -> Design:
+    """Validate a [design] table; one line naming the key if bad."""
     check_table("[design]", table, DESIGN_KEYS)
     method = table.get("method", "sobol")
     if method not in METHODS:
@@ -108,18 +122,18 @@ def check_design(table, base: dict) -> dict:
         others = {k: 0.5 * (a + b) for k, (a, b, _) in checked.items() if k != key}
         for end, bound in (("min", lo), ("max", hi)):
             _check_bound(f"[design.keys] {key}.{end}", key, bound, {**base, **others})
-    cases = design_size({"method": method, "samples": samples, "keys": checked})
+    cases = design_size(Design(method, samples, seed, checked))
     if cases > MAX_CASES:
         raise StudyError(f"[design] samples = {samples} of {method} over {len(checked)} keys is {cases} cases, more "
                          f"than the {MAX_CASES} a design holds: split it into several studies")
-    return {"method": method, "samples": samples, "seed": seed, "keys": checked}
+    return Design(method, samples, seed, checked)
 
 
-def design_size(design: dict) -> int:
+def design_size(design: Design) -> int:
     """The cases a design makes (samples, or samples x (keys + 2) for saltelli, x (keys + 1) for
     morris), known before they are built."""
-    method, samples = design["method"], design["samples"]
-    return samples * ANALYSIS_DESIGNS[method](len(design["keys"])) if method in ANALYSIS_DESIGNS else samples
+    method, samples = design.method, design.samples
+    return samples * ANALYSIS_DESIGNS[method](len(design.keys)) if method in ANALYSIS_DESIGNS else samples
 
 
 def unit_points(method: str, samples: int, dimensions: int, seed: int) -> np.ndarray:
@@ -151,10 +165,10 @@ def _round(values: np.ndarray) -> list:
     return [float(f"{v:.12g}") for v in values]
 
 
-def design_points(design: dict) -> dict:
+def design_points(design: Design) -> dict:
     """key -> the sampled values (lists of floats, one per sample)."""
-    keys = design["keys"]
-    u = unit_points(design["method"], design["samples"], len(keys), design["seed"])
+    keys = design.keys
+    u = unit_points(design.method, design.samples, len(keys), design.seed)
     out = {}
     for j, (key, (lo, hi, log)) in enumerate(keys.items()):
         if log:
@@ -165,7 +179,7 @@ def design_points(design: dict) -> dict:
     return out
 
 
-def design_cases(design: dict) -> list:
+def design_cases(design: Design) -> list:
     """The design as a [[cases]] list: one table of overrides a sample."""
     points = design_points(design)
     n = len(next(iter(points.values())))         # samples, or samples x (keys + 2) for saltelli
