@@ -7,6 +7,7 @@ import json
 import math
 import sys
 import tomllib
+from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -21,8 +22,8 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
     status = str(ds["status"].values[i])
     if status not in (*COMPLETE, "layer_bottomed_out"):
         return None
-    name = EVENTS[search["event"]]
-    if search["event"] == "bottoming":
+    name = EVENTS[search.event]
+    if search.event == "bottoming":
         return bool(np.isfinite(ds[name].values[i]))
     k = int(np.argmin(np.abs(np.log(ds["eps_Y"].values / eps))))
     return bool(np.isfinite(ds[name].values[i, k]))
@@ -34,7 +35,7 @@ def _evaluation_text(study, cases: list) -> str:
     from .study.study_files import study_text
     data = tomllib.loads(study.text)
     output = dict(data.get("output", {}))
-    eps = study.search["eps_Y"]
+    eps = study.search.eps_Y
     if eps:
         given = output.get("eps_Y")
         output["eps_Y"] = sorted(set(eps) | set(given if isinstance(given, list) else study.output.eps_Y))
@@ -61,7 +62,7 @@ def run_search(study, out_dir: Path, options, run_study) -> int:
     from .common.errors import EXIT_OK
     from .compute.session import session_for
     search = study.search
-    targets = [Target(i, eps, search) for i in range(study.n_cases) for eps in (search["eps_Y"] or [None])]
+    targets = [Target(i, eps, search) for i in range(study.n_cases) for eps in (search.eps_Y or [None])]
     points = [_point_values(study, i) for i in range(study.n_cases)]
     runs = Runs(study, points, out_dir / "evaluations", run_study,
                 dataclasses.replace(options, no_plots=True, dry_run=False, all=False))
@@ -109,7 +110,7 @@ class Runs:
             if item not in self.index:
                 self.index[item] = len(self.order)
                 self.order.append(item)
-        key = self.study.search["key"]
+        key = self.study.search.key
         cases = [{**self.points[p], key: v} for p, v in self.order]
         try:
             sub = load_study_text(_evaluation_text(self.study, cases), f"{self.study.name}_evaluations")
@@ -135,8 +136,8 @@ def _refuse_no_crossing(search: dict, targets: list, points: list) -> None:
         return
     t = bad[0]
     label = ", ".join(f"{k}={v:g}" for k, v in points[t.point].items()) or "the base case"
-    raise StudyError(f"[search] bracket {search['key']} = [{search['bracket'][0]:g}, {search['bracket'][1]:g}] "
-                     f"holds no crossing of {search['event']}{f' at eps_Y = {t.eps:g}' if t.eps else ''} at "
+    raise StudyError(f"[search] bracket {search.key} = [{search.bracket[0]:g}, {search.bracket[1]:g}] "
+                     f"holds no crossing of {search.event}{f' at eps_Y = {t.eps:g}' if t.eps else ''} at "
                      f"{label} ({len(bad)} of {len(targets)} searches): {t.message}; widen it (the runs made "
                      f"are kept)")
 
@@ -150,8 +151,8 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     from .common import provenance
     from .store.casefile import temporary_path
     search = study.search
-    key, (long_name, units) = search["key"], PARAMETER_INFO[search["key"]]
-    eps_list = search["eps_Y"]
+    key, (long_name, units) = search.key, PARAMETER_INFO[search.key]
+    eps_list = search.eps_Y
     shape = tuple(study.shape) + ((len(eps_list),) if eps_list else ())
     dims = tuple(study.dims) + (("eps_Y",) if eps_list else ())
 
@@ -159,10 +160,10 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
         return np.array([fn(t) for t in targets], dtype=dtype).reshape(shape)
 
     found = lambda t: t.status == "found"             # noqa: E731
-    centre = lambda t: (math.sqrt(t.lo * t.hi) if search["log"] else 0.5 * (t.lo + t.hi)) if found(t) else np.nan  # noqa: E731
+    centre = lambda t: (math.sqrt(t.lo * t.hi) if search.log else 0.5 * (t.lo + t.hi)) if found(t) else np.nan  # noqa: E731
     data = {
         f"critical_{key}": (dims, grid(centre), {"long_name": f"{long_name} at which the event "
-                                                 f"({search['event']}) first happens: the middle of the final bracket",
+                                                 f"({search.event}) first happens: the middle of the final bracket",
                                                  "units": units}),
         f"critical_{key}_lower": (dims, grid(lambda t: t.lo if found(t) else np.nan),
                                   {"long_name": f"lower end of the final bracket of {key}", "units": units}),
@@ -196,9 +197,9 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
         from solver import EPS_Y_INFO
         coords["eps_Y"] = ("eps_Y", np.array(eps_list), {"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
     runs = len({(t.point, v) for t in targets for v in t.values})
-    attrs = {"title": f"floe-impact threshold search of study {study.name}", "search": json.dumps(search),
+    attrs = {"title": f"floe-impact threshold search of study {study.name}", "search": json.dumps(asdict(search)),
              "study_file": study.text, "runs": runs,
-             **provenance.attributes(f"searched {key} for {search['event']}")}
+             **provenance.attributes(f"searched {key} for {search.event}")}
     ds = xr.Dataset(data, coords=coords, attrs=attrs)
     for name in ds.coords:
         ds[name].encoding["_FillValue"] = None
@@ -222,9 +223,9 @@ def search_summary(study, out_dir: Path) -> str:
     """What status says of a search: its plan, the runs done, and what search.nc found."""
     from .store.ledger import Ledger
     search = study.search
-    n = study.n_cases * max(1, len(search["eps_Y"]))
-    lines = [f"{study.name}: a search of {search['key']} in [{search['bracket'][0]:g}, {search['bracket'][1]:g}] "
-             f"for {search['event']} at {n} point(s): at most {runs_per_search(search)} runs each"]
+    n = study.n_cases * max(1, len(search.eps_Y))
+    lines = [f"{study.name}: a search of {search.key} in [{search.bracket[0]:g}, {search.bracket[1]:g}] "
+             f"for {search.event} at {n} point(s): at most {runs_per_search(search)} runs each"]
     evaluations = Path(out_dir) / "evaluations"
     done = len(Ledger.load(evaluations).index()) if (evaluations / "ledger.jsonl").exists() else 0
     lines.append(f"runs done: {done} (in {evaluations})")

@@ -17,6 +17,7 @@ import pipeline  # noqa: E402
 from pipeline.study.design import Design, design_points  # noqa: E402
 from pipeline.analyse.emulator import Emulator, EmulatorError  # noqa: E402
 from pipeline.analyse.sensitivity import analyze  # noqa: E402
+from pipeline.study.analysis import Analysis  # noqa: E402
 from pipeline.study.definition import load_study_text  # noqa: E402
 
 PI = math.pi
@@ -41,8 +42,8 @@ def _fake_study(design, outputs: dict, time_reached=1.0) -> xr.Dataset:
 
 
 def _analysis(outputs, **extra):
-    return {"method": "pce", "outputs": outputs, "eps_Y": [8e-5], "conf_level": 0.95, "resamples": 100, "seed": 1,
-            "log": [], "q2_min": 0.9, "degree": 12, **extra}
+    return Analysis(**{"method": "pce", "outputs": outputs, "eps_Y": [8e-5], "conf_level": 0.95, "resamples": 100,
+                       "seed": 1, "log": [], "q2_min": 0.9, "degree": 12, **extra})
 
 
 def ishigami(X):
@@ -147,7 +148,7 @@ def test_an_output_no_run_produced_is_refused_not_fitted(output):
     assert int(idx["refused"].sel(output=output)) == 1 and np.isnan(idx["ST"].sel(output=output)).all()
     assert "no sample produced it" in json.loads(idx.attrs["refusals"])[output]
     assert int(idx["refused"].sel(output="max_force")) == 0 and float(idx["q2"].sel(output="max_force")) > 0.99
-    sobol = {"method": "sobol", "outputs": [output], "eps_Y": [], "conf_level": 0.95, "resamples": 50, "seed": 0}
+    sobol = Analysis(**{"method": "sobol", "outputs": [output], "eps_Y": [], "conf_level": 0.95, "resamples": 50, "seed": 0})
     saltelli = Design(**{"method": "saltelli", "samples": 16, "seed": 0, "keys": design.keys})
     with pytest.raises(pipeline.StudyError, match=f"{output}: no sample produced it"):
         analyze(_fake_study(saltelli, {output: lambda X: np.full(X.shape[0], np.nan)}), saltelli, sobol)
@@ -251,8 +252,8 @@ def test_the_emulator_of_a_sobol_analysis_is_refused(tmp_path):
     design = Design(**{"method": "saltelli", "samples": 16, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     pytest.importorskip("SALib")
     idx = analyze(_fake_study(design, {"max_strain": lambda X: X[:, 0]}), design,
-                  {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [], "conf_level": 0.95, "resamples": 20,
-                   "seed": 0})
+                  Analysis(**{"method": "sobol", "outputs": ["max_strain"], "eps_Y": [], "conf_level": 0.95, "resamples": 20,
+                   "seed": 0}))
     with pytest.raises(EmulatorError, match='an emulator needs method = "pce"'):
         Emulator(idx)
 
@@ -297,7 +298,7 @@ def test_the_shipped_study_asks_the_saltelli_question_of_at_most_500_runs():
     from pathlib import Path
     root = Path(__file__).resolve().parents[1] / "studies"
     pce = load_study_text((root / "sensitivity_pce.toml").read_text(), "sensitivity_pce")
-    assert pce.n_cases <= 500 and pce.analysis["method"] == "pce"
+    assert pce.n_cases <= 500 and pce.analysis.method == "pce"
     tables = [tomllib.loads((root / f"{name}.toml").read_text()) for name in ("sensitivity_pce", "sensitivity")]
     for table in ("base", "solver"):
         assert tables[0][table] == tables[1][table], table

@@ -14,6 +14,7 @@ pytest.importorskip("SALib")
 
 import pipeline  # noqa: E402
 from pipeline.analyse.sensitivity import analyze  # noqa: E402
+from pipeline.study.analysis import Analysis  # noqa: E402
 from pipeline.study.design import Design, design_points  # noqa: E402
 from pipeline.study.definition import load_study_text  # noqa: E402
 
@@ -43,8 +44,8 @@ def test_sobol_indices_of_the_ishigami_function_within_their_intervals():
     design = Design(**{"method": "saltelli", "samples": 1024, "seed": 2,
               "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}})
     ds = _fake_study(design, {"max_strain": ishigami})
-    analysis = {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
-                "resamples": 1000, "seed": 2}
+    analysis = Analysis(**{"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
+                "resamples": 1000, "seed": 2})
     idx = analyze(ds, design, analysis).sel(output="max_strain")
     assert ds.sizes["sample"] == 1024 * 5                          # N (d + 2)
     for name, exact in (("S1", ISHIGAMI_S1), ("ST", ISHIGAMI_ST)):
@@ -58,8 +59,8 @@ def test_morris_effects_of_a_linear_function():
     design = Design(**{"method": "morris", "samples": 20, "seed": 1,
               "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False), "K": (1e6, 1e8, True)}})
     ds = _fake_study(design, {"max_strain": lambda X: 2.0 * X[:, 0] + 0.5 * X[:, 1]})
-    analysis = {"method": "morris", "outputs": ["max_strain"], "eps_Y": [], "conf_level": 0.95,
-                "resamples": 100, "seed": 1}
+    analysis = Analysis(**{"method": "morris", "outputs": ["max_strain"], "eps_Y": [], "conf_level": 0.95,
+                "resamples": 100, "seed": 1})
     idx = analyze(ds, design, analysis).sel(output="max_strain")
     np.testing.assert_allclose(idx["mu_star"].values, [2.0, 0.5, 0.0], atol=1e-9)
     np.testing.assert_allclose(idx["sigma"].values, [0.0, 0.0, 0.0], atol=1e-9)
@@ -69,8 +70,8 @@ def test_an_output_that_did_not_happen_enters_censored_and_says_so():
     design = Design(**{"method": "saltelli", "samples": 64, "seed": 0,
               "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     ds = _fake_study(design, {"bottoming_time": lambda X: np.where(X[:, 0] > 1.5, 0.1 / X[:, 0], np.nan)})
-    analysis = {"method": "sobol", "outputs": ["bottoming_time"], "eps_Y": [], "conf_level": 0.95,
-                "resamples": 100, "seed": 0}
+    analysis = Analysis(**{"method": "sobol", "outputs": ["bottoming_time"], "eps_Y": [], "conf_level": 0.95,
+                "resamples": 100, "seed": 0})
     idx = analyze(ds, design, analysis).sel(output="bottoming_time")
     assert 0.4 < float(idx["censored"]) < 0.6                      # half never bottomed: at time_reached
     assert idx["ST"].sel(key="V") > 0.9 and abs(float(idx["ST"].sel(key="hi"))) < 0.05
@@ -86,15 +87,15 @@ def test_a_seed_of_0_gives_the_same_intervals_every_run():
     design = Design(**{"method": "saltelli", "samples": 64, "seed": 0,
               "keys": {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}})
     ds = _fake_study(design, {"max_strain": ishigami})
-    runs = [analyze(ds, design, {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5],
-                                 "conf_level": 0.95, "resamples": 200, "seed": 0}) for _ in range(3)]
+    runs = [analyze(ds, design, Analysis(**{"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5],
+                                 "conf_level": 0.95, "resamples": 200, "seed": 0})) for _ in range(3)]
     for other in runs[1:]:
         np.testing.assert_array_equal(other["S1_conf"].values, runs[0]["S1_conf"].values)
         np.testing.assert_array_equal(other["ST_conf"].values, runs[0]["ST_conf"].values)
     design_m = Design(**{"method": "morris", "samples": 10, "seed": 0, "keys": {"V": (1.0, 2.0, False), "hi": (0.0, 1.0, False)}})
     ds_m = _fake_study(design_m, {"max_strain": lambda X: X[:, 0] ** 3 + X[:, 0] * X[:, 1]})
-    runs = [analyze(ds_m, design_m, {"method": "morris", "outputs": ["max_strain"], "eps_Y": [],
-                                     "conf_level": 0.95, "resamples": 200, "seed": 0}) for _ in range(2)]
+    runs = [analyze(ds_m, design_m, Analysis(**{"method": "morris", "outputs": ["max_strain"], "eps_Y": [],
+                                     "conf_level": 0.95, "resamples": 200, "seed": 0})) for _ in range(2)]
     np.testing.assert_array_equal(runs[1]["mu_star_conf"].values, runs[0]["mu_star_conf"].values)
 
 
@@ -103,8 +104,8 @@ def test_indices_outside_the_unit_interval_are_flagged(seed):
     """One base sample gives S1 = -3.04 or 5.42 with intervals of width 0 (the issue's S1 = 1.34):
     flagged, and the runner warns; Ishigami's indices at 1024 samples are not."""
     from pipeline.analyse.sensitivity import doubtful_outputs
-    analysis = {"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
-                "resamples": 100, "seed": seed}
+    analysis = Analysis(**{"method": "sobol", "outputs": ["max_strain"], "eps_Y": [8e-5], "conf_level": 0.95,
+                "resamples": 100, "seed": seed})
     keys = {"V": (-PI, PI, False), "hi": (-PI, PI, False), "K": (-PI, PI, False)}
     few = Design(**{"method": "saltelli", "samples": 1, "seed": seed, "keys": keys})
     idx = analyze(_fake_study(few, {"max_strain": ishigami}), few, analysis)

@@ -56,29 +56,29 @@ def analyze(ds, design: dict, analysis: dict):
     keys = list(design.keys)
     X = np.column_stack([unit_scale(np.asarray(ds[k].values, dtype=float), *design.keys[k]) for k in keys])
     rows, labels, censored = [], [], []
-    for name in analysis["outputs"]:
-        for eps in (analysis["eps_Y"] if name in CRACK_OUTPUTS else [None]):
+    for name in analysis.outputs:
+        for eps in (analysis.eps_Y if name in CRACK_OUTPUTS else [None]):
             Y, cens, label = output_values(ds, name, eps)
             refusal = ""
             if cens.all():                  # censored whole: indices of the stand-in, not of the output
                 refusal = (f"{label}: no sample produced it (all {Y.size} values NaN: an event no run reached, "
                            f"or an output these settings do not compute)")
-                if analysis["method"] != "pce":
+                if analysis.method != "pce":
                     raise StudyError(f"[analysis] outputs: {refusal}")
-            if name in analysis.get("log", []):
+            if name in analysis.log:
                 label = f"log({label})"
                 if np.any(Y <= 0) and not refusal:
                     refusal = f"{label}: {int(np.sum(Y <= 0))} of {Y.size} values are not positive"
-                    if analysis["method"] != "pce":
+                    if analysis.method != "pce":
                         raise StudyError(f"[analysis] log: {refusal}")
                 Y = np.log(np.where(Y > 0, Y, 1.0))
-            if analysis["method"] == "pce":
+            if analysis.method == "pce":
                 rows.append(_expansion(analysis, X, Y, refusal))
             else:
                 rows.append(_indices(analysis, design, X, Y))
             labels.append(label)
             censored.append(float(cens.mean()))
-    if analysis["method"] == "pce":
+    if analysis.method == "pce":
         return _pce_dataset(xr, rows, labels, censored, keys, design, analysis, ds)
     return _dataset(xr, rows, labels, censored, keys, design, analysis, ds)
 
@@ -108,19 +108,19 @@ def _indices(analysis: dict, design: dict, X: np.ndarray, Y: np.ndarray) -> dict
     prob = problem(design)
     # a Generator, not the seed: SALib seeds its bootstrap only from a truthy seed, so seed = 0
     # drew other intervals each run (a Generator from the same seed draws what the int did)
-    rng = np.random.default_rng(analysis["seed"])
+    rng = np.random.default_rng(analysis.seed)
     if np.ptp(Y) == 0:                                     # a constant output depends on nothing
         zero = np.zeros(prob["num_vars"])
-        if analysis["method"] == "sobol":
+        if analysis.method == "sobol":
             return {"S1": zero, "S1_conf": zero, "ST": zero, "ST_conf": zero}
         return {"mu_star": zero, "mu_star_conf": zero, "sigma": zero}
-    if analysis["method"] == "sobol":
+    if analysis.method == "sobol":
         from SALib.analyze import sobol
-        r = sobol.analyze(prob, Y, calc_second_order=False, num_resamples=analysis["resamples"],
-                          conf_level=analysis["conf_level"], seed=rng)
+        r = sobol.analyze(prob, Y, calc_second_order=False, num_resamples=analysis.resamples,
+                          conf_level=analysis.conf_level, seed=rng)
         return {k: np.asarray(r[k], dtype=float) for k in ("S1", "S1_conf", "ST", "ST_conf")}
     from SALib.analyze import morris
-    r = morris.analyze(prob, X, Y, num_resamples=analysis["resamples"], conf_level=analysis["conf_level"],
+    r = morris.analyze(prob, X, Y, num_resamples=analysis.resamples, conf_level=analysis.conf_level,
                        num_levels=MORRIS_LEVELS, seed=rng)
     return {k: np.asarray(r[k], dtype=float) for k in ("mu_star", "mu_star_conf", "sigma")}
 
@@ -143,13 +143,13 @@ def _expansion(analysis: dict, X: np.ndarray, Y: np.ndarray, refusal: str) -> di
         return {**row, **{k: zero for k in PCE_INDICES}, "q2": 1.0, "rmse": 0.0, "degree": 0, "held_out": Y,
                 "multi_index": np.zeros((1, d), dtype=np.int64), "coefficient": Y[:1].astype(float)}
     bounds = np.array([[0.0, 1.0]] * d)
-    sur = surrogate.fit(X, Y, bounds, max_degree=analysis["degree"])
+    sur = surrogate.fit(X, Y, bounds, max_degree=analysis.degree)
     multi, coefficient = sur.terms()
     row.update(q2=sur.q2, rmse=sur.rmse, degree=sur.degree, held_out=sur.held_out, multi_index=multi,
                coefficient=coefficient)
     try:
-        r = surrogate.indices(X, Y, bounds, q2_min=analysis["q2_min"], bootstrap=analysis["resamples"],
-                              seed=analysis["seed"], conf_level=analysis["conf_level"], surrogate=sur)
+        r = surrogate.indices(X, Y, bounds, q2_min=analysis.q2_min, bootstrap=analysis.resamples,
+                              seed=analysis.seed, conf_level=analysis.conf_level, surrogate=sur)
     except surrogate.SurrogateError as err:
         row["refused"] = str(err)
         return row
@@ -200,13 +200,13 @@ def _coordinates(labels, keys) -> dict:
 def _attributes(design: dict, analysis: dict, ds) -> dict:
     from ..common import provenance
     return {"title": f"floe-impact sensitivity of study {ds.attrs.get('study_name', '')}",
-            "analysis": json.dumps(analysis), "design": json.dumps(asdict(design)),
+            "analysis": json.dumps(analysis.stored()), "design": json.dumps(asdict(design)),
             "samples": int(ds.sizes["sample"]), "base_samples": int(design.samples),
-            "conf_level": analysis["conf_level"],
+            "conf_level": analysis.conf_level,
             "solver_time_total": float(np.nansum(np.asarray(ds["run_time"].values, dtype=float))),
             "censoring": "event times that did not happen enter as time_reached; infinite values as the "
                          "design's largest finite value",
-            **provenance.attributes(f"computed {analysis['method']} sensitivity indices")}
+            **provenance.attributes(f"computed {analysis.method} sensitivity indices")}
 
 
 def _finish(out):
@@ -265,6 +265,6 @@ def _pce_dataset(xr, rows, labels, censored, keys, design, analysis, ds):
     out["refused"].attrs.update(flag_values=np.array([0, 1], dtype=np.int8), flag_meanings="indices_reported refused")
     out["multi_index"].encoding["_FillValue"] = None
     out.attrs["refusals"] = json.dumps({label: r["refused"] for label, r in zip(labels, rows) if r["refused"]})
-    out.attrs["interval"] = (f"{100 * analysis['conf_level']:g}% bootstrap percentiles over {analysis['resamples']} "
+    out.attrs["interval"] = (f"{100 * analysis.conf_level:g}% bootstrap percentiles over {analysis.resamples} "
                              f"refits, widened by each index's change to the neighbouring degrees")
     return _finish(out)

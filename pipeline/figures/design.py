@@ -149,10 +149,10 @@ def emulator_figure(indices: xr.Dataset, path: Path) -> Path:
     return path
 
 
-def search_figure(ds: xr.Dataset, dims: list, search: dict, path: Path) -> Path:
+def search_figure(ds: xr.Dataset, dims: list, search, path: Path) -> Path:
     """The critical value found by a threshold search: a map over two grid keys (one panel per
     yield strain), or a line with its bracket over one key or a design's samples."""
-    key = search["key"]
+    key = search.key
     name = f"critical_{key}"
     eps = list(ds["eps_Y"].values) if "eps_Y" in ds.dims else [None]
     units = ds[name].attrs.get("units", "")
@@ -160,11 +160,11 @@ def search_figure(ds: xr.Dataset, dims: list, search: dict, path: Path) -> Path:
                              constrained_layout=True)
     for ax, e in zip(axes[0], eps):
         sel = ds.sel(eps_Y=e) if e is not None else ds
-        title = f"{search['event']}" + (f", εY = {e:g}" if e is not None else "")
+        title = f"{search.event}" + (f", εY = {e:g}" if e is not None else "")
         if len(dims) == 2 and dims[0] in ds.coords and ds[dims[0]].dtype.kind == "f":
             y, x = dims                       # one cell per grid point, labelled by its values
             mesh = ax.pcolormesh(np.arange(ds.sizes[x]), np.arange(ds.sizes[y]), sel[name].values, shading="nearest",
-                                 cmap="viridis", norm=matplotlib.colors.LogNorm() if search["log"] else None)
+                                 cmap="viridis", norm=matplotlib.colors.LogNorm() if search.log else None)
             fig.colorbar(mesh, ax=ax, label=f"critical {key} [{units}]")
             ax.set_xticks(np.arange(ds.sizes[x]), [tick_label(v) for v in ds[x].values])
             ax.set_yticks(np.arange(ds.sizes[y]), [tick_label(v) for v in ds[y].values])
@@ -184,7 +184,7 @@ def search_figure(ds: xr.Dataset, dims: list, search: dict, path: Path) -> Path:
                 ax.errorbar(xs, values[:, j], yerr=[values[:, j] - lo[:, j], hi[:, j] - values[:, j]], fmt="o-",
                             capsize=3)
             ax.set(xlabel=f"{first} [{ds[first].attrs.get('units', '1')}]", ylabel=f"critical {key} [{units}]")
-            if search["log"]:
+            if search.log:
                 ax.set_yscale("log")
                 ax.yaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
                 ax.yaxis.set_minor_formatter(matplotlib.ticker.ScalarFormatter())
@@ -193,7 +193,7 @@ def search_figure(ds: xr.Dataset, dims: list, search: dict, path: Path) -> Path:
         ax.set_title(title, fontsize=10)
     fig.suptitle("\n".join(textwrap.wrap(
         f"{ds.attrs.get('title', '')}: the {key} at which the event first happens (final bracket within "
-        f"{search['tolerance']:g}{' relative' if search['log'] else ''}; {ds.attrs.get('runs', '')} runs)",
+        f"{search.tolerance:g}{' relative' if search.log else ''}; {ds.attrs.get('runs', '')} runs)",
         60 * len(eps))), fontsize=10)
     save(fig, path, dpi=120)
     plt.close(fig)

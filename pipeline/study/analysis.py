@@ -51,6 +51,7 @@ at all: the analysis is refused for them, with their number, rather than compute
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from solver.outputs import CRACK_ONSET_TIMES
 
@@ -84,7 +85,31 @@ def outputs_known() -> list:
                                                          "error_estimate_quadrature"})
 
 
-def check_analysis(table, design, output) -> dict:
+@dataclass(frozen=True)
+class Analysis:
+    """[analysis], checked: ``method`` (of METHODS), the ``outputs`` analysed, the yield strains
+    ``eps_Y`` of the crack-onset outputs among them, the intervals' ``conf_level``, the bootstrap's
+    ``resamples`` and ``seed``, the outputs whose logarithm is analysed (``log``); for "pce" its
+    ``q2_min`` and highest ``degree`` (None otherwise)."""
+
+    method: str
+    outputs: tuple
+    eps_Y: tuple = ()
+    conf_level: float = 0.95
+    resamples: int = 1000
+    seed: int = 0
+    log: tuple = ()
+    q2_min: float | None = None
+    degree: int | None = None
+
+    def stored(self) -> dict:
+        """What sensitivity.nc's ``analysis`` attribute holds (JSON): the pce keys only for pce."""
+        keys = ["method", "outputs", "eps_Y", "conf_level", "resamples", "seed", "log"]
+        keys += ["q2_min", "degree"] if self.method == "pce" else []
+        return {key: list(v) if isinstance(v := getattr(self, key), tuple) else v for key in keys}
+
+
+def check_analysis(table, design, output) -> Analysis:
     """Validate an [analysis] table against the study's design and output; one line if bad."""
     check_table("[analysis]", table, ANALYSIS_KEYS)
     method = table.get("method")
@@ -153,11 +178,9 @@ def check_analysis(table, design, output) -> dict:
     seed = table.get("seed", design.seed)
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise StudyError(f"[analysis] seed must be a non-negative integer, got {seed!r}")
-    checked = {"method": method, "outputs": list(outputs), "eps_Y": [float(e) for e in eps],
-               "conf_level": conf, "resamples": resamples, "seed": seed, "log": list(logs)}
-    if method == "pce":
-        checked.update(_check_pce(table, design))
-    return checked
+    pce = _check_pce(table, design) if method == "pce" else {}
+    return Analysis(method=method, outputs=tuple(outputs), eps_Y=tuple(float(e) for e in eps), conf_level=conf,
+                    resamples=resamples, seed=seed, log=tuple(logs), **pce)
 
 
 def pce_min_samples(keys: int) -> int:

@@ -34,13 +34,15 @@ import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
 
+from ..common.errors import StudyError
+from .analysis import Analysis, check_analysis
 from .case import Case, coordinate_times
 from .consistency import body_masses, check_grid_values, check_ranges, longest_stage_in_t_sc
-from ..common.errors import StudyError
-from .design import Design
+from .design import Design, check_design, design_cases, design_size
 from .identity import grid_case_ids, grid_label, make_case, resolve_sample
-from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, Output, check_output, check_parameters, check_reference,
-                       check_solver, check_value)
+from .search import Search, check_bracket, check_search, search_points
+from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, Output, check_grid, check_output, check_parameters,
+                       check_reference, check_solver)
 
 #: the plot kinds a study can ask for ([plots]); pipeline.figures.KINDS draws each, one entry
 #: per name (tests/test_architecture.py holds the two together)
@@ -68,8 +70,8 @@ class Study:
     plots: list
     reference: dict = field(default_factory=dict)
     design: Design | None = None                        # a checked [design] (pipeline.study.design)
-    analysis: dict = field(default_factory=dict)        # a checked [analysis] (pipeline.study.analysis), or {}
-    search: dict = field(default_factory=dict)          # a checked [search] (pipeline.study.search), or {}
+    analysis: Analysis | None = None                    # a checked [analysis] (pipeline.study.analysis)
+    search: Search | None = None                        # a checked [search] (pipeline.study.search)
     references: dict = field(default_factory=dict)     # position in cases -> its reference Case
     _listed: list = field(default_factory=list, repr=False)   # [[cases]] (or referenced) Cases
 
@@ -164,106 +166,26 @@ class Study:
 
 
 def load_study_text(text: str, name: str, path: Path | None = None, max_cases: int | None = None) -> Study:
-    """Validate a study from its text (what a worker receives); expand its cases."""
+    """Validate a study from its text (what a worker receives); expand its cases. Each table is
+    checked by its own checker, in this order (the first problem found is the one line said)."""
     path = Path(path) if path is not None else Path(f"{name}.toml")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise StudyError(f"{path}: TOML syntax error: {err}") from None
-    unknown = set(data) - SECTIONS
-    if unknown:
-        if "eps_Y" in unknown:
-            raise StudyError(f"{path}: {EPS_Y_AS_PARAMETER}")
-        raise StudyError(f"{path}: unknown section or key {sorted(unknown)[0]!r}; known: {', '.join(sorted(SECTIONS))}")
+    data = _tables(text, path)
     description = data.get("description", "")
     if not isinstance(description, str):
         raise StudyError(f"{path}: description must be a string")
     base = check_parameters("[base]", data.get("base", {}))
-    grid_raw = data.get("grid", {})
-    if not isinstance(grid_raw, dict):
-        raise StudyError("[grid] must be a table of lists")
-    grid = {}
-    for key, values in grid_raw.items():
-        if key == "eps_Y":
-            raise StudyError(f"[grid]: {EPS_Y_AS_PARAMETER}")
-        if key not in PARAMETER_INFO and key not in SETTING_INFO:
-            raise StudyError(f"[grid]: unknown parameter {key!r}; known: "
-                             f"{', '.join([*PARAMETER_INFO, *SETTING_INFO])}")
-        if not isinstance(values, list) or not values:
-            raise StudyError(f"[grid] {key} must be a non-empty list of values")
-        for v in values:
-            check_value(f"[grid] {key} value", key, v, integer=key in ("Nmod", "subintervals", "max_steps"))
-        if len(set(values)) != len(values):
-            raise StudyError(f"[grid] {key} has duplicate values")
-        if key in base or key in data.get("solver", {}):
-            raise StudyError(f"{key} is both in [base] or [solver] and in [grid]")
-        grid[key] = list(values)
-    case_list = data.get("cases", [])
-    if not isinstance(case_list, list):
-        raise StudyError("[[cases]] must be an array of tables")
-    case_list = [check_parameters(f"[[cases]] #{i + 1}", c, settings=True, reference=True)
-                 for i, c in enumerate(case_list)]
-    if grid and case_list:
-        raise StudyError("a study has either [grid] or [[cases]], not both")
-    design, analysis = None, {}
-    if "design" in data and (grid or case_list):
-        raise StudyError("a study has one of [grid], [[cases]] and [design], not two")
-    if grid_raw == {} and "grid" in data:
-        raise StudyError("[grid] is empty")
-    if "cases" in data and not case_list:
-        raise StudyError("[[cases]] is empty")
-    if not grid and not case_list:                 # [base] alone: one case, the base itself
-        case_list = [{}]
-    if case_list:
-        seen = set()
-        for i, c in enumerate(case_list):
-            key = json.dumps({**base, **{k: v for k, v in c.items() if k != "group"}}, sort_keys=True)
-            if key in seen:
-                raise StudyError(f"[[cases]] #{i + 1} repeats an earlier case")
-            seen.add(key)
+    grid = check_grid(data.get("grid", {}), base, data.get("solver", {}))
+    case_list = _case_list(data, base, grid)
     output = check_output(data.get("output", {}))
-    if "design" in data:                           # its samples may repeat a point (Morris's grid)
-        from .design import check_design, design_cases, design_size
-        design = check_design(data["design"], base)
-        n = design_size(design)
-        if max_cases is not None and n > max_cases:
-            raise StudyError(f"the study has {n} cases (more than {max_cases}); add --yes to run it")
-        case_list = design_cases(design)
-    if "analysis" in data:
-        from .analysis import check_analysis
-        analysis = check_analysis(data["analysis"], design, output)
+    design, case_list = _design(data, base, case_list, max_cases)
+    analysis = check_analysis(data["analysis"], design, output) if "analysis" in data else None
     solver = check_solver(data.get("solver", {}))
     extreme = data.get("accept_extreme_values", False)
     if not isinstance(extreme, bool):
         raise StudyError(f"{path}: accept_extreme_values must be true or false")
-    search = {}
-    if "search" in data:
-        from .search import check_search
-        if case_list and not design and case_list != [{}]:
-            raise StudyError("[search] runs over a [grid], a [design] or [base] alone, not [[cases]]")
-        search = check_search(data["search"], {*base, *grid, *(design.keys if design else ())})
-        if analysis:
-            raise StudyError("[analysis] is computed over a [design]'s samples, not a [search]'s runs: a study has "
-                             "one of them")
-        if "reference" in data:
-            raise StudyError("[reference] is not run by a [search] (its runs are the bisection's): remove it")
-        from .search import check_bracket, search_points
-        check_bracket(search, {**base, **solver}, search_points(grid, case_list), extreme)
-        # the study's own cases are the points searched, at the bracket's low end (the key may
-        # have no default: a free floe's duration)
-        base = {**base, search["key"]: search["bracket"][0]}
+    search, base = _search(data, base, grid, case_list, design, analysis, {**base, **solver}, extreme)
     reference = check_reference("[reference]", data["reference"]) if "reference" in data else {}
-    plots_table = data.get("plots", {})
-    if not isinstance(plots_table, dict) or set(plots_table) - {"kinds"}:
-        raise StudyError("[plots] takes one key: kinds = [...]")
-    plots = plots_table.get("kinds", ["diagnostics", "crack_onset"])
-    if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
-        raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
-    if design and "kinds" not in plots_table:
-        plots = ["design"] + (["sensitivity"] if analysis else [])
-        plots += ["emulator"] if analysis.get("method") == "pce" else []
-    if search and "kinds" not in plots_table:
-        plots = []                                 # the search draws search.png itself
+    plots = _plots(data.get("plots", {}), design, analysis, search)
     study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference, design=design, analysis=analysis, search=search)
@@ -276,6 +198,94 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         check_ranges(study)
     expand(study)
     return study
+
+
+def _tables(text: str, path: Path) -> dict:
+    """The study file's tables, its sections all known."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise StudyError(f"{path}: TOML syntax error: {err}") from None
+    unknown = set(data) - SECTIONS
+    if unknown:
+        if "eps_Y" in unknown:
+            raise StudyError(f"{path}: {EPS_Y_AS_PARAMETER}")
+        raise StudyError(f"{path}: unknown section or key {sorted(unknown)[0]!r}; known: {', '.join(sorted(SECTIONS))}")
+    return data
+
+
+def _case_list(data: dict, base: dict, grid: dict) -> list:
+    """[[cases]] checked, each a distinct case; [base] alone is one case, the base itself."""
+    case_list = data.get("cases", [])
+    if not isinstance(case_list, list):
+        raise StudyError("[[cases]] must be an array of tables")
+    case_list = [check_parameters(f"[[cases]] #{i + 1}", c, settings=True, reference=True)
+                 for i, c in enumerate(case_list)]
+    if grid and case_list:
+        raise StudyError("a study has either [grid] or [[cases]], not both")
+    if "design" in data and (grid or case_list):
+        raise StudyError("a study has one of [grid], [[cases]] and [design], not two")
+    if "grid" in data and not grid:
+        raise StudyError("[grid] is empty")
+    if "cases" in data and not case_list:
+        raise StudyError("[[cases]] is empty")
+    if not grid and not case_list:
+        return [{}]
+    seen = set()
+    for i, c in enumerate(case_list):
+        key = json.dumps({**base, **{k: v for k, v in c.items() if k != "group"}}, sort_keys=True)
+        if key in seen:
+            raise StudyError(f"[[cases]] #{i + 1} repeats an earlier case")
+        seen.add(key)
+    return case_list
+
+
+def _design(data: dict, base: dict, case_list: list, max_cases: int | None) -> tuple:
+    """(the checked [design] or None, the cases: its samples, which may repeat a point (Morris's
+    grid), or case_list)."""
+    if "design" not in data:
+        return None, case_list
+    design = check_design(data["design"], base)
+    n = design_size(design)
+    if max_cases is not None and n > max_cases:
+        raise StudyError(f"the study has {n} cases (more than {max_cases}); add --yes to run it")
+    return design, design_cases(design)
+
+
+def _search(data, base, grid, case_list, design, analysis, values, extreme) -> tuple:
+    """(the checked [search] or None, [base] with the searched key at the bracket's low end: the
+    study's own cases are the points searched, and the key may have no default, a free floe's
+    duration). ``values``: [base] and [solver], which every run of the first round takes."""
+    if "search" not in data:
+        return None, base
+    if case_list and not design and case_list != [{}]:
+        raise StudyError("[search] runs over a [grid], a [design] or [base] alone, not [[cases]]")
+    search = check_search(data["search"], {*base, *grid, *(design.keys if design else ())})
+    if analysis:
+        raise StudyError("[analysis] is computed over a [design]'s samples, not a [search]'s runs: a study has "
+                         "one of them")
+    if "reference" in data:
+        raise StudyError("[reference] is not run by a [search] (its runs are the bisection's): remove it")
+    check_bracket(search, values, search_points(grid, case_list), extreme)
+    return search, {**base, search.key: search.bracket[0]}
+
+
+def _plots(table, design, analysis, search) -> list:
+    """[plots] kinds, or the defaults: a design's figures, none for a search (it draws
+    search.png itself), the diagnostics and crack onset otherwise."""
+    if not isinstance(table, dict) or set(table) - {"kinds"}:
+        raise StudyError("[plots] takes one key: kinds = [...]")
+    plots = table.get("kinds", ["diagnostics", "crack_onset"])
+    if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
+        raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
+    if "kinds" in table:
+        return plots
+    if search:
+        return []
+    if design:
+        return ["design"] + (["sensitivity"] if analysis else []) + \
+            (["emulator"] if analysis and analysis.method == "pce" else [])
+    return plots
 
 
 def expand(study: Study) -> None:

@@ -34,6 +34,7 @@ the number of runs, per point (and eps_Y).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -57,7 +58,24 @@ RESOLUTION = 1e-10
 MAX_CHECKS = 20_000
 
 
-def check_search(table, taken: set) -> dict:
+@dataclass(frozen=True)
+class Search:
+    """[search], checked: the parameter ``key`` searched within ``bracket`` (low, high), on a log
+    scale if ``log``, for the value at which ``event`` (of EVENTS) first happens, at each yield
+    strain of ``eps_Y`` (crack-onset events; () for bottoming), to a bracket ``tolerance``
+    (relative on a log scale), after a first round of ``scan`` values over the bracket. Stored
+    as JSON in search.nc's ``search`` attribute (dataclasses.asdict, these fields in this order)."""
+
+    key: str
+    bracket: tuple
+    log: bool
+    event: str
+    eps_Y: tuple
+    tolerance: float
+    scan: int
+
+
+def check_search(table, taken: set) -> Search:
     """Validate a [search] table; ``taken``: the keys in [base], [grid] or [design.keys]."""
     from .design import SAMPLED
     check_table("[search]", table, SEARCH_KEYS)
@@ -102,8 +120,8 @@ def check_search(table, taken: set) -> dict:
     scan = table.get("scan", SCAN)
     if isinstance(scan, bool) or not isinstance(scan, int) or not 2 <= scan <= 1000:
         raise StudyError(f"[search] scan must be an integer from 2 to 1000 (points over the bracket), got {scan!r}")
-    return {"key": key, "bracket": [lo, hi], "log": log, "event": event, "eps_Y": [float(e) for e in eps],
-            "tolerance": float(tol), "scan": scan}
+    return Search(key=key, bracket=(lo, hi), log=log, event=event, eps_Y=tuple(float(e) for e in eps),
+                  tolerance=float(tol), scan=scan)
 
 
 def check_bracket(search: dict, values: dict, points: list, extreme: bool) -> None:
@@ -115,7 +133,7 @@ def check_bracket(search: dict, values: dict, points: list, extreme: bool) -> No
     from solver import PARAMETER_INFO, SETTING_INFO, Parameters, Settings
     from solver.parameters import ParameterError, outside_physical_range
     from solver.settings import check_combination
-    key, scanned = search["key"], scan_values(search)
+    key, scanned = search.key, scan_values(search)
     if len(points) * len(scanned) > MAX_CHECKS:
         scanned = [scanned[0], scanned[-1]]
     for point in points:
@@ -158,9 +176,9 @@ def search_points(grid: dict, case_list: list) -> list:
 def scan_values(search: dict) -> list:
     """The first round's points: ``scan`` values over the bracket, its ends included, evenly
     spaced (in the logarithm where log)."""
-    lo, hi = search["bracket"]
-    u = np.linspace(0.0, 1.0, search["scan"])
-    values = lo * (hi / lo) ** u if search["log"] else lo + u * (hi - lo)
+    lo, hi = search.bracket
+    u = np.linspace(0.0, 1.0, search.scan)
+    values = lo * (hi / lo) ** u if search.log else lo + u * (hi - lo)
     return [lo, *(_round(v) for v in values[1:-1]), hi]
 
 
@@ -173,7 +191,7 @@ def _middle(lo: float, hi: float, log: bool) -> float:
 
 
 def _narrow(lo: float, hi: float, search: dict) -> bool:
-    return (hi / lo - 1 if search["log"] else hi - lo) <= search["tolerance"]
+    return (hi / lo - 1 if search.log else hi - lo) <= search.tolerance
 
 
 class Target:
@@ -181,7 +199,7 @@ class Target:
 
     def __init__(self, point: int, eps, search: dict):
         self.point, self.eps = point, eps
-        self.lo, self.hi = search["bracket"]
+        self.lo, self.hi = search.bracket
         self.at_lo = self.at_hi = None           # the event at the bracket's ends (True/False)
         self.values = []                         # the key values this search needed
         self.changes = 0                         # changes of the event along the scan (1: one crossing)
@@ -194,7 +212,7 @@ class Target:
             return []
         if self.at_lo is None:
             return scan_values(search)
-        return [_middle(self.lo, self.hi, search["log"])]
+        return [_middle(self.lo, self.hi, search.log)]
 
     def learn(self, outcomes: dict, search: dict) -> None:
         """The outcomes of this round's runs (value -> True/False, or None: the run failed)."""
@@ -202,7 +220,7 @@ class Target:
             if value not in self.values:
                 self.values.append(value)
             if happened is None:
-                self.status, self.message = "failed", f"the run at {search['key']} = {value:g} failed"
+                self.status, self.message = "failed", f"the run at {search.key} = {value:g} failed"
                 return
         if self.at_lo is None:                   # the scan: the first interval where the event changes
             values = sorted(outcomes)
@@ -231,7 +249,7 @@ class Target:
 def runs_per_search(search: dict) -> int:
     """Runs one search takes: the scan, then one per halving of a scan interval down to the
     tolerance."""
-    lo, hi = search["bracket"]
-    width = (math.log(hi / lo) / math.log1p(search["tolerance"]) if search["log"]
-             else (hi - lo) / search["tolerance"]) / (search["scan"] - 1)
-    return search["scan"] + max(0, math.ceil(math.log2(width)))
+    lo, hi = search.bracket
+    width = (math.log(hi / lo) / math.log1p(search.tolerance) if search.log
+             else (hi - lo) / search.tolerance) / (search.scan - 1)
+    return search.scan + max(0, math.ceil(math.log2(width)))

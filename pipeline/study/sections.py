@@ -108,6 +108,30 @@ def check_reference(where: str, table) -> dict:
     return check_parameters(where, table, settings=True)
 
 
+def check_grid(table, base: dict, solver: dict) -> dict:
+    """[grid]: each key a parameter or setting with a non-empty list of distinct valid values,
+    none also in [base] or [solver]; key -> its values, in file order."""
+    if not isinstance(table, dict):
+        raise StudyError("[grid] must be a table of lists")
+    grid = {}
+    for key, values in table.items():
+        if key == "eps_Y":
+            raise StudyError(f"[grid]: {EPS_Y_AS_PARAMETER}")
+        if key not in PARAMETER_INFO and key not in SETTING_INFO:
+            raise StudyError(f"[grid]: unknown parameter {key!r}; known: "
+                             f"{', '.join([*PARAMETER_INFO, *SETTING_INFO])}")
+        if not isinstance(values, list) or not values:
+            raise StudyError(f"[grid] {key} must be a non-empty list of values")
+        for v in values:
+            check_value(f"[grid] {key} value", key, v, integer=key in ("Nmod", "subintervals", "max_steps"))
+        if len(set(values)) != len(values):
+            raise StudyError(f"[grid] {key} has duplicate values")
+        if key in base or key in solver:
+            raise StudyError(f"{key} is both in [base] or [solver] and in [grid]")
+        grid[key] = list(values)
+    return grid
+
+
 @dataclass(frozen=True)
 class Output:
     """[output], checked: what every case stores and over what time (docs/user_guide.md).
