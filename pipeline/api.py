@@ -15,10 +15,14 @@ returned dataset with their ``status`` and ``message``, and a warning counts the
 """
 from __future__ import annotations
 
+import contextlib
+import io
 import warnings
 from pathlib import Path
 
 from .common.errors import EXIT_OK, ResultsIOError, StudyError
+from .run import RunOptions, run_study as _run
+from .store.ledger import sidecar
 from .store.lock import refuse_if_locked
 
 __all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "study_text", "load"]
@@ -27,7 +31,8 @@ __all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "stud
 def study_text(study: dict) -> str:
     """The TOML text of a study given as a dict of the study file's tables (see
     :func:`pipeline.study.study_files.study_text`)."""
-    from .study.study_files import study_text as text   # deferred: import pipeline stays light (the CLI's fast refusals)
+    from .study.study_files import \
+        study_text as text  # deferred: import pipeline stays light (the CLI's fast refusals)
     return text(study)
 
 
@@ -104,10 +109,7 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     StudyLocked
         Another runner holds the study.
     """
-    import contextlib
-    import io
 
-    from .run import RunOptions, run_study as _run
     _check_arguments(workers=workers, jobs=jobs, batch_seconds=batch_seconds, scheduler=scheduler,
                      cluster=cluster, tls=tls, rerun_failed=rerun_failed, plots=plots, force=force, quiet=quiet)
     study = load(study, name)
@@ -164,7 +166,6 @@ def open_study(results, verify: bool = True):
     import xarray as xr
 
     from .store.casefile import file_sha256
-    from .store.ledger import sidecar
     path = Path(results)
     if path.suffix == ".nc":
         out_dir = path.parent

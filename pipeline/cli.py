@@ -18,12 +18,16 @@ import signal
 import sys
 from pathlib import Path
 
+from . import __version__
 # only the standard library here: a locked study or a bad command line is refused in well
 # under a second; numba, xarray and dask are imported by the commands that need them
 from .common.errors import (EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INTERRUPTED, EXIT_IO, EXIT_LOCKED, EXIT_OK,
                             LARGE_STUDY, ResultsIOError, StudyError, free_space, write_failed)
-from .store.lock import StudyLocked, refuse_if_locked
+from .common.interrupts import check
 from .report import TABLE_ROWS, ledger_states, print_table
+from .run import RunOptions, run_study
+from .show import ShowError, choose_case, show
+from .store.lock import StudyLocked, refuse_if_locked
 
 
 class _Parser(argparse.ArgumentParser):
@@ -34,7 +38,6 @@ class _Parser(argparse.ArgumentParser):
 def _parser():
     prog = "floe-impact" if Path(sys.argv[0]).name == "floe-impact" else "python -m pipeline"
     ap = _Parser(prog=prog, description="Run floe-impact parameter studies.")
-    from . import __version__
     ap.add_argument("--version", action="version", version=f"floe-impact {__version__}")
     sub = ap.add_subparsers(dest="command", required=True, parser_class=_Parser)
     run = sub.add_parser("run", help="run a study file")
@@ -77,8 +80,6 @@ def _parser():
 
 
 def command_run(args) -> int:
-    from .common.interrupts import check
-    from .run import RunOptions, run_study
     from .study.study_files import find_study, load_study
     check()                                           # a Ctrl-C during the imports
     study = load_study(find_study(args.study), max_cases=None if args.yes else LARGE_STUDY)
@@ -110,7 +111,6 @@ def command_status(args) -> int:
 
 def command_show(args) -> int:
     from .store.casefile import DamagedFile
-    from .show import ShowError, choose_case, show
     study, out_dir = study_and_results(args.study, args.out)
     if not 2 <= args.points <= 100_000:
         raise StudyError(f"--points must be in 2 .. 100000, got {args.points}")

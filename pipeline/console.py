@@ -4,15 +4,16 @@ import os
 import signal
 import sys
 
+from .cli import main
+from .common import interrupts
+
 INTERRUPTED = 130
 
 
 def console() -> None:
     """Run the command line and exit with its status (see pipeline.cli for the statuses)."""
     try:
-        from .common import interrupts
         interrupts.install()
-        from .cli import main
         code = main()
     except KeyboardInterrupt:                    # Ctrl-C while Python imports the runner, or
         signal.signal(signal.SIGINT, signal.SIG_IGN)

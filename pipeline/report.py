@@ -5,11 +5,12 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+from .store.ledger import Ledger
+
 
 def ledger_states(study, out_dir: Path, ledger=None) -> dict:
     """case_id -> 'ok' | failed status | 'pending', from the study's ledger alone (no result
     file is opened)."""
-    from .store.ledger import Ledger
     ledger = ledger if ledger is not None else Ledger.load(out_dir)
     recorded = ledger.states()
     return {cid: recorded.get(cid, "pending") for cid in study.run_ids}

@@ -6,17 +6,23 @@ command line into :class:`RunOptions` and maps what it returns or raises to an e
 """
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
+import ssl
 import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 from .common.errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, WriteFailed, write_failed
+from .compute import batch_system
+from .compute.session import jobs_directory, session_for
+from .figures import KINDS, make_plots
+from .report import case_label, ledger_states, print_table, study_size
+from .store.ledger import BATCHES, LEDGER, inputs_fingerprint, is_up_to_date, reconcile, set_aside, sidecar
 from .store.lock import StudyLock
-from .report import study_size, case_label, ledger_states, print_table
 
 
 @dataclass
@@ -82,7 +88,6 @@ def run_study(study, out_dir: Path, options: RunOptions | None = None, session=N
 def _check_tls_files(ca_file, cert, key) -> None:
     """The three TLS files exist, are files, and hold a CA certificate and a certificate with
     its private key (each refused in one line naming the file, before any connection)."""
-    import ssl
     for flag, path in (("--tls-ca-file", ca_file), ("--tls-cert", cert), ("--tls-key", key)):
         path = Path(path)
         if not path.exists():
@@ -120,15 +125,12 @@ def _check_placement(options, out_dir: Path) -> None:
     elif options.cluster:
         if not 1 <= options.jobs <= 10_000:
             raise StudyError(f"--cluster needs --jobs N (worker jobs, 1 .. 10000), got {options.jobs}")
-        from .compute.batch_system import check
-        from .compute.session import jobs_directory
-        check(options.cluster, jobs_directory(out_dir))
+        batch_system.check(options.cluster, jobs_directory(out_dir))
     elif options.jobs:
         raise StudyError("--jobs is for --cluster slurm|pbs")
 
 
 def _prepare_dirs(out_dir: Path) -> Path:
-    from .store.ledger import BATCHES, LEDGER
     batches = out_dir / BATCHES
     batches.mkdir(parents=True, exist_ok=True)
     _remove_temporaries([*batches.glob(".batch.nc.tmp-*"), *out_dir.glob(".study.nc.tmp-*"),
@@ -273,9 +275,8 @@ def _todo(study, states: dict, rerun_failed: bool) -> tuple:
 def _run_locked(options, study, out_dir: Path, session=None) -> int:
     """Plan, compute and stream, combine (again, where a batch file turned out damaged), figures,
     report."""
-    from .common.tables import NUMERICAL_FAILURES
     from .common.interrupts import check
-    from .store.ledger import reconcile
+    from .common.tables import NUMERICAL_FAILURES
     batches = _prepare_dirs(out_dir)
     from .study.study_files import keep_study_copy
     keep_study_copy(study, out_dir)
@@ -298,10 +299,8 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
         print("note: every case also runs the error estimate's companion (0.79x the integration, measured); "
               "[solver] error_estimate = \"sample\" runs it on about 1 case in 10", file=sys.stderr)
     from .store.combine import open_writer, stream_spec
-    from .compute.session import session_for
     items_run = list(items)
     identity = _identity(out_dir)
-    import contextlib
     workers = _workers_for(options.workers, len(items), batches)
     local_workers = session is None and not options.scheduler and not options.cluster   # ended with the with
     with contextlib.nullcontext(session) if session is not None else session_for(options, workers, out_dir) \
@@ -364,7 +363,6 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
 def _combine(options, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
     """Write study.nc if its inputs changed; True if written, False if up to date, None if a
     damaged batch file was found (set aside and dropped from the ledger)."""
-    from .store.ledger import inputs_fingerprint, is_up_to_date, set_aside
     index = ledger.index()
     fingerprint = inputs_fingerprint(study, index)
     path = out_dir / "study.nc"
@@ -437,15 +435,12 @@ def _analysis(study, out_dir: Path, fresh: bool) -> None:
 
 
 def _plots(options, study, out_dir: Path, fresh: bool) -> None:
-    from .figures import KINDS
     figures = [out_dir / f for kind in study.plots for f in KINDS[kind].files]
     if options.no_plots or not (fresh or not all(f.exists() for f in figures)):
         return
     import xarray as xr
 
     from .store.casefile import file_sha256
-    from .store.ledger import sidecar
-    from .figures import make_plots
     path = out_dir / "study.nc"
     record = sidecar(out_dir)
     if not record or record.get("sha256") != file_sha256(path):

@@ -3,22 +3,34 @@ one dask session, each round one run of the evaluations' [[cases]] study in out/
 through the runner (its ledger, batch files and resume), then search.nc and search.png."""
 from __future__ import annotations
 
+import contextlib
+import dataclasses
+import io
 import json
 import math
+import os
 import sys
+import time
 import tomllib
 from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 
-from .common.errors import StudyError
+from .common import provenance
+from .common.errors import EXIT_OK, StudyError
+from .common.tables import COMPLETE
+from .compute.session import session_for
+from .store.casefile import temporary_path
+from .store.ledger import Ledger
+from .store.sealed import open_sealed, seal
+from .study.definition import load_study_text
 from .study.search import EVENTS, MAX_ROUNDS, Target, runs_per_search
+from .study.study_files import study_text
 
 
 def _event(ds, i: int, search: dict, eps) -> bool | None:
     """Did the event happen in case i of the evaluations' study.nc (None: the case failed)?"""
-    from .common.tables import COMPLETE
     status = str(ds["status"].values[i])
     if status not in (*COMPLETE, "layer_bottomed_out"):
         return None
@@ -32,7 +44,6 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
 def _evaluation_text(study, cases: list) -> str:
     """The evaluations' study: the search study's [base], [solver] and [output] (its eps_Y with
     the search's), and one [[cases]] entry a run."""
-    from .study.study_files import study_text
     data = tomllib.loads(study.text)
     output = dict(data.get("output", {}))
     eps = study.search.eps_Y
@@ -57,10 +68,7 @@ def run_search(study, out_dir: Path, options, run_study) -> int:
     """The rounds of every point's bisection on one dask session, each round one run of the
     evaluations' study with ``run_study`` (pipeline.run's, handed in: the runner calls this
     module, not the other way round); then search.nc and search.png."""
-    import dataclasses
 
-    from .common.errors import EXIT_OK
-    from .compute.session import session_for
     search = study.search
     targets = [Target(i, eps, search) for i in range(study.n_cases) for eps in (search.eps_Y or [None])]
     points = [_point_values(study, i) for i in range(study.n_cases)]
@@ -99,13 +107,9 @@ class Runs:
 
     def run(self, wanted: list, session, round_: int, searching: int):
         """Run what is wanted and not run yet; the evaluations' study.nc, loaded."""
-        import contextlib
-        import io
-        import time
 
         import xarray as xr
 
-        from .study.definition import load_study_text
         for item in wanted:
             if item not in self.index:
                 self.index[item] = len(self.order)
@@ -148,8 +152,6 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     import xarray as xr
 
     from solver import PARAMETER_INFO
-    from .common import provenance
-    from .store.casefile import temporary_path
     search = study.search
     key, (long_name, units) = search.key, PARAMETER_INFO[search.key]
     eps_list = search.eps_Y
@@ -207,9 +209,7 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     tmp = temporary_path(target)
     try:
         ds.to_netcdf(tmp)
-        import os
         os.replace(tmp, target)
-        from .store.sealed import seal
         seal(target)
     finally:
         tmp.unlink(missing_ok=True)
@@ -221,7 +221,6 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
 
 def search_summary(study, out_dir: Path) -> str:
     """What status says of a search: its plan, the runs done, and what search.nc found."""
-    from .store.ledger import Ledger
     search = study.search
     n = study.n_cases * max(1, len(search.eps_Y))
     lines = [f"{study.name}: a search of {search.key} in [{search.bracket[0]:g}, {search.bracket[1]:g}] "
@@ -231,7 +230,6 @@ def search_summary(study, out_dir: Path) -> str:
     lines.append(f"runs done: {done} (in {evaluations})")
     path = Path(out_dir) / "search.nc"
     if path.exists():
-        from .store.sealed import open_sealed
         with open_sealed(path) as ds:
             statuses = np.asarray(ds["search_status"].values).ravel()
             counts = {s: int((statuses == s).sum()) for s in sorted(set(statuses))}

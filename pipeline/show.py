@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from .common.errors import StudyError
+from .store.ledger import BATCHES, Ledger
 
 
 class ShowError(Exception):
@@ -88,6 +89,7 @@ def _off_grid(study, wanted: dict, spec: str) -> str:
     of the study that matches the keys whose values it has, with the others set as asked. It is
     added to the study's runs for this call only; show solves it and stores nothing."""
     from solver import PARAMETER_INFO, SETTING_INFO
+
     from .study.identity import make_case
     unknown = [k for k in wanted if k not in PARAMETER_INFO and k not in SETTING_INFO]
     if unknown:
@@ -136,7 +138,6 @@ def stored_case(out_dir: Path, case_id: str):
     """The case's slice of its batch file (xarray, loaded; checksum verified), or None when
     the ledger has no entry for it."""
     from .store.casefile import read_batch
-    from .store.ledger import BATCHES, Ledger
     index = Ledger.load(out_dir).index()
     if case_id not in index:
         return None
@@ -173,8 +174,9 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
     import matplotlib.ticker
 
     from solver import solve
-    from .store.casefile import tension_records
+
     from .figures.common import save
+    from .store.casefile import tension_records
 
     case = study.run(case_id)
     p = case.parameters

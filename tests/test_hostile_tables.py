@@ -160,16 +160,18 @@ def test_a_bisection_value_the_model_refuses_names_the_search(tmp_path, monkeypa
     """The dry run checks the scanned values; a value between two of them can still break a
     check that is not monotone (the stage against body_p or x0). Its refusal names the search's
     bracket and says the runs made are kept, not "[[cases]] #3" of a study the user never wrote."""
-    import pipeline.study.definition
+    import pipeline.search_runner
     from pipeline.run import RunOptions, run_study
     study = load_study_text(SEARCH, "s")
-    real = pipeline.study.definition.load_study_text
+    real = pipeline.search_runner.load_study_text
 
     def refusing(text, name, *args, **kwargs):
         if name.endswith("_evaluations"):
             raise pipeline.StudyError("[[cases]] #3: the impact stage is shorter than ...")
         return real(text, name, *args, **kwargs)
-    monkeypatch.setattr(pipeline.study.definition, "load_study_text", refusing)
+    # (where the search's rounds look it up: patched in pipeline.study.definition, it reached a
+    # search_runner first imported during the patch, for good, and a later test's search failed)
+    monkeypatch.setattr(pipeline.search_runner, "load_study_text", refusing)
     with pytest.raises(pipeline.StudyError) as err:
         run_study(study, tmp_path / "out", RunOptions(workers=1))
     assert str(err.value).startswith("[search] bracket: a value the bisection reached in round 1 is refused: "

@@ -11,8 +11,11 @@ from dataclasses import asdict
 
 import numpy as np
 
-from ..study.analysis import CRACK_OUTPUTS, EVENT_TIMES, MORRIS_LEVELS
+from ..common import provenance
 from ..common.errors import StudyError
+from ..common.tables import COMPLETE
+from ..study.analysis import CRACK_OUTPUTS, EVENT_TIMES, MORRIS_LEVELS
+from . import surrogate
 
 
 def problem(design: dict) -> dict:
@@ -46,7 +49,6 @@ def analyze(ds, design: dict, analysis: dict):
     """The indices of each requested output (and yield strain) over the design's keys, as a
     labelled Dataset along (output, key)."""
     import xarray as xr
-    from ..common.tables import COMPLETE
     status = np.asarray(ds["status"].values).reshape(-1)
     broken = ~np.isin(status, [*COMPLETE, "layer_bottomed_out"])
     if broken.any():
@@ -130,7 +132,6 @@ PCE_INDICES = ("S1", "S1_low", "S1_high", "ST", "ST_low", "ST_high")
 
 def _expansion(analysis: dict, X: np.ndarray, Y: np.ndarray, refusal: str) -> dict:
     """One output's expansion over the unit box and its indices, or the reason it has none."""
-    from . import surrogate
     d = X.shape[1]
     nan = np.full(d, np.nan)
     row = {**{k: nan for k in PCE_INDICES}, "q2": np.nan, "rmse": np.nan, "degree": -1, "refused": refusal,
@@ -198,7 +199,6 @@ def _coordinates(labels, keys) -> dict:
 
 
 def _attributes(design: dict, analysis: dict, ds) -> dict:
-    from ..common import provenance
     return {"title": f"floe-impact sensitivity of study {ds.attrs.get('study_name', '')}",
             "analysis": json.dumps(analysis.stored()), "design": json.dumps(asdict(design)),
             "samples": int(ds.sizes["sample"]), "base_samples": int(design.samples),

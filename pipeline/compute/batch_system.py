@@ -23,7 +23,10 @@ from __future__ import annotations
 
 import re
 import shutil
+import signal
 import subprocess
+import sys
+import time
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -101,7 +104,6 @@ def _config(kind: str, key: str, default=None):
 def _cluster_class(kind: str):
     if kind not in SYSTEMS:
         raise StudyError(f"--cluster must be one of {', '.join(SYSTEMS)}, got {kind!r}")
-    import signal
     handler = signal.getsignal(signal.SIGINT)
     try:
         import dask_jobqueue
@@ -125,7 +127,7 @@ def job_options(kind: str, directory: Path, security=None) -> dict:
         extra += ["--no-dashboard", "--dashboard-address", "127.0.0.1:0"]
     if "--lifetime" not in extra:
         extra += lifetime_arguments(_config(kind, "walltime"), kind)
-    from .worker import SINGLE_THREAD_ENV                # what a local worker runs with, and so each job
+    from .worker import SINGLE_THREAD_ENV  # what a local worker runs with, and so each job
     prologue = [f"export {name}={value}" for name, value in SINGLE_THREAD_ENV.items()] + \
         list(_config(kind, "job-script-prologue") or [])
     options = dict(cores=1, processes=1, memory=_config(kind, "memory") or DEFAULT_MEMORY,
@@ -291,8 +293,6 @@ def wait_for_a_worker(client, cluster, kind: str, directory: Path) -> None:
     """Until the first worker joins: the jobs may wait in the queue for as long as the site
     makes them (said once); if every job has ended with no worker joined (a job script that
     fails on the compute node), StudyError names the log to read."""
-    import sys
-    import time
 
     from ..common.interrupts import check
     said = False

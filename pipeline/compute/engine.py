@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import logging
 import signal
+import socket
+import ssl
 import struct
 import subprocess
 import sys
 import time
 from contextlib import contextmanager, nullcontext
+from urllib.parse import urlparse
 
 import dask
 from distributed import Client, LocalCluster, as_completed
@@ -23,9 +26,13 @@ from distributed import Client, LocalCluster, as_completed
 from solver import compile_kernels
 from solver.compile import kernel_cache
 
-from . import forkserver
-from ..store.casefile import CaseWriteError
+from ..common import interrupts
+from ..common.errors import StudyError
+from ..common.interrupts import check
 from ..common.tables import COMPLETE, ENDED_EARLY, WRITE_FAILED
+from ..store.casefile import CaseWriteError
+from . import forkserver
+from .batch_system import batch_cluster, wait_for_a_worker
 from .worker import SINGLE_THREAD_ENV, run_batch
 
 
@@ -35,10 +42,7 @@ def probe_scheduler(address: str, timeout: float = 5.0, tls: tuple | None = None
     server, say, waits for a request and is refused after ``timeout``. A ``tls://`` scheduler
     gets a TLS handshake with ``tls`` = (CA file, certificate, key), or with dask's
     ``distributed.comm.tls`` configuration: credentials it refuses are refused here."""
-    import socket
-    from urllib.parse import urlparse
 
-    from ..common.errors import StudyError
     try:
         parsed = urlparse(address if "://" in address else f"tcp://{address}")
         host, port = parsed.hostname, parsed.port
@@ -110,9 +114,7 @@ def _tls_first_bytes(sock, host: str, tls: tuple | None, address: str) -> bytes:
     """Handshake as a dask client would, and read the scheduler's first bytes: a scheduler that
     does not accept these credentials ends the connection here (TLS 1.3 says so after the
     handshake, at the first read)."""
-    import ssl
 
-    from ..common.errors import StudyError
     context = security_for(tls).get_connection_args("client").get("ssl_context")
     if context is None:
         raise StudyError(f"{address!r} is a tls:// scheduler: give its credentials (--tls-ca-file, --tls-cert, "
@@ -137,7 +139,6 @@ def cluster_client(workers: int, scheduler: str | None, tls: tuple | None = None
         try:
             client = Client(scheduler, timeout="10s", security=security_for(tls))
         except (OSError, TimeoutError) as err:
-            from ..common.errors import StudyError
             raise StudyError(f"cannot reach the dask scheduler at {scheduler!r} within 10 s "
                              f"({type(err).__name__})") from None
         try:
@@ -192,7 +193,6 @@ def _ctrl_c_held():
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)
         signal.signal(signal.SIGINT, previous)
         if interrupted and previous is not signal.SIG_IGN:
-            from ..common import interrupts
             interrupts.requested = True
             raise KeyboardInterrupt
 
@@ -236,7 +236,6 @@ def _local_cluster_client(workers: int):
 
 
 def _batch_cluster_client(batch):
-    from .batch_system import batch_cluster, wait_for_a_worker
     with batch_cluster(batch.system, batch.jobs, batch.directory) as cluster, Client(cluster) as client:
         print(f"submitted {batch.jobs} worker jobs ({batch.system}); scheduler at {cluster.scheduler_address}",
               file=sys.stderr, flush=True)
@@ -294,8 +293,6 @@ NO_WORKER_NOTICE, NO_WORKER_LIMIT = 5.0, 600.0
 def wait_for_workers(client, address: str) -> None:
     """Until a worker has joined the existing scheduler at ``address``: said once after
     NO_WORKER_NOTICE; StudyError after NO_WORKER_LIMIT; a Ctrl-C stops the wait."""
-    from ..common.errors import StudyError
-    from ..common.interrupts import check
     started, said = time.monotonic(), False
     while not client.scheduler_info()["workers"]:
         check()
@@ -456,7 +453,6 @@ def run_pending(client, study, items: list, signature: list, batches_dir, on_bat
         in_flight[future.key] = batch
         futures.add(future)
 
-    from ..common.interrupts import check
     for _ in range(limit):
         if batcher:
             check()

@@ -1,12 +1,16 @@
 """The runner's dask session, opened only when there is work (dask is imported then)."""
 from __future__ import annotations
 
+from collections import deque
+from contextlib import ExitStack
 from pathlib import Path
+
+from ..common.interrupts import check
+from .batch_system import JOBS_DIR, Jobs
 
 
 def jobs_directory(out_dir: Path) -> Path:
     """Where a run on batch jobs keeps their logs and the workers' TLS files."""
-    from .batch_system import JOBS_DIR
     return Path(out_dir).absolute() / JOBS_DIR
 
 
@@ -15,7 +19,6 @@ def session_for(options, workers: int, out_dir: Path) -> "Session":
     existing scheduler, or a batch system's jobs."""
     batch = None
     if options.cluster:
-        from .batch_system import Jobs
         batch = Jobs(options.cluster, options.jobs, jobs_directory(out_dir))
     return Session(workers, options.scheduler, options.tls, batch)
 
@@ -45,10 +48,8 @@ class Session:
 
     def open(self):
         if self.client is None:
-            from contextlib import ExitStack
 
             from .engine import cluster_client, kernels_ready, start_kernels, wait_for_workers, warm_workers
-            from ..common.interrupts import check
             compiling = start_kernels()                  # alongside the cluster's start
             stack = ExitStack()
             try:
@@ -88,7 +89,6 @@ class Session:
         n_workers = max(1, len(client.scheduler_info()["workers"]), self.batch.jobs if self.batch else 0)
 
         def mapper(function, tasks):
-            from collections import deque
             queue, window = deque(tasks), deque()
 
             def submit():

@@ -3,15 +3,17 @@ entry (and, when the study.nc streams, what study.nc stores for them). Called on
 by pipeline.compute.engine; a numerical failure is a case's status, an exception in the solver too."""
 from __future__ import annotations
 
+import shutil
 from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
 
+from ..common.tables import WRITE_FAILED
 from ..store.casefile import batch_dataset, case_arrays, write_batch
 from ..store.reduce import reduce_arrays
 from ..study.case import Case, x_positions
-from ..common.tables import WRITE_FAILED
+from ..study.definition import load_study_text
 
 #: the environment every worker runs in (local processes, and each batch job's script): one
 #: thread for numba, OpenMP and the BLAS, as the runner schedules one case per worker
@@ -33,7 +35,6 @@ def compute_case(case: Case):
 @lru_cache(maxsize=4)
 def _worker_study(text: str, name: str):
     """The study on a worker, parsed once per study text (a grid's cases are built on demand)."""
-    from ..study.definition import load_study_text
     return load_study_text(text, name)
 
 
@@ -63,7 +64,6 @@ def run_batch(study_text: str, study_name: str, items: list, batches_dir: str, r
     try:
         entry = write_batch(spec, Path(batches_dir))
     except Exception as err:                       # netCDF reports a full disk as "HDF error"
-        import shutil
         try:
             free = f"{shutil.disk_usage(batches_dir).free // 2**20} MiB free"
         except OSError:

@@ -3,6 +3,7 @@ where a maximum sits (at a wall, in the zone's margin)."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import matplotlib
@@ -15,7 +16,6 @@ import xarray as xr  # noqa: E402
 from solver import PAPER_EPS_Y, PARAMETER_INFO, SETTING_INFO  # noqa: E402
 
 from ..store.casefile import temporary_path  # noqa: E402
-
 
 #: Okabe-Ito colours (distinct in grey print and for colour-blind readers), then markers, one per line
 PALETTE = ["#0072B2", "#D55E00", "#009E73", "#CC79A7", "#000000", "#E69F00", "#56B4E9", "#999933"]
@@ -49,7 +49,6 @@ def save(fig, path, dpi) -> None:
     tmp = temporary_path(path)
     try:
         fig.savefig(tmp, dpi=dpi, format=path.suffix.lstrip("."))
-        import os
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
@@ -57,7 +56,6 @@ def save(fig, path, dpi) -> None:
 
 
 def save_text(path, text: str) -> None:
-    import os
     path = Path(path)
     tmp = temporary_path(path)
     try:

@@ -33,6 +33,8 @@ import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..common import provenance
+
 LEDGER = "ledger.jsonl"
 BATCHES = "batches"
 
@@ -224,7 +226,6 @@ def reconcile(out_dir: Path, notes: list) -> Ledger:
 def inputs_fingerprint(study, index: dict) -> str:
     """A hash of what study.nc is made from: the study file, the schema, the code (version,
     commit, dirty) and the checksum of the batch file that holds each run."""
-    from ..common import provenance
     from ..study.identity import SCHEMA_VERSION
     commit, dirty = provenance.git_state()
     h = hashlib.sha256(json.dumps({"study": study.text, "schema": SCHEMA_VERSION,
@@ -275,5 +276,5 @@ def is_up_to_date(out_dir: Path, fingerprint: str) -> bool:
     if not (record and record.get("fingerprint") == fingerprint and record.get("size") == st.st_size
             and record.get("mtime_ns") == st.st_mtime_ns):
         return False
-    from .casefile import file_sha256                 # a flipped bit with its time kept, too
+    from .casefile import file_sha256  # a flipped bit with its time kept, too
     return record.get("sha256") == file_sha256(Path(out_dir) / "study.nc")

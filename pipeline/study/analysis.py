@@ -50,6 +50,7 @@ at all: the analysis is refused for them, with their number, rather than compute
 """
 from __future__ import annotations
 
+import importlib.util
 import math
 from dataclasses import dataclass
 
@@ -126,7 +127,6 @@ def check_analysis(table, design, output) -> Analysis:
         if key in table and method != "pce":
             raise StudyError(f"[analysis] {key} is a setting of method = \"pce\", not of \"{method}\"")
     if method == "pce":
-        import importlib.util
         if importlib.util.find_spec("openturns") is None:
             raise StudyError("[analysis] method = \"pce\" needs OpenTURNS: pip install 'floe-impact[surrogate]'")
     if len(design.keys) < 2:

@@ -30,6 +30,7 @@ from solver import PARAMETER_INFO
 from solver.parameters import CHOICES
 
 from ..common.errors import StudyError, check_table
+from .analysis import MORRIS_LEVELS
 
 METHODS = ("sobol", "latin_hypercube", "halton", "random", "saltelli", "morris")
 #: designs made for an [analysis] (pipeline.study.analysis): cases per base sample, given d keys
@@ -148,7 +149,6 @@ def unit_points(method: str, samples: int, dimensions: int, seed: int) -> np.nda
             from SALib.sample import sobol
             return sobol.sample(problem, samples, calc_second_order=False, scramble=True, seed=seed)
         from SALib.sample import morris
-        from .analysis import MORRIS_LEVELS
         return morris.sample(problem, samples, num_levels=MORRIS_LEVELS, seed=seed)
     if method == "sobol":
         return qmc.Sobol(dimensions, scramble=True, seed=seed).random_base2(int(math.log2(samples)))

@@ -33,6 +33,7 @@ the number of runs, per point (and eps_Y).
 """
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -41,6 +42,7 @@ import numpy as np
 from solver.outputs import CRACK_ONSET_TIMES
 
 from ..common.errors import StudyError, check_table
+from .design import SAMPLED
 from .identity import SAMPLE
 
 #: event -> the variable whose finite value says it happened (crack onset: at each eps_Y)
@@ -77,7 +79,6 @@ class Search:
 
 def check_search(table, taken: set) -> Search:
     """Validate a [search] table; ``taken``: the keys in [base], [grid] or [design.keys]."""
-    from .design import SAMPLED
     check_table("[search]", table, SEARCH_KEYS)
     key = table.get("key")
     if key not in SAMPLED:
@@ -161,7 +162,6 @@ def search_points(grid: dict, case_list: list) -> list:
     """The points a search runs at, as the values that place each: a grid's combinations (at
     most MAX_CHECKS; beyond, each key's lowest and highest value, every value of the keys
     the checks are not monotone in), a design's samples, or [{}] for [base] alone."""
-    import itertools
 
     from solver.parameters import NOT_MONOTONE
     if not grid:

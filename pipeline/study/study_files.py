@@ -3,10 +3,13 @@ the copy a results directory holds of the study it ran (status and show read it)
 from __future__ import annotations
 
 import math
+import os
+import time
 from pathlib import Path
 
 from ..common.errors import StudyError
 from .definition import Study, load_study_text
+
 
 def _toml_value(value, where: str) -> str:
     if isinstance(value, bool):
@@ -91,8 +94,6 @@ _COPY_HEADER = "# floe-impact keeps this copy of the study it ran here: name = "
 def keep_study_copy(study: Study, out_dir: Path) -> None:
     """Write out_dir/study.toml (a header line naming the study, then its text byte for byte)
     unless it holds that already; atomically, never through a symbolic link."""
-    import os
-    import time
     target = Path(out_dir) / STUDY_COPY
     data = (f"{_COPY_HEADER}{study.name!r}, from {study.path}\n" + study.text).encode()
     try:
