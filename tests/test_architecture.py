@@ -292,3 +292,16 @@ def test_the_layout_block_names_every_folder():
                 and path.endswith("/__init__.py")}
     assert sorted(folders - named) == [], "the Layout block does not name these folders"
 
+
+
+def test_the_doors_import_no_heavy_library():
+    """`import pipeline` and the command line's modules import neither numba nor xarray, dask,
+    matplotlib or scipy: a bad argument or --help is answered at once (an import moved to a
+    module's top is one that costs it no new library; docs/architecture.md)."""
+    import sys
+    code = ("import sys, importlib\nfor m in ('pipeline', 'pipeline.cli', 'pipeline.api', 'pipeline.run', "
+            "'pipeline.show', 'pipeline.report'):\n    importlib.import_module(m)\n"
+            "print(sorted(h for h in ('numba', 'xarray', 'dask', 'distributed', 'matplotlib', 'scipy', 'netCDF4') "
+            "if h in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
