@@ -29,10 +29,31 @@ __all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "stud
 
 
 def study_text(study: dict) -> str:
-    """The TOML text of a study given as a dict of the study file's tables (see
-    :func:`pipeline.study.study_files.study_text`)."""
-    from .study.study_files import \
-        study_text as text  # deferred: import pipeline stays light (the CLI's fast refusals)
+    """The TOML text of a study given as a dict of the study file's tables.
+
+    Parameters
+    ----------
+    study : dict
+        The study file's tables by name (``"base"``, ``"grid"``, ``"output"``, ...), as
+        :func:`run_study` also takes them (pipeline.study.study_files.study_text).
+
+    Returns
+    -------
+    str
+        The study file's text, which ``floe-impact run`` reads as it is.
+
+    Examples
+    --------
+    >>> from pipeline import study_text
+    >>> print(study_text({"description": "two speeds", "grid": {"V": [2.0, 4.0]}}))
+    description = "two speeds"
+    <BLANKLINE>
+    [grid]
+    V = [2.0, 4.0]
+    <BLANKLINE>
+    """
+    # deferred: import pipeline stays light (the CLI's fast refusals)
+    from .study.study_files import study_text as text
     return text(study)
 
 
@@ -108,6 +129,16 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
         The results directory cannot be used or written; finished cases are kept.
     StudyLocked
         Another runner holds the study.
+
+    Examples
+    --------
+    A grid of two speeds and two thicknesses, four cases on two local workers::
+
+        import pipeline
+        ds = pipeline.run_study({"grid": {"V": [2.0, 5.0], "hi": [0.3, 0.6]},
+                                 "output": {"fields": ["strain"]}}, name="four", workers=2)
+        ds["max_strain"].sel(V=5.0)                  # along hi
+        ds["crack_onset_time"].sel(eps_Y=8e-5)       # NaN where the ice did not crack
     """
 
     _check_arguments(workers=workers, jobs=jobs, batch_seconds=batch_seconds, scheduler=scheduler,
@@ -162,6 +193,25 @@ def open_study(results, verify: bool = True):
     verify : bool
         Check the file against the checksum the runner recorded with it, and refuse it
         (:class:`ResultsIOError`) if they differ: a damaged or edited file is not read as results.
+
+    Returns
+    -------
+    xarray.Dataset
+        ``study.nc``, opened lazily: one dimension per grid key (``case``, ``sample``), each
+        variable with its ``units`` and ``long_name`` (docs/variables.md).
+
+    Raises
+    ------
+    ResultsIOError
+        No such results directory, no ``study.nc`` in it (the study has not run to its end), or
+        a file that does not match its checksum.
+
+    Examples
+    --------
+    ::
+
+        ds = pipeline.open_study("speed_sweep")      # results/speed_sweep/study.nc
+        ds["max_strain"].plot()
     """
     import xarray as xr
 
@@ -194,6 +244,26 @@ def open_sensitivity(results):
     ----------
     results : str or pathlib.Path
         A results directory, or a study name (then ``results/<name>``).
+
+    Returns
+    -------
+    xarray.Dataset
+        The indices along (output, key): Sobol' ``S1`` and ``ST`` with their intervals, or
+        Morris' ``mu_star`` and ``sigma``, and each output's censored fraction; for ``pce`` its
+        Q2 and the terms of each expansion.
+
+    Raises
+    ------
+    ResultsIOError
+        No ``sensitivity.nc`` (the study has no ``[analysis]``, or has not run to its end), or a
+        file that does not match its checksum.
+
+    Examples
+    --------
+    ::
+
+        indices = pipeline.open_sensitivity("sensitivity")
+        indices["ST"].sel(output="max_strain")
     """
     from .store.sealed import open_sealed
     out_dir = Path(results)
@@ -221,6 +291,20 @@ def open_emulator(results):
     pipeline.analyse.emulator.Emulator
         ``.predict(output, **key_values) -> Prediction(value, error)``; ``.outputs``, ``.keys``,
         ``.box``, ``.q2``.
+
+    Raises
+    ------
+    ResultsIOError
+        No ``sensitivity.nc``, or one that does not match its checksum.
+    pipeline.analyse.emulator.EmulatorError
+        The study's analysis is not ``method = "pce"``.
+
+    Examples
+    --------
+    ::
+
+        emulator = pipeline.open_emulator("sensitivity_pce")
+        value, error = emulator.predict("max_strain", K=1e7, he=0.03, R=10.0, V=3.0, hi=0.5)
     """
     from .analyse.emulator import Emulator
     with open_sensitivity(results) as indices:

@@ -273,6 +273,21 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     Returns
     -------
     Result
+
+    Raises
+    ------
+    ParameterError
+        Parameters, settings, times or positions out of their ranges: one line naming the
+        value (a case that fails numerically is not raised: its ``status`` says why).
+
+    Examples
+    --------
+    >>> from solver import Parameters, solve
+    >>> result = solve(Parameters(Nmod=20), fields=())
+    >>> result.status
+    'ok'
+    >>> bool(result.diagnostics["max_strain"] > 0.0)
+    True
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
@@ -363,7 +378,20 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
 
 
 def compile_kernels() -> None:
-    """Compile (or load from numba's cache) every kernel by running a tiny case once."""
+    """Compile (or load from numba's cache) every kernel by running a tiny case once.
+
+    Returns
+    -------
+    None
+        The kernels are in numba's cache (solver/__pycache__/kernels, or
+        ``FLOE_IMPACT_KERNEL_CACHE``): a later process loads them in about a second.
+
+    Examples
+    --------
+    ::
+
+        python -c "import solver; solver.compile_kernels()"   # once, after an install or an edit
+    """
     p, s, times = parallel_compile.tiny_case()
     with parallel_compile.helper():              # a second process compiles part of integrate's tree
         solve(p, s, times=times, fields=FIELDS)

@@ -32,8 +32,21 @@ PAPER_EPS_Y = 8e-5
 
 
 def default_eps_Y() -> np.ndarray:
-    """The default axis: 10 values a decade from 1e-5 to 1e-1 (decades exact, every value the
-    same on any CPU: solver.axes), and the paper's 8e-5."""
+    """The default axis of yield strains crack onset is given for.
+
+    Returns
+    -------
+    numpy.ndarray
+        10 values a decade from 1e-5 to 1e-1 (decades exact, every value the same on any CPU:
+        solver.axes), and the paper's 8e-5: 42 values, sorted.
+
+    Examples
+    --------
+    >>> from solver import default_eps_Y
+    >>> axis = default_eps_Y()
+    >>> len(axis), float(axis[0]), float(axis[-1]), bool(8e-5 in axis)
+    (42, 1e-05, 0.1, True)
+    """
     return np.unique(np.r_[log_axis(1e-5, 1e-1, 41), PAPER_EPS_Y])
 
 
@@ -168,6 +181,19 @@ def crack_onset(record, eps_Y):
     -------
     time : array like eps_Y [s]; NaN where the tension never reaches it in the run.
     x : array like eps_Y [m], x >= 0 for a centred impact (the field is mirrored at -x), signed off centre.
+
+    Raises
+    ------
+    ParameterError
+        A yield strain that is not a finite number > 0.
+
+    Examples
+    --------
+    >>> from solver import Parameters, crack_onset, solve
+    >>> record = solve(Parameters(Nmod=20), fields=()).tension_record["upper"]
+    >>> time, x = crack_onset(record, [8e-5, 1.0])
+    >>> bool(time[0] > 0.0), bool(x[0] >= 0.0), bool(time[1] != time[1])     # never reaches 1
+    (True, True, True)
     """
     levels = yield_strains(eps_Y)
     rec = np.asarray(record, dtype=float)
