@@ -150,8 +150,7 @@ def check_analysis(table, design, output) -> Analysis:
         raise StudyError(f"[analysis] eps_Y is the yield strain of {' and '.join(CRACK_OUTPUTS)}, and no "
                          f"output asked for takes it: remove it, or add one of those outputs")
     if any(o in CRACK_OUTPUTS for o in outputs):
-        if not output.records and not all(any(abs(e / v - 1) < 1e-12 for v in output.eps_Y)
-                                                       for e in eps):
+        if not output.records and not all(any(abs(e / v - 1) < 1e-12 for v in output.eps_Y) for e in eps):
             raise StudyError("[analysis] eps_Y must be among [output] eps_Y when records = false")
     logs = table.get("log", [])
     if not isinstance(logs, list) or not all(isinstance(o, str) for o in logs):
