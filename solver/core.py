@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import time as _time
+from collections import namedtuple
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -16,7 +17,7 @@ import numpy as np
 from .compile import kernel_cache, parallel_compile
 from . import layout as kn
 from .control import make_control
-from .diagnostics import Outputs
+from .diagnostics import Outputs, Records, Run
 from .error_estimate import error_estimates
 from .layout import ETD34, RK4
 from .loop import integrate
@@ -231,16 +232,23 @@ def _field_values(p, tab, fields, x, out_a, out_adot, series, valid) -> dict:
 
 
 
-def _integrator(name, method):
-    """The integrator as one interface, (tab, control, t_out, a0, adot0, levels, outputs) ->
-    (status, outputs filled, records, failure): the kernels' loop (solver.loop.integrate) or
-    DOP853 (solver.scipy_reference.integrate_dop853)."""
-    if name == "dop853":
-        return integrate_dop853
+def _kernel_loop(method):
+    """solver.loop.integrate with the given method, as an Integrator's run."""
+    def run(tab, control, t_out, a0, adot0, levels, outputs):
+        status, n_out, records = integrate(method, tab.model, control, t_out, a0, adot0, levels, outputs)
+        return Run(status, n_out, Records(*records), "")
+    return run
 
-    def loop(tab, control, t_out, a0, adot0, levels, outputs):
-        return (*integrate(method, tab.model, control, t_out, a0, adot0, levels, outputs), "")
-    return loop
+
+#: an integrator as one interface: run(tab, control, t_out, a0, adot0, levels, outputs) -> Run
+#: (solver.diagnostics); paper_step: its fixed step is Settings.rk4_step_fraction of the fastest
+#: mode's period (the paper's RK4); local_errors: it sums local error estimates into the outputs'
+#: error column; companion: its error estimate's time part also comes from a run at a looser
+#: tolerance (where adaptive)
+Integrator = namedtuple("Integrator", "run paper_step local_errors companion")
+INTEGRATORS = {"etd34": Integrator(_kernel_loop(ETD34), False, True, True),
+               "rk4": Integrator(_kernel_loop(RK4), True, True, False),
+               "dop853": Integrator(integrate_dop853, False, False, False)}
 
 
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
@@ -296,8 +304,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     a0 = tab.to_kernel(a0)
     v0 = tab.to_kernel(v0)
     N = tab.lam.size                                 # the kernel's modes: 2 Nmod on the full plate
-    method = ETD34 if s.integrator == "etd34" else RK4
-    if method == RK4:
+    integrator = INTEGRATORS[s.integrator]
+    if integrator.paper_step:
         fixed = s.rk4_step_fraction * 2 * np.pi / tab.omega[-1]
     else:
         fixed = s.fixed_step * p.time_scale
@@ -316,14 +324,13 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
                            s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin)
     started = _time.perf_counter()
-    code, n_out, (up, n_up, lo, n_lo, cont, n_cont, zu, n_zu, zl, n_zl), fail = _integrator(s.integrator, method)(
-        tab, control, times, a0, v0, levels, Outputs(out_a, out_adot, series, diag, level_t, level_x))
-    raw = zip(RECORDS, ((up, n_up), (lo, n_lo), (zu, n_zu), (zl, n_zl)))
-    if s.integrator == "dop853":
-        records = {name: rec[:n] for name, (rec, n) in raw}
-    else:       # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
-        records = {name: rec[:n][thin_record(rec[:n])] for name, (rec, n) in raw}
-    contact_record = cont[:n_cont].copy()
+    code, n_out, rec, fail = integrator.run(tab, control, times, a0, v0, levels,
+                                            Outputs(out_a, out_adot, series, diag, level_t, level_x))
+    raw = zip(RECORDS, ((rec.upper, rec.n_upper), (rec.lower, rec.n_lower), (rec.zone_upper, rec.n_zone_upper),
+                        (rec.zone_lower, rec.n_zone_lower)))
+    # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
+    records = {name: r[:n][thin_record(r[:n])] for name, (r, n) in raw}
+    contact_record = rec.contacts[:rec.n_contacts].copy()
     # under the Gauss rule a death between nodes may be placed after its step (solver.observe.
     # contacts._between_nodes): not after the run's end
     contact_record[:, 0] = np.minimum(contact_record[:, 0], diag[kn.D_T_REACHED])
@@ -346,7 +353,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan
     companion = None
     extra = {}
-    if s.error_estimate and s.integrator == "etd34" and s.fixed_step == 0 and n_out > 0:
+    if s.error_estimate and integrator.companion and s.fixed_step == 0 and n_out > 0:
         looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
         other = solve(p, looser, times=times[valid], fields=(), t_end=t_end, t_start=t_start,
                       initial_amplitudes=a0_sym, initial_velocities=v0_sym, until_separation=until_separation,
@@ -354,10 +361,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
                      else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
         extra["error_estimate_wall_time"] = other.wall_time
-    if s.error_estimate:                  # dop853 gives no local estimates: its time part is NaN
+    if s.error_estimate:                  # without local estimates (dop853) its time part is NaN
         diagnostics.update(error_estimates(out_a[valid], tab.strain_coef, diagnostics["energy_residual"],
                                            companion=companion,
-                                           accumulated=None if s.integrator == "dop853" else out_err[valid]))
+                                           accumulated=out_err[valid] if integrator.local_errors else None))
     else:
         diagnostics.update({name: np.nan for name in ("error_estimate", "error_estimate_time",
                                                        "error_estimate_modes", "error_estimate_quadrature")})

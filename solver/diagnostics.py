@@ -28,6 +28,13 @@ from .model.plate import plus_plate_energy
 #: output times reached; diag (N_DIAG,); level_t, level_x (2, levels) NaN on entry, the located
 #: time and place at which the upper (row 0) and lower (row 1) tension first reaches each level
 Outputs = namedtuple("Outputs", "a adot series diag level_t level_x")
+#: the records of a run: the tension records of both surfaces, plate-wide and in the impact zone
+#: (rows R_T..R_JOIN), and the contact record (rows (t, count)), each with its count of valid rows
+Records = namedtuple("Records", "upper n_upper lower n_lower contacts n_contacts zone_upper n_zone_upper "
+                                "zone_lower n_zone_lower")
+#: what an integrator returns: its status code, the number of output times filled, its Records,
+#: and what stopped it ("" where it ran to its end or its own status says why)
+Run = namedtuple("Run", "status n_out records failure")
 
 
 @kernel

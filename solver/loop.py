@@ -38,7 +38,7 @@ from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observ
 from .observe.events import locate_event
 from .observe.layer_maxima import finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import append_row
-from .observe.tension import (DENSE, PEAKS, RUN_MAX, STEP_BEST, Dense, global_state, observe_tensions,
+from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, dense_due, global_state, observe_tensions,
                               tension_work)
 from .observe.zone import observe_zone, zone_work
 from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
@@ -77,25 +77,35 @@ def new_workspace(method, model, N, J, margin):
 
 
 @kernel
-def _initial(model, ws, cur, t, a0, adot0, records, diag):
+def state_at(model, t, a, adot, fvals, state):
+    """state's z, a, a', forcing, delta and eps from the modes' a, a' at t (its yb given): (status,
+    force, jmax, the layer's power); fvals (J,) scratch. status 1 where the layer is bottomed out
+    (delta >= 1 at a node)."""
+    plate = model.plate
+    for n in range(a.shape[0]):
+        state.z[n] = mode_z(a[n], adot[n], n, plate)
+        state.a[n] = a[n]
+        state.adot[n] = adot[n]
+    s, U = body_position(model.body, t, state.yb), body_speed(model.body, state.yb)
+    st, force, jmax, lp = layer_forcing_at(model, s, U, state.a, state.adot, state.delta, fvals, state.forcing)
+    if st == 0:
+        node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], state.a, state.eps)
+    return st, force, jmax, lp
+
+
+@kernel
+def initial_state(model, ws, cur, t, a0, adot0, records, diag):
     """The state at t_start and its observers: (status, force, jmax, layer power, contacts,
     records); status 1 if the layer is bottomed out already."""
-    plate = model.plate
-    for n in range(a0.shape[0]):
-        cur.z[n] = mode_z(a0[n], adot0[n], n, plate)
-        cur.a[n] = a0[n]
-        cur.adot[n] = adot0[n]
-    s, U = body_position(model.body, t, cur.yb), body_speed(model.body, cur.yb)
-    st, force, jmax, lp = layer_forcing_at(model, s, U, cur.a, cur.adot, cur.delta, ws.work.fvals,
-                                           cur.forcing)
+    st, force, jmax, lp = state_at(model, t, a0, adot0, ws.work.fvals, cur)
     if st != 0:
         return st, force, jmax, lp, 0, records
+    s = body_position(model.body, t, cur.yb)
     contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
     cur.acc[2] = layer_energy(model, cur.a, s, cur.delta, jmax) if model.basis.rule == 1 else math.nan
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
     rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
-    node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], cur.a, cur.eps)
     tw = ws.tension
     for s_ in range(2):
         peak = tw.track[PEAKS + s_]
@@ -108,7 +118,7 @@ def _initial(model, ws, cur, t, a0, adot0, records, diag):
                                                                        np.full((2, 4), -np.inf), cur.yb, cur.yb),
                                               (tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing),
                                                tw.marks), (rec_zu, n_zu, rec_zl, n_zl), diag)
-    gap_peak(model, s, U, cur.delta, jmax, cur.a, cur.adot, ws.gap0)
+    gap_peak(model, s, body_speed(model.body, cur.yb), cur.delta, jmax, cur.a, cur.adot, ws.gap0)
     diag[D_MAX_DELTA] = ws.gap0[0]
     diag[D_MAX_DELTA_T] = t
     return 0, force, jmax, lp, contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl)
@@ -249,15 +259,15 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
     observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork, DenseMaxima), ends =
-    (jmax at t, jmax and F at t + h, the stage rows of the step that reached new). Returns
-    (contacts at t + h, records, a free body left the ice)."""
+    (jmax at t, jmax and F at t + h, the step's Dense). The step's dense states are computed on
+    demand from the Dense (tension.dense_due), or were given by an integrator with a dense output
+    of its own (the DOP853 reference: its Dense empty; a floe's maxima are then not located on
+    it). Returns (contacts at t + h, records, a free body left the ice)."""
     tw, cw, peaks0, zw, dm = observers
-    jmax, jm5, F5, rows = ends
+    jmax, jm5, F5, dz = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
     for s in range(2):
         copy_into(peaks0[s], tw.track[PEAKS + s], 4)
-    tw.marks[DENSE] = 0.0 if h > 0.0 else 1.0     # computed on demand by the tension observer
-    dz = Dense(cur.z, cur.forcing, rows[2], new.forcing)
     rec_up, n_up, rec_lo, n_lo = observe_tensions(model, tw, t, h, (cur.eps, new.eps, new.a, new.adot), dz,
                                                   (rec_up, n_up, rec_lo, n_lo), diag)
     contacts, (rec_c, n_c), largest = observe_contacts(model, cw, t, h, (cur.a, cur.adot, cur.delta, cur.yb), jmax,
@@ -268,7 +278,7 @@ def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag)
     rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5,
                                                                  tw.track[STEP_BEST:STEP_BEST + 2], cur.yb, new.yb),
                                               (tw.A, tw.AD, tw.eps, dz, tw.marks), (rec_zu, n_zu, rec_zl, n_zl), diag)
-    if model.basis.kind != 0.0 and h > 0.0:      # a floe: its maxima located at the run's end
+    if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0:    # a floe: maxima located at the run's end
         observe_candidates(model, dm, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best, (zw.reach[2], zw.reach[3]))
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
     return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl), left
@@ -297,7 +307,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     none = np.int64(0)                  # (not a literal 0: numba would compile the observers twice)
     records = (np.empty((256, N_REC)), none, np.empty((256, N_REC)), none, np.empty((64, 2)), none,
                np.empty((256, N_REC)), none, np.empty((256, N_REC)), none)
-    st, force, jmax, lp, contacts, records = _initial(model, ws, cur, t, a0, adot0, records, diag)
+    st, force, jmax, lp, contacts, records = initial_state(model, ws, cur, t, a0, adot0, records, diag)
     if st != 0:
         diag[D_T_REACHED] = t
         failed_at(diag, t, float(FAIL_BOTTOMED))
@@ -365,8 +375,10 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
         else:
             node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
+        dense_due(observers[0].marks, h_eff)
         contacts, records, left = observe_step(model, observers, cur, new, carried, t, h_eff,
-                                           (jmax, jm5, F5, reached), records, diag)
+                                               (jmax, jm5, F5, Dense(cur.z, cur.forcing, reached[2], new.forcing)),
+                                               records, diag)
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)
         if asks_levels:

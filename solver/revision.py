@@ -23,9 +23,12 @@ rule on a floe); floe 2 (2026-11-27: a floe's tension maxima located on the dens
 solver.observe.dense_maxima); paper 2, gauss 4 and floe 3 (2026-11-27: the impact zone sampled on
 the dense output in every step that does not resolve the modes or in which its peak changes,
 as a floe's was, for its tension records (crack onset in the zone): the walls' zone maxima at the
-zone's edge move to DOP853's, 1.9e-7 from it where they were 2e-4; every other output bit for bit).
+zone's edge move to DOP853's, 1.9e-7 from it where they were 2e-4; every other output bit for bit);
+dop853 1 (2026-11-28: the DOP853 reference runs the kernels' own observers on its dense output,
+solver.scipy_reference: its tension records, crack onsets, contact record and zone maxima change;
+its runs carry this revision beside their rule's, and no run of the kernels changed).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
-#: either rule, in addition to the rule's)
-RESULTS_REVISION = {"paper": 2, "gauss": 4, "floe": 3}
+#: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition)
+RESULTS_REVISION = {"paper": 2, "gauss": 4, "floe": 3, "dop853": 1}

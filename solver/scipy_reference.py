@@ -9,15 +9,16 @@ touch straight into delta >= 1). Outputs come from its 7th-order dense output. B
 located event, as in the kernels: the first time the largest delta on the continuous plate
 reaches 1 - bottoming_gap, found by brentq on the dense output. DOP853 has no step rejection
 on delta >= 1: a stage there ends the run, with the time and scipy's step in the message,
-and so does a step failure, with scipy's own reason. The kernels' in-loop diagnostics (largest
-tensions and their records, so crack onset; contacts, force, compression; a free body's
-balance) are observed on the dense output at SAMPLES points a step, not located inside steps,
-but for the largest force and compression: where a sample is a local maximum of its neighbours,
-the maximum between them is located on the dense output (scipy's bounded Brent), as the kernels
-locate it on sub-steps (solver.observe.layer_maxima). Between samples, the kernels' own
-observers of the impact zone (solver.observe.zone) and of a free body's stop and separation
-(solver.observe.body) run on them as on step ends. The contact record stays empty. scipy is
-imported here only.
+and so does a step failure, with scipy's own reason.
+
+One set of observers: after each DOP853 step the kernels' own (solver.loop.observe_step: the
+tension records, so crack onset for any eps_Y; the contact intervals; the impact zone; a free
+body's stops and separation) run on its two ends, sampling inside it on DOP853's dense output
+where they would sample the exponential one. DOP853 stays an independent check of the time
+integration: its steps, its error control and its dense output are scipy's. The largest force
+and compression are observed at SAMPLES points a step and located between the neighbours of a
+local maximum on the dense output (scipy's bounded Brent), where the kernels locate them on their
+own sub-steps (solver.observe.layer_maxima). scipy is imported here only.
 """
 from __future__ import annotations
 
@@ -25,92 +26,109 @@ from __future__ import annotations
 import numpy as np
 
 from . import layout as kn
-from .cubic import cubic_max, hermite
+from .diagnostics import Records, Run
+from .loop import initial_state, new_state, new_workspace, observe_step, state_at
 from .model.body import body_accel, body_residual
-from .model.basis import field_sum, global_peak, node_strain
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
-from .observe.body import observe_body
-from .observe.tension import Dense
-from .observe.zone import observe_zone, zone_work
+from .observe.tension import DENSE, DENSE_SWITCH, Dense
+from .step import Carried
 
 
 class _StageDeltaOne(Exception):
     """A stage evaluated delta >= 1 (the forcing is undefined there)."""
 
 
-#: dense-output samples per DOP853 step at which the diagnostics are observed
+#: dense-output samples per DOP853 step at which the force and the compression are observed
 SAMPLES = 8
 
 
-def _peak(coef, lam, xq, eps, sign):
-    """The largest sign * eps(x), eps = sum_n coef_n cos(lam_n x) given at the nodes xq, refined
-    by two Newton steps on the modal sum: (value, x)."""
-    j = int(np.argmax(sign * eps))
-    x, value = xq[j], sign * eps[j]
-    for _ in range(2):
-        d1 = -sign * np.sum(coef * lam * np.sin(lam * x))
-        d2 = -sign * np.sum(coef * lam**2 * np.cos(lam * x))
-        if not d2 < 0.0:
-            break
-        trial = min(max(x - d1 / d2, xq[0]), xq[-1])
-        if abs(trial - x) > xq[1] - xq[0]:
-            break
-        trial_value = sign * np.sum(coef * np.cos(lam * trial))
-        if trial_value < value:
-            break
-        x, value = trial, trial_value
-    return value, x
+class _Observers:
+    """The kernels' own observers (solver.loop.observe_step) on each DOP853 step: the tension
+    records and largest tensions (so crack onset for any eps_Y, solver.fracture), the contact
+    intervals and their record, the impact zone's maxima, a free body's stops and separation. The
+    dense states they sample inside a step (TensionWork A, AD, A2, AD2) are DOP853's own 7th-order
+    dense output at those times, not the exponential one: what the observers see between the step
+    ends is this integrator's. A DOP853 step is observed as SAMPLES consecutive pieces. A floe's plate-wide maxima are the records' (the kernels refine
+    them on their own dense output at the run's end, solver.observe.dense_maxima)."""
+
+    def __init__(self, tab, control, t, y0, system, diag):
+        model, N, J = tab.model, tab.lam.size, tab.xq.size
+        self.model, self.system, self.diag, self.N = model, system, diag, N
+        self.ws = new_workspace(kn.ETD34, model, N, J, control.zone_margin)
+        tw = self.ws.tension
+        self.observers = (tw, self.ws.contact, self.ws.peaks0, self.ws.zone, self.ws.dense)
+        self.fractions = [np.arange(1, A.shape[0] + 1) / (A.shape[0] + 1) for A in (tw.A, tw.A2)]
+        self.cur, self.new = new_state(N, J), new_state(N, J)
+        self.no_dense = Dense(np.empty(0, np.complex128), np.empty(0), np.empty(0), np.empty(0))
+        none = np.int64(0)
+        records = (np.empty((256, kn.N_REC)), none, np.empty((256, kn.N_REC)), none, np.empty((64, 2)), none,
+                   np.empty((256, kn.N_REC)), none, np.empty((256, kn.N_REC)), none)
+        self._body(t, y0, self.cur)
+        a0, v0 = np.ascontiguousarray(y0[:N]), np.ascontiguousarray(y0[N:2 * N])
+        _, self.force, self.jmax, _, self.contacts, self.records = initial_state(model, self.ws, self.cur, t, a0, v0,
+                                                                                 records, diag)
+
+    def _body(self, t, y, state):
+        """The body's deficits (d, u) = (V t - s, V - U) of the state y into state.yb."""
+        V = self.model.body.V
+        state.yb[kn.B_D] = V * t - self.system.position(t, y)
+        state.yb[kn.B_U] = V - self.system.speed(y)
+
+    def step(self, t, h, dense):
+        """The observers on the DOP853 step [t, t + h] (dense: its dense output), as SAMPLES
+        consecutive pieces: the kernels' steps resolve the contact's changes, a DOP853 step of
+        the 7th order spans more of them. Returns True where a free body left the ice in it."""
+        N, tw = self.N, self.ws.tension
+        left = False
+        for k in range(SAMPLES):
+            t0, hk = t + k * h / SAMPLES, h / SAMPLES
+            for (A, AD), fractions in zip(((tw.A, tw.AD), (tw.A2, tw.AD2)), self.fractions):
+                ys = dense(t0 + hk * fractions)
+                A[:] = ys[:N].T
+                AD[:] = ys[N:2 * N].T
+            tw.marks[DENSE] = tw.marks[DENSE_SWITCH] = 1.0       # given: not computed from a Dense
+            y1 = dense(t0 + hk)
+            self._body(t0 + hk, y1, self.new)
+            _, F1, j1, _ = state_at(self.model, t0 + hk, np.ascontiguousarray(y1[:N]),
+                                    np.ascontiguousarray(y1[N:2 * N]), self.ws.work.fvals, self.new)
+            carried = Carried(self.force, 0.0, 0.0, 0.0, self.contacts)
+            self.contacts, self.records, piece_left = observe_step(
+                self.model, self.observers, self.cur, self.new, carried, t0, hk, (self.jmax, j1, F1, self.no_dense),
+                self.records, self.diag)
+            left = left or piece_left
+            self.cur, self.new = self.new, self.cur
+            self.force, self.jmax = F1, j1
+        return left
+
+    def finish(self):
+        """The records (solver.loop.integrate's), and the largest tension of either surface into
+        diag."""
+        diag = self.diag
+        up, lo = diag[kn.D_MAX_UPPER], diag[kn.D_MAX_LOWER]
+        s = 0 if up >= lo else 3                         # the surface with the larger tension
+        diag[kn.D_MAX_ABS], diag[kn.D_MAX_ABS_T], diag[kn.D_MAX_ABS_X] = (
+            diag[kn.D_MAX_UPPER + s], diag[kn.D_MAX_UPPER_T + s], diag[kn.D_MAX_UPPER_X + s])
+        return Records(*self.records)
 
 
-def _record_max(rec):
-    """(value, t, x) of the largest tension of a record: its nodes, and the maxima of its cubic
-    Hermite pieces between samples (so the peak's time is not that of a sample)."""
-    i = int(np.argmax(rec[:, kn.R_VALUE]))
-    best = (rec[i, kn.R_VALUE], rec[i, kn.R_T], rec[i, kn.R_X])
-    for i in np.flatnonzero(rec[1:, kn.R_JOIN] == 1.0):
-        a, b = rec[i], rec[i + 1]
-        h = b[kn.R_T] - a[kn.R_T]
-        value, th = cubic_max(*hermite(a[kn.R_VALUE], b[kn.R_VALUE], a[kn.R_RATE], b[kn.R_RATE], h))
-        if value > best[0]:
-            best = (value, a[kn.R_T] + th * h, a[kn.R_X] + th * (b[kn.R_X] - a[kn.R_X]))
-    return best
+class _LayerMaxima:
+    """The largest force and compression (largest delta), observed on DOP853's dense output at
+    SAMPLES points a step and located between the neighbours of a sample that is a local maximum
+    by scipy's bounded Brent (the kernels locate them on their own sub-steps,
+    solver.observe.layer_maxima); and a free body's energy balance at the samples."""
 
-
-class _Observer:
-    """The in-loop diagnostics of the kernels, observed on DOP853's dense output at SAMPLES
-    points a step: the largest tensions with their places and times and their running-maximum
-    records (so crack onset for any eps_Y, solver.fracture), contacts, the force and compression
-    (located around their largest samples), a free body's energy balance; and by the kernels'
-    own observers between samples, the impact zone's maxima (solver.observe.zone) and a free
-    body's stop and separation (solver.observe.body)."""
-
-    def __init__(self, tab, zone_margin):
-        self.tab, self.body = tab, tab.model.body
-        self.free = self.body.inv_mass > 0.0
-        N, J = tab.omega.size, tab.xq.size
-        self.zone, self.zone_diag, self.zone_t = zone_work(float(zone_margin), N), np.full(kn.N_DIAG, np.nan), None
-        self.no_best = np.full((2, 4), -np.inf)     # (the kernels' plate-wide step maxima: not here)
-        self.no_body = np.zeros(2)                  # (the body between samples: not needed without them)
-        # no dense states between two samples (the zone is sampled at DOP853's own samples)
-        self.no_inside = (np.empty((0, N)), np.empty((0, N)), np.empty(J),
-                          Dense(np.zeros(N, np.complex128), np.zeros(N), np.zeros(N), np.zeros(N)), np.ones(5))
-        self.records = ([], [])
-        self.zone_records = [np.empty((64, kn.N_REC)), np.int64(0), np.empty((64, kn.N_REC)), np.int64(0)]
-        self.running = [-np.inf, -np.inf]
-        self.last = [None, None]               # each surface's previous sample row
-        self.max_contacts = self.max_force = self.max_delta = 0.0
+    def __init__(self, body):
+        self.body = body
+        self.free = body.inv_mass > 0.0
+        self.max_force = self.max_delta = 0.0
         self.max_force_t = self.max_delta_t = np.nan
-        self.body_diag = np.full(kn.N_DIAG, np.nan)   # a free body's ends, by the kernels' observer
-        self.body_last = None                          # the previous sample's (t, yb, force)
-        self.no_record = (np.empty((0, 2)), np.int64(0))
-        self.body_residual = 0.0
-        self.peak_work = 0.0
+        self.body_residual = self.peak_work = 0.0
         self.history = []                      # the last three samples (t, force, largest delta)
         self.value_at = None                   # (kind, t) -> force (kind 0) or largest delta, dense output
 
-    def _locate_maxima(self, t, force, delta_max):
+    def _locate(self, t, force, delta_max):
         """Where the previous sample is a local maximum of the force or the largest delta, the
         maximum between its neighbours, on the dense output."""
         self.history = (self.history + [(t, force, delta_max)])[-3:]
@@ -128,84 +146,23 @@ class _Observer:
                 setattr(self, attr, value)
                 setattr(self, attr + "_t", when)
 
-    def sample(self, t, a, v, work, contacts, force, delta_max, s, U, delta, jmax):
-        tab, V = self.tab, self.body.V
-        if tab.floe is None:
-            coef = a * tab.strain_coef
-            eps = coef @ tab.cosq
-        else:                                  # a floe's wet modes: the kernels' strain and peaks
-            basis, eps = tab.model.basis, np.empty(tab.xq.size)
-            a, v = np.ascontiguousarray(a), np.ascontiguousarray(v)
-            node_strain(basis.cosq, basis.floe, tab.strain_coef, a, eps)
-        for k, sign in enumerate((1.0, -1.0)):
-            if tab.floe is None:
-                value, x = _peak(coef, tab.lam, tab.xq, eps, sign)
-                rate = sign * np.sum(v * tab.strain_coef * np.cos(tab.lam * x))
-            else:
-                value, x, _ = global_peak(eps, sign, basis, tab.strain_coef, a)
-                rate = sign * field_sum(basis.lam1, basis.floe, (tab.strain_coef, 1), v, x)
-            row = [t, value, rate, x, 0.0]
-            previous = self.last[k]
-            if value > self.running[k]:            # a piece from the previous sample to this one
-                rec = self.records[k]
-                if previous is not None:
-                    if not rec or rec[-1] is not previous:
-                        rec.append(previous)
-                    row[kn.R_JOIN] = 1.0
-                rec.append(row)
-                self.running[k] = value
-            self.last[k] = row
-        h = 0.0 if self.zone_t is None else t - self.zone_t
-        self.zone_records = list(observe_zone(self.tab.model, self.zone, t - h, h,
-                                              (np.ascontiguousarray(eps), delta, np.ascontiguousarray(a),
-                                               np.ascontiguousarray(v), jmax, self.no_best, self.no_body,
-                                               self.no_body),
-                                              self.no_inside, tuple(self.zone_records), self.zone_diag))
-        self.zone_t = t
-        self.max_contacts = max(self.max_contacts, contacts)
+    def sample(self, t, force, delta_max, work, deficits):
         if force > self.max_force:
             self.max_force, self.max_force_t = force, t
         if delta_max > self.max_delta:
             self.max_delta, self.max_delta_t = delta_max, t
-        self._locate_maxima(t, force, delta_max)
+        self._locate(t, force, delta_max)
         self.peak_work = max(self.peak_work, work)
         if self.free:
-            deficits = np.array([V * t - s, V - U])             # the kernels' body state (d, u)
-            if self.body_last is not None:            # its stops and separation between the samples
-                t0, yb0, F0 = self.body_last
-                observe_body(self.body, t0, t - t0, yb0, deficits, F0, force, np.int64(contacts), self.no_record,
-                             self.body_diag)
-            self.body_last = (t, deficits, force)
-            self.body_residual = max(self.body_residual, abs(body_residual(tab.model.body, t, deficits, work)))
+            self.body_residual = max(self.body_residual, abs(body_residual(self.body, t, deficits, work)))
 
     def finish(self, diag):
-        """The diagnostics into diag (the kernels' slots); returns the records (upper, lower, the
-        impact zone's upper, lower)."""
-        records = []
-        for k in range(2):
-            rec = np.asarray(self.records[k], dtype=float).reshape(-1, kn.N_REC)
-            if rec.shape[0]:
-                diag[kn.D_MAX_UPPER + 3 * k], diag[kn.D_MAX_UPPER_T + 3 * k], diag[kn.D_MAX_UPPER_X + 3 * k] = \
-                    _record_max(rec)
-            records.append(rec)
-        up, lo = diag[kn.D_MAX_UPPER], diag[kn.D_MAX_LOWER]
-        top = 0 if up >= lo else 1
-        diag[kn.D_MAX_ABS], diag[kn.D_MAX_ABS_X], diag[kn.D_MAX_ABS_T] = (
-            diag[kn.D_MAX_UPPER + 3 * top], diag[kn.D_MAX_UPPER_X + 3 * top], diag[kn.D_MAX_UPPER_T + 3 * top])
-        diag[kn.D_MAX_CONTACTS] = self.max_contacts
         if not np.isinf(diag[kn.D_MAX_FORCE]):        # +inf: bottomed out, set by the caller
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = self.max_force, self.max_force_t
         diag[kn.D_MAX_DELTA], diag[kn.D_MAX_DELTA_T] = self.max_delta, self.max_delta_t
-        zone = [kn.D_ZONE_UPPER + i for i in range(6)] + [kn.D_ZONE_UPPER_EDGE, kn.D_ZONE_LOWER_EDGE,
-                                                           kn.D_CONTACT_EXTENT]
-        diag[zone] = self.zone_diag[zone]
         diag[kn.D_ENERGY_JUMPS] = 0.0                 # DOP853 has no energy guard
         if self.free:
-            ends = [kn.D_STOP_T, kn.D_MAX_PENETRATION, kn.D_SEPARATION_T, kn.D_SEPARATION_SPEED]
-            diag[ends] = self.body_diag[ends]
             diag[kn.D_BODY_RESIDUAL] = self.body_residual / self.peak_work if self.peak_work > 0 else 0.0
-        zu, n_zu, zl, n_zl = self.zone_records
-        return records[0], records[1], zu[:n_zu].copy(), zl[:n_zl].copy()
 
 
 class _System:
@@ -290,14 +247,12 @@ class _System:
         series[k, kn.S_BODY_SPEED] = self.speed(y)
         series[k, kn.S_DISSIPATED] = y[2 * N + self.n_extra] if self.damped else 0.0
 
-    def observe(self, observer, t, y):
-        """The observer's sample at t."""
+    def sample(self, maxima, t, y):
+        """The force, the largest delta, the work and the body's deficits at t into maxima."""
         N = self.N
-        st, F, jmax, _ = self.forcing(t, y)
-        contacts = count_contacts(self.delta, jmax, self.model.basis.mirror)
-        dmax = self.largest_delta(t, y)              # (it recomputes delta: the same values)
-        observer.sample(t, y[:N], y[N:2 * N], y[2 * N], contacts, F, dmax, self.position(t, y), self.speed(y),
-                        self.delta, jmax)
+        _, F, _, _ = self.forcing(t, y)
+        dmax = self.largest_delta(t, y)
+        maxima.sample(t, F, dmax, y[2 * N], np.array([self.V * t - self.position(t, y), self.V - self.speed(y)]))
 
 
 def _bottoming(system, level, t_old, t_new, y_new, dense):
@@ -342,25 +297,26 @@ def _summary(out, n_out, status, reason, t_reached, counts):
 def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_damping=False):
     """The interface of :func:`solver.loop.integrate` on DOP853: fills out (Outputs; the error
     column NaN: DOP853 gives no local error estimates back; levels are not located: level_t stays
-    NaN) and returns (status, n_out, records, failure), records = (upper, n, lower, n, contacts, 0,
-    zone upper, n, zone lower, n) (no contact record), failure what stopped it or "". A free body's run that asks to end at
-    separation ends at the first step after which it is off the ice, moving up. coupled_damping:
-    see _System (to measure what the kernels' diagonal damping of a floe leaves out)."""
+    NaN) and returns a Run (solver.diagnostics), its failure what stopped it or "". A free body's
+    run that asks to end at separation ends at the step in which the kernels' observer finds it
+    off the ice, moving up. coupled_damping: see _System (to measure what the kernels' diagonal
+    damping of a floe leaves out)."""
     try:
         from scipy.integrate import DOP853
     except ImportError:                                      # pragma: no cover
         from .parameters import ParameterError
         raise ParameterError("integrator dop853 needs scipy: pip install scipy") from None
     system = _System(tab, coupled_damping)
-    N, T, diag = system.N, t_out.size, out.diag
+    T, diag = t_out.size, out.diag
     level = 1.0 - control.bottom_gap
     diag[kn.D_FAIL_KIND] = kn.FAIL_NONE
     status, reason, failure = kn.OK, kn.FAIL_NONE, ""
     t_start, t_end = control.t_start, control.t_end
     y0 = system.initial(t_start, a0, adot0)
     k = 0
-    observer = _Observer(tab, control.zone_margin)
-    system.observe(observer, t_start, y0)
+    observers = _Observers(tab, control, t_start, y0, system, diag)
+    maxima = _LayerMaxima(tab.model.body)
+    system.sample(maxima, t_start, y0)
     while k < T and t_out[k] <= t_start:
         system.record(out, k, t_start, y0)
         k += 1
@@ -389,20 +345,12 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         def value_at(kind, tt, boundary=t_old, here=dense, before=previous_dense):
             y = here(tt) if tt >= boundary or before is None else before(tt)
             return system.forcing(tt, y)[1] if kind == 0 else system.largest_delta(tt, y)
-        observer.value_at = value_at
+        maxima.value_at = value_at
         t_bottom = _bottoming(system, level, t_old, solver.t, solver.y, dense)
         t_stop = solver.t if t_bottom is None else t_bottom
         for tp in np.linspace(t_old, t_stop, SAMPLES + 1)[1:]:
-            system.observe(observer, tp, dense(tp))
-        if control.until_separation and t_bottom is None and system.free and solver.y[2 * N + 2] < 0.0:
-            st, F, jmax, _ = system.forcing(solver.t, solver.y)
-            if count_contacts(system.delta, jmax, tab.model.basis.mirror) == 0:
-                while k < T and t_out[k] <= t_stop:
-                    system.record(out, k, t_out[k], dense(t_out[k]))
-                    k += 1
-                t_reached = t_stop
-                status, reason = kn.SEPARATED, kn.FAIL_NONE
-                break
+            system.sample(maxima, tp, dense(tp))
+        left = observers.step(t_old, t_stop - t_old, dense)
         while k < T and t_out[k] <= t_stop:
             system.record(out, k, t_out[k], dense(t_out[k]))
             k += 1
@@ -415,7 +363,12 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
             diag[kn.D_BOTTOM_SPEED] = tab.model.layer.he * gap[1]
             diag[kn.D_MAX_FORCE], diag[kn.D_MAX_FORCE_T] = np.inf, t_bottom
             break
-    up, lo, zu, zl = observer.finish(diag)
+        if left and control.until_separation:
+            status, reason = kn.SEPARATED, kn.FAIL_NONE
+            break
+    if status == kn.OK and system.free and control.until_separation and not np.isnan(diag[kn.D_STOP_T]):
+        status = kn.STOPPED                  # stopped, and still on the ice at the window's end
+    records = observers.finish()
+    maxima.finish(diag)
     _summary(out, k, status, reason, t_reached, (system.nfev, steps))
-    return status, k, (up, up.shape[0], lo, lo.shape[0], np.empty((0, 2)), 0, zu, zu.shape[0], zl, zl.shape[0]), \
-        failure
+    return Run(status, k, records, failure)

@@ -70,13 +70,14 @@ def _digest(result) -> str:
 
 
 def fingerprint() -> dict:
-    """case -> (the revision that guards it: its rule, or "floe" for a free floe; the digest of
-    its results)."""
+    """case -> (the revision that guards it: its rule, "floe" for a free floe, "dop853" for the
+    DOP853 reference; the digest of its results)."""
     from solver import solve
     out = {}
     for name, (p, s, kw) in cases().items():
         r = solve(p, s, fields=("strain", "layer_pressure"), **kw)
-        out[name] = ["floe" if p.edges == "free" else s.quadrature, _digest(r)]
+        guard = "floe" if p.edges == "free" else "dop853" if s.integrator == "dop853" else s.quadrature
+        out[name] = [guard, _digest(r)]
     return out
 
 

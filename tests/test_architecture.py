@@ -305,3 +305,18 @@ def test_the_doors_import_no_heavy_library():
             "if h in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_the_reference_integrator_runs_the_kernels_observers():
+    """One set of observers: the DOP853 reference (solver/scipy_reference.py) calls the loop's
+    observe_step and defines no observer of its own: it imports no peak finder, no Hermite, and
+    none of solver.observe's observers (its tension module's marks and Dense only)."""
+    modules = _modules("solver")
+    path, tree = modules["solver.scipy_reference"]
+    imported = {(node.module, a.name) for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
+                for a in node.names}
+    assert ("loop", "observe_step") in imported
+    assert not {name for module, name in imported if module and module.startswith("observe.")} - {
+        "DENSE", "DENSE_SWITCH", "Dense"}
+    assert not {name for _, name in imported} & {"global_peak", "field_sum", "node_strain", "hermite", "cubic_max",
+                                                  "observe_zone", "observe_body", "observe_tensions"}

@@ -291,6 +291,21 @@ def test_the_floes_results_revision_recomputes_only_the_floes_cases(monkeypatch)
     assert after.case_ids == [c.case_id for c in after.cases]
 
 
+def test_the_references_results_revision_recomputes_only_its_cases(monkeypatch):
+    """RESULTS_REVISION["dop853"] enters the id of a DOP853 case (beside its rule's), and of no
+    etd34 or rk4 case: a change of the reference's observers recomputes its cases only."""
+    import pipeline.study.identity as identity
+    import pipeline.study.definition as study_module
+    text = (ROOT / "studies" / "regression_small.toml").read_text()
+    texts = {i: text.replace("[solver]", f'[solver]\nintegrator = "{i}"', 1) for i in ("dop853", "etd34", "rk4")}
+    before = {i: study_module.load_study_text(t, "s").case_ids for i, t in texts.items()}
+    monkeypatch.setitem(identity.RESULTS_REVISION, "dop853", identity.RESULTS_REVISION["dop853"] + 1)
+    after = {i: study_module.load_study_text(t, "s") for i, t in texts.items()}
+    assert not set(after["dop853"].case_ids) & set(before["dop853"])
+    assert after["etd34"].case_ids == before["etd34"] and after["rk4"].case_ids == before["rk4"]
+    assert after["dop853"].case_ids == [c.case_id for c in after["dop853"].cases]
+
+
 def test_shipped_studies_are_valid():
     for path in sorted((ROOT / "studies").glob("*.toml")):
         study = load_study(path)

@@ -92,7 +92,8 @@ def used_settings(settings: Settings) -> dict:
     """The settings the run reads, and the revision of its rule's results (solver.revision). The
     quadrature enters only when it is not the paper's, so that the ids of the cases run before it
     was a setting stay what they were; with it the revision of its results. The paper rule's
-    revision enters once it is above 0 (its ids carried none before)."""
+    revision enters once it is above 0 (its ids carried none before); a DOP853 run's carries the
+    revision of the reference's own results too."""
     used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
     if settings.quadrature != "paper":
         used["quadrature"] = settings.quadrature
@@ -100,6 +101,8 @@ def used_settings(settings: Settings) -> dict:
         used["quadrature_revision"] = RESULTS_REVISION[settings.quadrature]
     elif RESULTS_REVISION["paper"] > 0:
         used["results_revision"] = RESULTS_REVISION["paper"]
+    if settings.integrator == "dop853":
+        used["integrator_revision"] = RESULTS_REVISION["dop853"]
     return used
 
 

@@ -147,6 +147,7 @@ def helper_jobs():
     from ..loop import judge_step, observe_step, new_workspace, new_state
     from ..model.assemble import Tables
     from ..observe.events import locate_event
+    from ..observe.tension import Dense
     from ..step import Carried, Coefficients, Start, take_step
     p, s, _ = tiny_case()
     model = typeof(Tables(p, s.subintervals, False, s.quadrature, s.quadrature_density).model)
@@ -155,13 +156,14 @@ def helper_jobs():
     diag = _field(typeof(Outputs(*(np.empty((1, 1)),) * 3, np.empty(1), *(np.empty((1, 1)),) * 2)), "diag")
     ws = _returns(new_workspace, i8, model, i8, i8, f8)
     state = _returns(new_state, i8, i8)
-    work, rows = _field(ws, "work"), _field(_field(ws, "work"), "rows")
+    work = _field(ws, "work")
+    dense = typeof(Dense(np.empty(1, np.complex128), np.empty(1), np.empty(1), np.empty(1)))
     carried = typeof(Carried(0.0, 0.0, 0.0, 0.0, 0))
     start = typeof(Start(np.empty(1, np.complex128), np.empty(1), np.empty(1)))
     records = typeof((np.empty((1, 1)), 0) * 5)       # (tension upper, lower; contacts; zone upper, lower)
     observers = types.Tuple([_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")])
     return [
-        (observe_step, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, rows)), records, diag)),
+        (observe_step, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, dense)), records, diag)),
         (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
                      start, carried, f8, f8, f8, state)),
         (locate_event, (_field(ws, "stepper"), f8, f8, start, carried, f8, f8, a1, state, a1)),

@@ -49,14 +49,14 @@ SWITCH_DISTANCE = 10
 #: the step's (max, time, x), BACK a backward track's (value, rate, x), STEP_BEST + s each
 #: surface's (max, time, x) over the last step (the impact zone's observer reads them); samples (TENSION_SAMPLES
 #: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
-#: switch of peaks (SWITCH_SAMPLES); marks (5,): RUN_MAX + s the running maximum of surface s,
-#: JOINABLE + s 1 when its last step was stored, DENSE 1 when the step's dense states are
-#: computed. (Few arrays: numba counts a reference to each array of a tuple at every binding.)
+#: switch of peaks (SWITCH_SAMPLES); marks (6,): RUN_MAX + s the running maximum of surface s,
+#: JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1 when the step's dense
+#: states A, AD (A2, AD2) are computed, or given by the integrator (dense_due). (Few arrays: numba counts a reference to each array of a tuple at every binding.)
 TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 marks")
 #: rows of TensionWork.track
 PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
 #: entries of TensionWork.marks
-RUN_MAX, JOINABLE, DENSE = 0, 2, 4
+RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH = 0, 2, 4, 5
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
 
@@ -67,7 +67,16 @@ def tension_work(N, J):
     return TensionWork(np.empty((9, 4)), np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
                        np.empty((TENSION_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)),
                        np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J), np.empty((SWITCH_SAMPLES + 1, 3)),
-                       np.zeros(5))
+                       np.zeros(6))
+
+
+@kernel
+def dense_due(marks, h):
+    """A new step's dense states are due: computed on demand from its Dense by the first observer
+    that needs them (none for a step of length 0). An integrator with a dense output of its own
+    (the DOP853 reference) fills A, AD, A2, AD2 and sets both marks to 1 instead."""
+    marks[DENSE] = 0.0 if h > 0.0 else 1.0
+    marks[DENSE_SWITCH] = marks[DENSE]
 
 
 @kernel
@@ -190,7 +199,8 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     """The global peak over a step in which it passes from one local peak to another (a new
     peak may emerge inside the step, where no track can follow it): at SWITCH_SAMPLES - 1
     points of the dense output the strain is evaluated at every node and the global peak
-    searched among all local peaks (global_peak). Stored like _tension_piece."""
+    searched among all local peaks (global_peak); the states are computed once a step, unless
+    marks DENSE_SWITCH says they are. Stored like _tension_piece."""
     p0, p1, best, samples = tw.track[P0], tw.track[P1], tw.track[PIECE], tw.samples2
     joinable, run_max = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s]
     sign = 1.0 - 2.0 * s
@@ -200,7 +210,9 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
         best[1] = t0 if p0[0] >= p1[0] else t0 + h
         best[2] = p0[2] if p0[0] >= p1[0] else p1[2]
         return rec, n, False
-    dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
+    if tw.marks[DENSE_SWITCH] == 0.0:
+        dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
+        tw.marks[DENSE_SWITCH] = 1.0
     copy_into(samples[0], p0, 3)
     copy_into(samples[K], p1, 3)
     strain = model.plate.modes[STRAIN]
