@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
+.PHONY: help setup docs study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -83,6 +83,9 @@ layout-slots: setup  ## rewrite solver/layout.py's D_*, R_*, S_* slots from the 
 
 bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 25 cases (15 at the paper's rule, 8 Gauss, a floe under each), settings pinned, every output array
 	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)
+
+bench-answered: setup  ## a crack-onset run (end = "answered") beside the full run, five cases at N = 60 -> results/bench/answered.md
+	$(PY) benchmarks/answered.py
 
 bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa ." RULE=paper|gauss, settings pinned) -> results/bench/revisions.md
 	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .) --rule $(or $(RULE),paper)

@@ -16,6 +16,7 @@ from collections import namedtuple
 
 from .compile.jit import kernel
 from .layout import B_D, B_U
+from .observe.asked import ALL
 from .model.basis import field_sum
 from .model.plate import MASS, ONES, mode_a
 
@@ -56,16 +57,20 @@ ENERGY_BOUND = 1e-3
 #: from jumping deep into a new contact); max_steps (attempted steps before STEP_LIMIT);
 #: bottom_gap (the layer bottoms out when its gap closes to this fraction of he);
 #: until_separation (a free body's run ends when it separates); zone_margin [m] (the impact zone
-#: reaches this far beyond the contact, solver.observe.zone)
+#: reaches this far beyond the contact, solver.observe.zone); observers (the bits of the observers
+#: that run) and answer (4 levels: the run ends when the tension records' crossings up to them
+#: are final; -inf a record not asked, +inf one asked to the end), solver.observe.asked
 Control = namedtuple("Control", "t_start t_end tolerance fixed_step h_init h_min h_max max_steps bottom_gap "
-                                "until_separation zone_margin")
+                                "until_separation zone_margin observers answer")
 
 
 def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
-                 until_separation=False, zone_margin=1.0):
-    """The :data:`Control` of a run (plain Python: built once per run)."""
+                 until_separation=False, zone_margin=1.0, observers=ALL, answer=(math.inf,) * 4):
+    """The :data:`Control` of a run (plain Python: built once per run); by default every observer
+    runs and the run goes to t_end."""
     return Control(float(t_start), float(t_end), float(tolerance), float(fixed_step), float(h_init), float(h_min),
-                   float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin))
+                   float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin),
+                   int(observers), tuple(float(level) for level in answer))
 
 
 @kernel(inline="llvm")

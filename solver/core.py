@@ -23,7 +23,9 @@ from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
-from .outputs import DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, POSITION_SLOTS, RECORDS, SERIES
+from .observe.asked import plan as plan_outputs
+from .outputs import (DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, OBSERVED_BY, ONSET_RECORD, POSITION_SLOTS, RECORDS,
+                      SERIES)
 from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError
 from .settings import Settings, check_combination
@@ -71,6 +73,9 @@ class Result:
     extra: dict = field(default_factory=dict)   # error_estimate_wall_time [s] when a companion ran
     antisymmetric_amplitudes: np.ndarray = None  # (T, N) b_m of sin((m - 1/2) pi x / L) [m]; 0 centred
     antisymmetric_velocities: np.ndarray = None  # (T, N) db_m/dt [m s-1]
+    outputs: frozenset = None          # the outputs asked (None: every one); the others are NaN or empty
+    end_reason: str = "end"            # "end" (t_end), "answered" (its answers final: solve's end), or the status
+    answered_eps_Y: float = math.inf   # crack onsets are final up to this yield strain (inf: the whole run)
 
     @property
     def ok(self) -> bool:
@@ -100,6 +105,9 @@ class Result:
             raise ParameterError(f"surface must be 'upper' or 'lower', got {surface!r}")
         if region not in ("plate", "impact_zone"):
             raise ParameterError(f"region must be 'plate' or 'impact_zone', got {region!r}")
+        if np.any(np.asarray(eps_Y, dtype=float) > self.answered_eps_Y):
+            raise ParameterError(f"the run ended when its crack onsets up to eps_Y = {self.answered_eps_Y:g} were "
+                                 f"final (end = 'answered'); a larger eps_Y needs a run to the end")
         return crack_onset(self.tension_record[surface if region == "plate" else f"impact_zone_{surface}"], eps_Y)
 
     def to_dataset(self, eps_Y=None):
@@ -232,6 +240,20 @@ def _field_values(p, tab, fields, x, out_a, out_adot, series, valid) -> dict:
 
 
 
+def _only_asked(asked, diagnostics, records, contact_record):
+    """The diagnostics the observers produce that no output asked reads set to NaN (they may
+    not have run, or cover only part of the run), and the records not asked emptied: (records,
+    contact record)."""
+    for names in OBSERVED_BY.values():
+        for name in names:
+            if name in diagnostics and name not in asked:
+                diagnostics[name] = math.nan
+    onsets = {ONSET_RECORD[name] for name in asked if name in ONSET_RECORD}
+    records = {name: rec if name in onsets or f"tension_record_{name}" in asked else rec[:0]
+               for name, rec in records.items()}
+    return records, contact_record if "contact_record" in asked else contact_record[:0]
+
+
 def _kernel_loop(method):
     """solver.loop.integrate with the given method, as an Integrator's run."""
     def run(tab, control, t_out, a0, adot0, levels, outputs):
@@ -254,7 +276,7 @@ INTEGRATORS = {"etd34": Integrator(_kernel_loop(ETD34), False, True, True),
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
-          until_separation=False, full_plate=None) -> Result:
+          until_separation=False, full_plate=None, outputs=None, eps_Y=None, end="stage") -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -277,6 +299,15 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     full_plate : solve on the full plate, Nmod symmetric and Nmod antisymmetric modes (default
         None: exactly when the body is off centre, x0 != 0; True at x0 = 0 is for verification:
         it must agree with the symmetric run, its antisymmetric amplitudes staying 0).
+    outputs : the outputs asked, names of :data:`solver.outputs.OUTPUT_NAMES` (diagnostics,
+        tension records ``tension_record_<record>``, crack onsets such as ``crack_onset_time``,
+        ``contact_record``, series); default None: every one. Observers no output asked reads
+        do not run (solver.observe.asked); the outputs asked are bit for bit those of the run
+        with every observer, the others NaN (or empty records).
+    eps_Y : the yield strains crack onsets are asked at (with ``end="answered"``).
+    end : "stage" (default): the run goes to t_end; "answered": with only crack onsets asked, it
+        ends once they are final for every eps_Y up to the largest (``end_reason`` "answered",
+        ``time_reached`` then; ``Result.crack_onset`` refuses a larger eps_Y).
 
     Returns
     -------
@@ -299,6 +330,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
+    observers, answer, asked = plan_outputs(outputs, eps_Y, end)
     tab = Tables(p, s.subintervals, full_plate, s.quadrature, s.quadrature_density)
     a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
     a0 = tab.to_kernel(a0)
@@ -322,7 +354,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     level_t = np.full((2, levels.size), np.nan)
     level_x = np.full((2, levels.size), np.nan)
     control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
-                           s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin)
+                           s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin, observers, answer)
     started = _time.perf_counter()
     code, n_out, rec, fail = integrator.run(tab, control, times, a0, v0, levels,
                                             Outputs(out_a, out_adot, series, diag, level_t, level_x))
@@ -351,13 +383,16 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan
+    answered = not math.isnan(diag[kn.D_ANSWERED_T])
+    if asked is not None:                           # what no output asked reads: not reported
+        records, contact_record = _only_asked(asked, diagnostics, records, contact_record)
     companion = None
     extra = {}
     if s.error_estimate and integrator.companion and s.fixed_step == 0 and n_out > 0:
         looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
-        other = solve(p, looser, times=times[valid], fields=(), t_end=t_end, t_start=t_start,
-                      initial_amplitudes=a0_sym, initial_velocities=v0_sym, until_separation=until_separation,
-                      full_plate=tab.full_plate)
+        other = solve(p, looser, times=times[valid], fields=(), t_end=t_reached if answered else t_end,
+                      t_start=t_start, initial_amplitudes=a0_sym, initial_velocities=v0_sym,
+                      until_separation=until_separation, full_plate=tab.full_plate, outputs=outputs)
         companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
                      else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
         extra["error_estimate_wall_time"] = other.wall_time
@@ -381,7 +416,9 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
         forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),
         largest_step=float(diag[kn.D_H_MAX]), wall_time=wall, tension_record=records,
-        contact_record=contact_record, extra=extra)
+        contact_record=contact_record, extra=extra, outputs=None if asked is None else frozenset(asked),
+        end_reason="answered" if answered and status == "ok" else "end" if status == "ok" else status,
+        answered_eps_Y=max(answer) if answered else math.inf)
 
 
 def compile_kernels() -> None:

@@ -22,7 +22,7 @@ from .cubic import cubic_max, hermite
 from .diagnostics import (bottomed_at, failed_at, finish_diagnostics, record_output, running_maxima,
                           start_diagnostics)
 from .compile.jit import kernel
-from .layout import (B_D, B_U, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
+from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
                      D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T,
                      D_T_REACHED, ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP,
                      FAIL_MAX_STEPS, FAIL_NONFINITE, FAIL_STEP_UNDERFLOW, LAYER_BOTTOMED_OUT, N_REC, NONFINITE,
@@ -32,6 +32,7 @@ from .model.body import body_coefficients, body_position, body_residual, body_sp
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
+from .observe.asked import CONTACTS, LAYER_MAXIMA, TENSION, ZONE, answered, asks
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
@@ -48,8 +49,10 @@ from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_co
 #: buffers as they were), the observers' work (tension, contacts, impact zone), the gap (largest
 #: delta, its rate and place) at the step's two ends, an event's value (3,), the tension peaks at
 #: the step's start (2, 4), the fixed step's [target, step], the force's and compression's maxima
-#: (observe.layer_maxima) and a floe's tension maxima's candidate steps (observe.dense_maxima)
-Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense")
+#: (observe.layer_maxima), a floe's tension maxima's candidate steps (observe.dense_maxima) and the
+#: records' row counts when their running maxima passed the levels asked (observe.asked, 4)
+Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense "
+                                    "crossed")
 
 #: a trial step's verdict
 ACCEPT, RETRY, STOP = 0, 1, 2
@@ -73,7 +76,7 @@ def new_workspace(method, model, N, J, margin):
                       _step_work(N, J))
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
                      zone_work(margin, N), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
-                     np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N))
+                     np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan))
 
 
 @kernel
@@ -258,30 +261,49 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 @kernel(inline="llvm")
 def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
-    observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork, DenseMaxima), ends =
+    observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork, DenseMaxima, the
+    observers asked: Control.observers, observe.asked), ends =
     (jmax at t, jmax and F at t + h, the step's Dense). The step's dense states are computed on
     demand from the Dense (tension.dense_due), or were given by an integrator with a dense output
     of its own (the DOP853 reference: its Dense empty; a floe's maxima are then not located on
     it). Returns (contacts at t + h, records, a free body left the ice)."""
-    tw, cw, peaks0, zw, dm = observers
+    tw, cw, peaks0, zw, dm, asked = observers
     jmax, jm5, F5, dz = ends
     rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
-    for s in range(2):
-        copy_into(peaks0[s], tw.track[PEAKS + s], 4)
-    rec_up, n_up, rec_lo, n_lo = observe_tensions(model, tw, t, h, (cur.eps, new.eps, new.a, new.adot), dz,
-                                                  (rec_up, n_up, rec_lo, n_lo), diag)
-    contacts, (rec_c, n_c), largest = observe_contacts(model, cw, t, h, (cur.a, cur.adot, cur.delta, cur.yb), jmax,
-                                                       (new.a, new.adot, new.delta, new.yb), jm5, carried.contacts,
-                                                       (rec_c, n_c))
-    if largest > diag[D_MAX_CONTACTS]:
-        diag[D_MAX_CONTACTS] = largest
-    rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5,
-                                                                 tw.track[STEP_BEST:STEP_BEST + 2], cur.yb, new.yb),
-                                              (tw.A, tw.AD, tw.eps, dz, tw.marks), (rec_zu, n_zu, rec_zl, n_zl), diag)
-    if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0:    # a floe: maxima located at the run's end
+    if asks(asked, TENSION):
+        for s in range(2):
+            copy_into(peaks0[s], tw.track[PEAKS + s], 4)
+        rec_up, n_up, rec_lo, n_lo = observe_tensions(model, tw, t, h, (cur.eps, new.eps, new.a, new.adot), dz,
+                                                      (rec_up, n_up, rec_lo, n_lo), diag)
+    if asks(asked, CONTACTS):
+        contacts, (rec_c, n_c), largest = observe_contacts(model, cw, t, h, (cur.a, cur.adot, cur.delta, cur.yb),
+                                                           jmax, (new.a, new.adot, new.delta, new.yb), jm5,
+                                                           carried.contacts, (rec_c, n_c))
+        if largest > diag[D_MAX_CONTACTS]:
+            diag[D_MAX_CONTACTS] = largest
+    else:                                        # the count the next step compares with
+        contacts = count_contacts(new.delta, jm5, model.basis.mirror)
+    if asks(asked, ZONE):
+        rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5,
+                                                                     tw.track[STEP_BEST:STEP_BEST + 2], cur.yb,
+                                                                     new.yb),
+                                                  (tw.A, tw.AD, tw.eps, dz, tw.marks), (rec_zu, n_zu, rec_zl, n_zl),
+                                                  diag)
+    if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0 and asks(asked, TENSION):
+        # a floe: its maxima located at the run's end
         observe_candidates(model, dm, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best, (zw.reach[2], zw.reach[3]))
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
     return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl), left
+
+
+@kernel
+def finish_maxima(model, ws, asked, diag):
+    """At the run's end, the maxima located from the candidates kept: the force and compression
+    (observe.layer_maxima), a floe's tension maxima (observe.dense_maxima), where asked."""
+    if asks(asked, LAYER_MAXIMA):
+        finish_layer_maxima(ws.stepper, ws.maxima, ws.sub, ws.value, diag)
+    if model.basis.kind != 0.0 and asks(asked, TENSION):
+        finish_dense_maxima(model, ws.dense, diag)
 
 
 @kernel
@@ -299,7 +321,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
-    observers, fixed, maxima = (ws.tension, ws.contact, ws.peaks0, ws.zone, ws.dense), ws.fixed, ws.maxima
+    observers = (ws.tension, ws.contact, ws.peaks0, ws.zone, ws.dense, control.observers)
+    fixed, maxima, crossed, asked = ws.fixed, ws.maxima, ws.crossed, control.observers
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
@@ -320,7 +343,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         diag[D_BODY_RESIDUAL] = 0.0
     k, status, steps, rejected, rhs_count = 0, OK, 0, 0, 1
     h, h_coeffs, prev_ratio = min(control.h_init, control.h_max), -1.0, 1.0
-    bottomed = separated = False
+    bottomed = separated = done = False
     adaptive = method == ETD34 and control.fixed_step <= 0.0
     while True:
         carried = Carried(force, work, diss, lp, contacts)
@@ -328,7 +351,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         while k < T and t_out[k] <= t:                       # outputs due at the current time
             record_output(model, out, k, t, cur, jmax, carried, err_sum)
             k += 1
-        if bottomed or separated or t >= control.t_end:
+        if bottomed or separated or done or t >= control.t_end:
             break
         if steps + rejected >= control.max_steps:
             status = STEP_LIMIT
@@ -383,10 +406,11 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         # sub-steps overwrite the scratch the dense output reads)
         if asks_levels:
             _locate_levels(ws, levels, out, start, carried, t, h_eff)
-        if not bottomed:                     # the force and compression located (on sub-steps too)
+        if not bottomed and asks(asked, LAYER_MAXIMA):     # the force and compression located (on sub-steps)
             observe_layer_maxima(stepper, maxima, start, carried, t, h_eff, (F5, gap1[0], gap0[0]), sub, value,
                                  diag)
         separated = left and control.until_separation
+        done = answered(control.answer, (ws.tension.marks, ws.zone.marks), records, crossed)
         cur, new = new, cur
         copy_into(gap0, gap1, 3)
         t, work, diss, lp, force, jmax, resid = t_new, w_new, cur.acc[0], cur.acc[1], F5, jm5, resid_new
@@ -400,13 +424,13 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             bottomed_at(diag, t, gap0, model.layer.he)
         elif separated:
             status = SEPARATED
+        elif done:
+            diag[D_ANSWERED_T] = t
         elif adaptive:
             h, prev_ratio = grown_step(control, ratio, expo, prev_ratio, h_step, h, landing)
     if status == OK and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
-    finish_layer_maxima(stepper, maxima, sub, value, diag)
-    if model.basis.kind != 0.0:
-        finish_dense_maxima(model, ws.dense, diag)
+    finish_maxima(model, ws, asked, diag)
     out.diag[D_DISSIPATED] = diss
     status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), gap0,
                                 model.layer.he, (steps, rejected, rhs_count))

@@ -101,6 +101,8 @@ DIAGNOSTICS = (
     Diagnostic("RHS", None, "1", "forcing evaluations"),
     Diagnostic("FAIL_T", None, "s", "time of the step that failed (NaN if none)"),
     Diagnostic("FAIL_KIND", None, "1", "why the run stopped early: one of solver.layout's FAIL_* codes"),
+    Diagnostic("ANSWERED_T", None, "s", "time at which the crack onsets asked were final and the run ended "
+               "(solver.observe.asked; NaN: it did not end by them)"),
 )
 
 #: the kernel's slots in order (D_<slot> = the index), and the slots that hold positions on the plate
@@ -177,6 +179,27 @@ def onset_names(record: str) -> tuple:
 
 #: the crack-onset times, one per record (each along eps_Y)
 CRACK_ONSET_TIMES = tuple(onset_names(record)[0] for record in RECORDS)
+
+#: the observers (solver.observe.asked) an output needs beyond the run itself, by name: a tension
+#: record and its crack onset, a diagnostic, the contact record; every other output (the series,
+#: the fields, bottoming, the energy identity, a free body's ends) comes from every run
+OBSERVED_BY = {
+    "tension": ("max_strain", "max_strain_x", "max_strain_time", "max_strain_lower", "max_strain_lower_x",
+                "max_strain_lower_time", "max_abs_strain", "max_abs_strain_x", "max_abs_strain_time",
+                "tension_record_upper", "tension_record_lower", *onset_names("upper"), *onset_names("lower")),
+    "zone": ("impact_zone_max_strain", "impact_zone_max_strain_x", "impact_zone_max_strain_time",
+             "impact_zone_max_strain_lower", "impact_zone_max_strain_lower_x", "impact_zone_max_strain_lower_time",
+             "impact_zone_max_strain_at_edge", "impact_zone_max_strain_lower_at_edge", "contact_extent",
+             "tension_record_impact_zone_upper", "tension_record_impact_zone_lower",
+             *onset_names("impact_zone_upper"), *onset_names("impact_zone_lower")),
+    "contacts": ("max_contact_intervals", "contact_record"),
+    "layer_maxima": ("max_force", "max_force_time", "max_compression", "max_compression_time"),
+}
+#: the record whose crossings answer each crack-onset output (time and place)
+ONSET_RECORD = {name: record for record in RECORDS for name in onset_names(record)}
+#: every output a run can be asked for by name (the fields have solve's own argument)
+OUTPUT_NAMES = (*DIAGNOSTIC_INFO, *(f"tension_record_{r}" for r in RECORDS), "contact_record", *ONSET_RECORD,
+                *(row.name for row in SERIES if row.name))
 
 #: field name -> (long_name, units)
 FIELD_INFO = {

@@ -58,7 +58,7 @@ class _Observers:
         self.model, self.system, self.diag, self.N = model, system, diag, N
         self.ws = new_workspace(kn.ETD34, model, N, J, control.zone_margin)
         tw = self.ws.tension
-        self.observers = (tw, self.ws.contact, self.ws.peaks0, self.ws.zone, self.ws.dense)
+        self.observers = (tw, self.ws.contact, self.ws.peaks0, self.ws.zone, self.ws.dense, control.observers)
         self.fractions = [np.arange(1, A.shape[0] + 1) / (A.shape[0] + 1) for A in (tw.A, tw.A2)]
         self.cur, self.new = new_state(N, J), new_state(N, J)
         self.no_dense = Dense(np.empty(0, np.complex128), np.empty(0), np.empty(0), np.empty(0))

@@ -161,7 +161,7 @@ def helper_jobs():
     carried = typeof(Carried(0.0, 0.0, 0.0, 0.0, 0))
     start = typeof(Start(np.empty(1, np.complex128), np.empty(1), np.empty(1)))
     records = typeof((np.empty((1, 1)), 0) * 5)       # (tension upper, lower; contacts; zone upper, lower)
-    observers = types.Tuple([_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")])
+    observers = types.Tuple([*(_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")), i8])
     return [
         (observe_step, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, dense)), records, diag)),
         (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
