@@ -58,7 +58,21 @@ def print_table(study, states: dict, stream=None, all_rows: bool = False, only=N
         for s in states.values():
             counts[s] = counts.get(s, 0) + 1
         text = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
+        if study.output.outputs is not None:
+            stream.write(what_a_case_computes(study) + "\n")
         stream.write(f"{study.name}: {study_size(study)}: {text}\n")
+
+
+def what_a_case_computes(study) -> str:
+    """One line: the outputs each case computes ([output] outputs, solver.observe.asked) and
+    when its run ends."""
+    out = study.output
+    if out.outputs is None:
+        return "each case computes every output"
+    text = f"each case computes {', '.join(out.outputs)} (the others are NaN)"
+    if out.end == "answered":
+        text += f"; its run ends when its crack onsets up to eps_Y = {out.answer_eps_Y:g} are final"
+    return text
 
 
 def study_size(study) -> str:

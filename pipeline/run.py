@@ -20,7 +20,7 @@ from .common.errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, Wri
 from .compute import batch_system
 from .compute.session import jobs_directory, session_for
 from .figures import KINDS, make_plots
-from .report import case_label, ledger_states, print_table, study_size
+from .report import case_label, ledger_states, print_table, study_size, what_a_case_computes
 from .store.ledger import BATCHES, LEDGER, inputs_fingerprint, is_up_to_date, reconcile, set_aside, sidecar
 from .store.lock import StudyLock
 
@@ -159,6 +159,8 @@ def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
     print(f"{study.name}: {study_size(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
           f"-> {out_dir}")
+    if study.output.outputs is not None:
+        print(what_a_case_computes(study))
     if todo:
         print(f"would run ({len(todo)}):")
         print_table(study, states, all_rows=all_rows, only=todo, summary=False)

@@ -32,7 +32,7 @@ from .model.body import body_coefficients, body_position, body_residual, body_sp
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
-from .observe.asked import CONTACTS, LAYER_MAXIMA, TENSION, ZONE, answered, asks
+from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, answered, asks
 from .observe.body import observe_body
 from .observe.contacts import contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
@@ -289,7 +289,7 @@ def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag)
                                                                      new.yb),
                                                   (tw.A, tw.AD, tw.eps, dz, tw.marks), (rec_zu, n_zu, rec_zl, n_zl),
                                                   diag)
-    if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0 and asks(asked, TENSION):
+    if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0 and asks(asked, FLOE_MAXIMA):
         # a floe: its maxima located at the run's end
         observe_candidates(model, dm, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best, (zw.reach[2], zw.reach[3]))
     left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
@@ -302,7 +302,7 @@ def finish_maxima(model, ws, asked, diag):
     (observe.layer_maxima), a floe's tension maxima (observe.dense_maxima), where asked."""
     if asks(asked, LAYER_MAXIMA):
         finish_layer_maxima(ws.stepper, ws.maxima, ws.sub, ws.value, diag)
-    if model.basis.kind != 0.0 and asks(asked, TENSION):
+    if model.basis.kind != 0.0 and asks(asked, FLOE_MAXIMA):
         finish_dense_maxima(model, ws.dense, diag)
 
 
@@ -428,7 +428,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_ANSWERED_T] = t
         elif adaptive:
             h, prev_ratio = grown_step(control, ratio, expo, prev_ratio, h_step, h, landing)
-    if status == OK and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
+    if status == OK and not done and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
     finish_maxima(model, ws, asked, diag)
     out.diag[D_DISSIPATED] = diss

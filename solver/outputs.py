@@ -194,6 +194,13 @@ OBSERVED_BY = {
              *onset_names("impact_zone_upper"), *onset_names("impact_zone_lower")),
     "contacts": ("max_contact_intervals", "contact_record"),
     "layer_maxima": ("max_force", "max_force_time", "max_compression", "max_compression_time"),
+    # a floe's maxima, located on the dense output at the run's end (the walls' need nothing more)
+    "floe_maxima": ("max_strain", "max_strain_x", "max_strain_time", "max_strain_lower", "max_strain_lower_x",
+                    "max_strain_lower_time", "max_abs_strain", "max_abs_strain_x", "max_abs_strain_time",
+                    "impact_zone_max_strain", "impact_zone_max_strain_x", "impact_zone_max_strain_time",
+                    "impact_zone_max_strain_lower", "impact_zone_max_strain_lower_x",
+                    "impact_zone_max_strain_lower_time", "impact_zone_max_strain_at_edge",
+                    "impact_zone_max_strain_lower_at_edge"),
 }
 #: the record whose crossings answer each crack-onset output (time and place)
 ONSET_RECORD = {name: record for record in RECORDS for name in onset_names(record)}

@@ -29,7 +29,7 @@ def compute_case(case: Case):
     times = np.minimum(t_sec[inside], case.t_end)
     x = x_positions(case.x_points, case.parameters.L)
     return solve(case.parameters, case.settings, times=times, fields=case.fields, x=x, t_end=case.t_end,
-                 until_separation=case.end == "separation")
+                 **case.run_options())
 
 
 @lru_cache(maxsize=4)

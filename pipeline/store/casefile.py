@@ -153,6 +153,10 @@ def batch_dataset(cases: list, arrays: list) -> dict:
     attrs = {"title": BATCH_TITLE, "schema_version": SCHEMA_VERSION,
              "output_times": json.dumps(first.times_spec), "fields": json.dumps(list(first.fields)),
              "end": first.end, **provenance.attributes(f"ran {n} case(s) as one batch")}
+    if first.outputs is not None:              # computed only these (solver.observe.asked)
+        attrs["outputs"] = json.dumps(list(first.outputs))
+    if first.end == "answered":
+        attrs["answered_eps_Y"] = first.answer_eps_Y
     return {"data": data, "coords": coords, "attrs": attrs}
 
 

@@ -38,7 +38,7 @@ from .ledger import BATCHES, write_sidecar
 from .reduce import ERROR_INFO, reduce_batch
 from ..study.definition import Study
 from ..common.tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
-                             RECORD_LONG_NAME, RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO)
+                             RECORD_LONG_NAME, RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO, asked_attributes)
 
 #: the runner writes study.nc's per-case variables in slabs of about this many bytes
 FLUSH_BYTES = 16 * 2**20
@@ -58,6 +58,12 @@ def parameter_coord(key, values):
 
 def per_case_variables(study: Study) -> list:
     """(name, tail dims, kind, attrs) of every study.nc variable stored per case."""
+    out = [(name, dims, kind, {**attrs, **asked_attributes(study.output, name)})
+           for name, dims, kind, attrs in _per_case_variables(study)]
+    return out
+
+
+def _per_case_variables(study: Study) -> list:
     out = []
     for name in study.output.fields:
         long_name, units = FIELD_INFO[name]
@@ -457,6 +463,11 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
             attrs["reference"] = json.dumps(study.reference)
         if study.design:
             attrs["design"] = json.dumps(asdict(study.design))
+        if study.output.outputs is not None:
+            attrs["outputs"] = json.dumps(list(study.output.outputs))
+            attrs["end"] = study.output.end
+        if study.output.end == "answered":
+            attrs["answered_eps_Y"] = study.output.answer_eps_Y
         path = writer.finish(attrs)
     except BaseException:
         writer.abandon()

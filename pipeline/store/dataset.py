@@ -4,11 +4,12 @@ the solver itself imports no xarray)."""
 from __future__ import annotations
 
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import xarray as xr
 
-from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, default_eps_Y
+from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, ParameterError, default_eps_Y
 from solver.fracture import yield_strains
 from solver.outputs import SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
@@ -16,7 +17,7 @@ from solver.parameters import CHOICES
 from ..common import provenance
 from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
 from ..common.tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
-                             TENSION_RECORD_INFO, TEXT_INFO, diagnostic_values, run_records)
+                             TENSION_RECORD_INFO, TEXT_INFO, asked_attributes, diagnostic_values, run_records)
 
 #: the series a Result carries beside the study's (solver.outputs.SERIES): name -> (Result
 #: attribute, long_name, units); work and dissipated_energy are the run's totals, as in study.nc
@@ -34,6 +35,9 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     decade from 1e-5 to 1e-1 and the paper's 8e-5, as a study's)."""
     T = result.times.size
     data = {}
+    asked = SimpleNamespace(outputs=None if result.outputs is None else tuple(sorted(result.outputs)),
+                            end="answered" if result.end_reason == "answered" else "stage",
+                            answer_eps_Y=result.answered_eps_Y)
     for name, values in result.fields.items():
         data[name] = (("t", "x"), np.asarray(values), _attrs(*FIELD_INFO[name]))
     series = {name: (name, *SERIES_INFO[name]) for name in ("contact_intervals", "force")}
@@ -47,7 +51,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
                      {**_attrs("1: the run reached this time", "1"), "flag_values": np.array([0, 1], np.int8),
                       "flag_meanings": "not_reached reached"})
     for name, value in diagnostic_values(result).items():
-        data[name] = ((), value, _attrs(*DIAGNOSTIC_INFO[name][:2]))
+        data[name] = ((), value, {**_attrs(*DIAGNOSTIC_INFO[name][:2]), **asked_attributes(asked, name)})
     p = result.parameters
     records = run_records(result, p.time_scale, p.stage_duration)
     for name, (long_name, units) in RECORD_INFO.items():
@@ -58,8 +62,14 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
         long_name, units = PARAMETER_INFO[key]
         data[key] = ((), value, _attrs(long_name, None if key in CHOICES else units))
     eps = yield_strains(default_eps_Y() if eps_Y is None else eps_Y).reshape(-1)
+    if eps_Y is None:                        # a run that ended at its answer: the eps_Y it answers
+        eps = eps[eps <= result.answered_eps_Y] if np.any(eps <= result.answered_eps_Y) else \
+            np.array([result.answered_eps_Y])
+    elif np.any(eps > result.answered_eps_Y):
+        raise ParameterError(f"eps_Y = {eps.max():g} is above {result.answered_eps_Y:g}, the largest the run "
+                             f"answered (end = 'answered')")
     for name, values in onset_from_records(result.tension_record, eps).items():
-        data[name] = (("eps_Y",), values, _attrs(*CRACK_INFO[name]))
+        data[name] = (("eps_Y",), values, {**_attrs(*CRACK_INFO[name]), **asked_attributes(asked, name)})
     for record, (_, _, follows) in TENSION_RECORDS.items():     # the event records, one table each
         rows = np.asarray(result.tension_record[record], dtype=float).reshape(-1, 5)
         dim = f"tension_node_{record}"

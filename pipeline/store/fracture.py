@@ -17,6 +17,7 @@ yield strains never needs new runs; studies that differ only in eps_Y share thei
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +83,11 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
         with xr.open_dataset(source) as ds:
             return crack_onset(ds.load(), eps)
     ds = source
+    level = ds.attrs.get("answered_eps_Y")
+    if level is not None and eps.max() > float(level):
+        raise ValueError(f"eps_Y = {eps.max():g} is above {float(level):g}, the largest yield strain this study's "
+                         f"runs answered ([output] end = \"answered\"): its records end there; run the study with a "
+                         f"larger eps_Y, or without end = \"answered\"")
     missing = [name for name in ("tension_record_count", *TENSION_RECORD_INFO) if name not in ds]
     if missing:
         raise ValueError(f"no tension record in this dataset ({missing[0]} is missing): a study.nc "
@@ -98,7 +104,9 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
             arrays[name][index] = values
     coords = {d: ds[d] for d in lead if d in ds.coords}
     coords["eps_Y"] = eps_Y_coord(eps)
-    data = {name: (lead + ("eps_Y",), arrays[name], {"long_name": CRACK_INFO[name][0],
-                                                     "units": CRACK_INFO[name][1]})
+    asked = json.loads(ds.attrs["outputs"]) if "outputs" in ds.attrs else None
+    data = {name: (lead + ("eps_Y",), arrays[name], {"long_name": CRACK_INFO[name][0], "units": CRACK_INFO[name][1],
+                                                     **({} if asked is None or name in asked else
+                                                        {"computed": "no: not among the study's [output] outputs"})})
             for name in CRACK_INFO}
     return xr.Dataset(data, coords=coords)

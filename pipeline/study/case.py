@@ -24,20 +24,32 @@ class Case:
     x_points: int
     end: str = "stage"              # [output] end
     body: bool = False              # store the body's position and speed (a study with a free body)
+    outputs: tuple | None = None    # [output] outputs: what the run computes (None: every output)
+    answer_eps_Y: float | None = None   # end "answered": the largest eps_Y whose crack onsets end the run
 
     @property
     def t_end(self) -> float:
         """End of the run [s]: the impact stage, or the last output time inside it; for a free
         body (finite body_mass) "last_output" is the last output time itself, and so is
         "separation" (the run may end earlier, at separation). The stage bounds the paper's
-        body, which pushes on at V until the layer bottoms out; a free body has no such end."""
+        body, which pushes on at V until the layer bottoms out; a free body has no such end.
+        "answered" runs as "stage" for the paper's body and as "separation" for a free body (its
+        separation is an answer too), ending earlier where its crack onsets are final."""
         stage = self.parameters.stage_duration
         last = float(self.times_seconds()[-1])
-        if self.end == "separation" or (self.end == "last_output" and self.parameters.free_body):
+        free = self.parameters.free_body
+        if self.end == "separation" or (self.end in ("last_output", "answered") and free):
             return last
         if self.end == "last_output":
             return min(stage, last)
         return stage
+
+    def run_options(self) -> dict:
+        """solve's keywords for how the run ends and what it computes."""
+        answered = self.end == "answered"
+        separation = self.end == "separation" or (answered and self.parameters.free_body)
+        return {"until_separation": separation, "outputs": self.outputs,
+                "eps_Y": [self.answer_eps_Y] if answered else None, "end": "answered" if answered else "stage"}
 
     def value(self, key):
         """A parameter or a solver setting of the case, by its study-file key."""
@@ -62,13 +74,15 @@ class Case:
         return {"case_id": self.case_id, "index": list(self.index),
                 "parameters": self.parameters.as_dict(), "settings": self.settings.as_dict(),
                 "times_spec": self.times_spec, "fields": list(self.fields), "x_points": self.x_points,
-                "end": self.end, "body": self.body}
+                "end": self.end, "body": self.body, "outputs": None if self.outputs is None else list(self.outputs),
+                "answer_eps_Y": self.answer_eps_Y}
 
     @staticmethod
     def from_dict(d: dict) -> "Case":
         return Case(d["case_id"], tuple(d["index"]), Parameters(**d["parameters"]),
                     Settings(**d["settings"]), d["times_spec"], tuple(d["fields"]), d["x_points"],
-                    d.get("end", "stage"), d.get("body", False))
+                    d.get("end", "stage"), d.get("body", False),
+                    None if d.get("outputs") is None else tuple(d["outputs"]), d.get("answer_eps_Y"))
 
 
 def coordinate_times(spec: dict) -> np.ndarray:

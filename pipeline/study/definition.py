@@ -37,7 +37,7 @@ from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
 from ..common.errors import StudyError
 from .analysis import Analysis, check_analysis
 from .case import Case, coordinate_times
-from .consistency import body_masses, check_grid_values, check_ranges, longest_stage_in_t_sc
+from .consistency import body_masses, check_grid_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
 from .design import Design, check_design, design_cases, design_size
 from .identity import grid_case_ids, grid_label, make_case, resolve_sample
 from .search import Search, check_bracket, check_search, search_points
@@ -160,6 +160,12 @@ class Study:
             return self._extra_runs[case_id]
         return self.case(self.first_position[case_id])
 
+    def eps_Y_read(self) -> list:
+        """Every yield strain the study reads crack onset at: [output]'s, [analysis]'s and
+        [search]'s."""
+        return [*self.output.eps_Y, *(self.analysis.eps_Y if self.analysis else ()),
+                *(self.search.eps_Y if self.search else ())]
+
     def all_cases(self) -> list:
         """Every distinct run as a Case (small studies; large ones go through run_ids)."""
         return [self.run(cid) for cid in self.run_ids]
@@ -185,12 +191,15 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         raise StudyError(f"{path}: accept_extreme_values must be true or false")
     search, base = _search(data, base, grid, case_list, design, analysis, {**base, **solver}, extreme)
     reference = check_reference("[reference]", data["reference"]) if "reference" in data else {}
-    plots = _plots(data.get("plots", {}), design, analysis, search)
+    plots = _plots(data.get("plots", {}), design, analysis, search, output)
     study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference, design=design, analysis=analysis, search=search)
     masses = body_masses(study)
     study.output = replace(study.output, body=any(math.isfinite(m) for m in masses if isinstance(m, (int, float))))
+    if output.end == "answered":
+        study.output = replace(study.output, answer_eps_Y=max(study.eps_Y_read()))
+    check_outputs_read(study)
     if output.end == "separation" and not all(isinstance(m, (int, float)) and math.isfinite(m) for m in masses):
         raise StudyError('[output] end = "separation" needs a free body in every case: give body_mass a '
                          'finite value in [base], or finite values in [grid] or in every [[cases]] entry')
@@ -270,14 +279,23 @@ def _search(data, base, grid, case_list, design, analysis, values, extreme) -> t
     return search, {**base, search.key: search.bracket[0]}
 
 
-def _plots(table, design, analysis, search) -> list:
+def _plots(table, design, analysis, search, output) -> list:
     """[plots] kinds, or the defaults: a design's figures, none for a search (it draws
-    search.png itself), the diagnostics and crack onset otherwise."""
+    search.png itself), the diagnostics and crack onset otherwise. A study that computes only
+    some outputs ([output] outputs) draws only the figures of its analysis (the others read
+    every diagnostic)."""
     if not isinstance(table, dict) or set(table) - {"kinds"}:
         raise StudyError("[plots] takes one key: kinds = [...]")
     plots = table.get("kinds", ["diagnostics", "crack_onset"])
     if not isinstance(plots, list) or any(k not in PLOT_KINDS for k in plots):
         raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
+    if output.outputs is not None:
+        drawn = ["sensitivity"] + (["emulator"] if analysis and analysis.method == "pce" else [])
+        beyond = [k for k in plots if k not in drawn] if "kinds" in table else []
+        if beyond:
+            raise StudyError(f"[plots] {beyond[0]!r} reads outputs beyond [output] outputs: drop it, or drop "
+                             f"[output] outputs to compute every output")
+        return plots if "kinds" in table else [k for k in drawn if analysis]
     if "kinds" in table:
         return plots
     if search:

@@ -82,9 +82,12 @@ RELEVANT_SETTINGS = {
 
 def _payload_text(parameters: dict, settings: dict, output: dict) -> str:
     """The canonical JSON a case id hashes (sorted keys, no spaces)."""
-    payload = {"schema": SCHEMA_VERSION, "parameters": parameters, "settings": settings,
-               "output": {"times": output.times, "fields": sorted(output.fields),
-                          "x_points": output.x_points, "end": output.end}}
+    request = {"times": output.times, "fields": sorted(output.fields), "x_points": output.x_points, "end": output.end}
+    if output.outputs is not None:          # a run that computes less: what it holds (ids before it unchanged)
+        request["outputs"] = list(output.outputs)
+        if output.end == "answered":
+            request["answer_eps_Y"] = output.answer_eps_Y
+    payload = {"schema": SCHEMA_VERSION, "parameters": parameters, "settings": settings, "output": request}
     return json.dumps(payload, sort_keys=True, separators=(",", ":"))
 
 
@@ -108,8 +111,9 @@ def used_settings(settings: Settings) -> dict:
 
 def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
     """Stable id: hash of the normalised parameters, the settings the integrator reads, the
-    output request (not eps_Y, not records) and the schema version (two runs with the same id
-    give the same data)."""
+    output request (not eps_Y, not records; with [output] outputs, those, and for an "answered"
+    end the largest eps_Y it answers) and the schema version (two runs with the same id give
+    the same data)."""
     text = _payload_text(id_parameters(parameters.as_dict()), used_settings(settings), output)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -125,7 +129,7 @@ def make_case(index, values: dict, output: dict, label: str) -> Case:
     except ParameterError as err:
         raise StudyError(f"{label if label.startswith('[') else 'case ' + label}: {err}") from None
     return Case(case_id(p, s, output), tuple(index), p, s, output.times, tuple(output.fields),
-                output.x_points, output.end, output.body)
+                output.x_points, output.end, output.body, output.outputs, output.answer_eps_Y)
 
 
 def grid_label(grid: dict, idx: tuple) -> str:

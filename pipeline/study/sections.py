@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Settings, default_eps_Y
 from solver.axes import log_axis
 from solver.parameters import CHOICES
+from solver.outputs import ONSET_RECORD, OUTPUT_NAMES
 from solver.settings import NAMED_SETTINGS
 
 from ..common.errors import StudyError
@@ -24,14 +25,15 @@ SECTIONS = {"description", "base", "grid", "cases", "design", "analysis", "searc
 REFERENCE_KEYS = {"Nmod", *SETTING_INFO}
 
 
-OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records"}
+OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records", "outputs"}
 
 
 #: [output] end: "stage" integrates every case over its impact stage (diagnostics cover the
 #: stage); "last_output" stops at the last output time (diagnostics cover 0..that time);
 #: "separation" (a free body in every case) runs until the body leaves the ice, at the latest
-#: to the last output time
-ENDS = ("stage", "last_output", "separation")
+#: to the last output time; "answered" (with [output] outputs that are crack onsets only) ends each
+#: run when its crack onsets up to the study's largest eps_Y are final (solver.observe.asked)
+ENDS = ("stage", "last_output", "separation", "answered")
 
 
 #: the one-line answer to eps_Y given as a parameter (it was one before schema 5)
@@ -141,7 +143,10 @@ class Output:
     points; eps_Y: the yield strains crack onset is given for (sorted); end: how far a case runs
     ("stage", "last_output", "separation"); records: whether the tension records are stored
     (crack onset for any eps_Y afterwards); body: whether some case has a free body (its series
-    are stored), set by the study from its cases, not by the table."""
+    are stored), set by the study from its cases, not by the table; outputs: the outputs each
+    case computes (names of solver.outputs.OUTPUT_NAMES, sorted; None: every one, the default), the
+    others stored as NaN (solver.observe.asked); answer_eps_Y: with end "answered", the largest
+    eps_Y the study reads (of [output], [analysis] and [search]), set by the study."""
 
     times: dict
     fields: tuple
@@ -150,6 +155,8 @@ class Output:
     end: str
     records: bool
     body: bool = False
+    outputs: tuple | None = None
+    answer_eps_Y: float | None = None
 
 
 def check_output(out) -> Output:
@@ -198,8 +205,30 @@ def check_output(out) -> Output:
         raise StudyError(f"[output] end must be one of {', '.join(repr(e) for e in ENDS)}, got {result['end']!r}")
     if not isinstance(result["records"], bool):
         raise StudyError(f"[output] records must be true or false, got {result['records']!r}")
+    outputs = _check_outputs(out.get("outputs"), result["end"])
     return Output(times=result["times"], fields=tuple(fields), x_points=result["x_points"],
-                  eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"])
+                  eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"], outputs=outputs)
+
+
+def _check_outputs(asked, end):
+    """[output] outputs: the names each case computes (sorted), or None (every one); an
+    "answered" end needs them, and a crack onset among them."""
+    if asked is None:
+        if end == "answered":
+            raise StudyError('[output] end = "answered" needs [output] outputs: the crack onsets the runs answer, '
+                             'for example outputs = ["crack_onset_time", "crack_onset_time_lower"]')
+        return None
+    if not isinstance(asked, list) or not asked or not all(isinstance(o, str) for o in asked):
+        raise StudyError(f"[output] outputs must be a non-empty list of output names, got {asked!r}")
+    for name in asked:
+        if name not in OUTPUT_NAMES:
+            raise StudyError(f"[output] outputs: unknown output {name!r}; known: {', '.join(OUTPUT_NAMES)}")
+    if len(set(asked)) != len(asked):
+        raise StudyError("[output] outputs: an output is listed twice")
+    if end == "answered" and not set(asked) & set(ONSET_RECORD):
+        raise StudyError('[output] end = "answered" with no crack onset among [output] outputs: nothing ends a '
+                         'run early')
+    return tuple(sorted(asked))
 
 
 def check_eps_Y(spec) -> list:

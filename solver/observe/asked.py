@@ -2,12 +2,14 @@ r"""What a run is asked for: which observers run, and when its answers are final
 "What a run computes").
 
 The observers are switched by the bits of ``Control.observers``: the tension records (TENSION:
-the plate-wide maxima, their records, so crack onset; a floe's maxima on the dense output), the
+the plate-wide maxima, their records, so crack onset), the
 impact zone (ZONE: it reads the tension observer's step maxima, so it needs TENSION), the
 contact intervals (CONTACTS: their record and largest count; the count at each step's end,
 which steers the step, is taken without them), the force and compression located inside the
-steps (LAYER_MAXIMA). An observer never changes a step: a run with fewer observers takes the
-same steps and the outputs it was asked for are bit for bit those of the run with all of them
+steps (LAYER_MAXIMA), a floe's tension maxima located on the dense output at the run's end
+(FLOE_MAXIMA: the plate's and the zone's, so it needs both; crack onset, from the records, does
+not need it). An observer never changes a step: a run with fewer observers takes the same steps
+and the outputs it was asked for are bit for bit those of the run with all of them
 (tests/test_asked.py). The energy identity, the step's verdict, bottoming and a free body's
 stops and separation always run.
 
@@ -26,9 +28,9 @@ from ..compile.jit import kernel
 from ..fracture import THIN_SPAN
 
 #: the observers' bits in Control.observers
-TENSION, ZONE, CONTACTS, LAYER_MAXIMA = 1, 2, 4, 8
+TENSION, ZONE, CONTACTS, LAYER_MAXIMA, FLOE_MAXIMA = 1, 2, 4, 8, 16
 #: every observer (a run that asks for everything: solve's default)
-ALL = TENSION | ZONE | CONTACTS | LAYER_MAXIMA
+ALL = TENSION | ZONE | CONTACTS | LAYER_MAXIMA | FLOE_MAXIMA
 #: the running maximum must exceed a level by this fraction before its crossing counts as passed:
 #: the stored (thinned) record may lie below the running maximum by its thinning tolerance
 #: (THIN_TIME t |rate| ~ 4e-7 of the value)
@@ -73,7 +75,8 @@ def answered(levels, marks, records, crossed):
 
 
 #: an observer's name (solver.outputs.OBSERVED_BY) -> its bit
-BITS = {"tension": TENSION, "zone": ZONE | TENSION, "contacts": CONTACTS, "layer_maxima": LAYER_MAXIMA}
+BITS = {"tension": TENSION, "zone": ZONE | TENSION, "contacts": CONTACTS, "layer_maxima": LAYER_MAXIMA,
+        "floe_maxima": FLOE_MAXIMA | ZONE | TENSION}
 #: how a run may end: at t_end ("stage", whatever it was asked), or when its answers are final
 ENDS = ("stage", "answered")
 
