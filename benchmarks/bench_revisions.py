@@ -11,6 +11,10 @@ companion), the error (relative L2 of the strain at the paper's snapshots agains
 1e-13 run of the same revision) and the step counts. Writes results/bench/revisions.md.
 
     python benchmarks/bench_revisions.py [--revisions 46d95fa .] [--rounds 5] [--nmod 60] [--rule paper|gauss]
+
+A revision may ask for fewer outputs (solve's ``outputs``, from issue 55 on): ``.@plate`` times
+the working tree asked only for the plate-wide strain maxima (ASKED), beside the revisions as
+they run by default.
 """
 from __future__ import annotations
 
@@ -41,6 +45,8 @@ if rule is None:
     sys.exit(0)
 times = np.round(np.arange(0.0, 4.6 + 1e-9, 0.2), 10) * p.time_scale
 kw = dict(times=times, fields=("strain",))
+if sys.argv[4] != "null":
+    kw["outputs"] = json.loads(sys.argv[4])
 ref = solve(p, Settings(**dict(rule, tolerance=1e-13), error_estimate=False), **kw).fields["strain"]
 walls = []
 for _ in range(int(sys.argv[2])):
@@ -52,10 +58,18 @@ print(json.dumps({"wall": statistics.median(walls), "error": err, "steps": r.ste
 """
 
 
+#: what a revision "<rev>@<name>" is asked for
+ASKED = {"plate": ["max_strain", "max_strain_x", "max_strain_time", "max_strain_lower", "max_strain_lower_x",
+                   "max_strain_lower_time", "max_abs_strain", "max_abs_strain_x", "max_abs_strain_time"]}
+
+
 def checkout(rev: str, tmp: Path) -> Path:
+    rev = rev.split("@")[0]
     if rev == ".":
         return ROOT
     path = tmp / rev.replace("/", "_")
+    if path.exists():
+        return path
     subprocess.run(["git", "worktree", "add", "--detach", "-f", str(path), rev], cwd=ROOT, check=True,
                    capture_output=True)
     return path
@@ -68,8 +82,9 @@ RULES = {"paper": PAPER_NUMERICS,
          "gauss": {k: getattr(Settings(), k) for k in ("quadrature", "subintervals", "quadrature_density", "tolerance")}}
 
 
-def probe(tree: Path, nmod: int, solves: int, rule: str) -> dict:
-    proc = subprocess.run([sys.executable, "-c", PROBE, str(nmod), str(solves), json.dumps(RULES[rule])], cwd=tree,
+def probe(tree: Path, nmod: int, solves: int, rule: str, asked=None) -> dict:
+    proc = subprocess.run([sys.executable, "-c", PROBE, str(nmod), str(solves), json.dumps(RULES[rule]),
+                           json.dumps(asked)], cwd=tree,
                           env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin"}, capture_output=True,
                           text=True, timeout=1200)
     if proc.returncode != 0:
@@ -94,18 +109,20 @@ def main(argv=None):
         try:
             for i in range(args.rounds):
                 for rev, tree in trees.items():
-                    result = probe(tree, args.nmod, args.solves, args.rule)
+                    asked = ASKED[rev.split("@")[1]] if "@" in rev else None
+                    result = probe(tree, args.nmod, args.solves, args.rule, asked)
                     if result is not None:
                         runs[rev].append(result)
                 print(f"  round {i + 1}/{args.rounds} done", flush=True)
         finally:
             for rev, tree in trees.items():
-                if tree != ROOT:
+                if tree != ROOT and tree.exists():
                     subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT,
                                    capture_output=True)
-    described = {rev: (subprocess.run(["git", "log", "-1", "--format=%h %cs %s", rev], cwd=ROOT,
+    described = {rev: (subprocess.run(["git", "log", "-1", "--format=%h %cs %s", rev.split("@")[0]], cwd=ROOT,
                                       capture_output=True, text=True).stdout.strip()[:80]
-                       if rev != "." else "working tree") for rev in args.revisions}
+                       if rev.split("@")[0] != "." else "working tree")
+                 + (f", asked only {rev.split('@')[1]}" if "@" in rev else "") for rev in args.revisions}
     skipped = [rev for rev in args.revisions if not runs[rev]]
     revisions = [rev for rev in args.revisions if runs[rev]]
     base = statistics.median(r["wall"] for r in runs[revisions[0]])
