@@ -58,17 +58,18 @@ def print_table(study, states: dict, stream=None, all_rows: bool = False, only=N
         for s in states.values():
             counts[s] = counts.get(s, 0) + 1
         text = ", ".join(f"{n} {s}" for s, n in sorted(counts.items()))
-        if study.output.outputs is not None:
-            stream.write(what_a_case_computes(study) + "\n")
+        computes = what_a_case_computes(study)
+        if computes:
+            stream.write(computes + "\n")
         stream.write(f"{study.name}: {study_size(study)}: {text}\n")
 
 
-def what_a_case_computes(study) -> str:
+def what_a_case_computes(study) -> str | None:
     """One line: the outputs each case computes ([output] outputs, solver.observe.asked) and
-    when its run ends."""
+    when its run ends; None for a study whose cases compute every output."""
     out = study.output
     if out.outputs is None:
-        return "each case computes every output"
+        return None
     text = f"each case computes {', '.join(out.outputs)} (the others are NaN)"
     if out.end == "answered":
         text += f"; its run ends when its crack onsets up to eps_Y = {out.answer_eps_Y:g} are final"

@@ -159,8 +159,9 @@ def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
     print(f"{study.name}: {study_size(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
           f"-> {out_dir}")
-    if study.output.outputs is not None:
-        print(what_a_case_computes(study))
+    computes = what_a_case_computes(study)
+    if computes:
+        print(computes)
     if todo:
         print(f"would run ({len(todo)}):")
         print_table(study, states, all_rows=all_rows, only=todo, summary=False)

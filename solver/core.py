@@ -24,7 +24,7 @@ from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import plan as plan_outputs
-from .outputs import (DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, OBSERVED_BY, ONSET_RECORD, POSITION_SLOTS, RECORDS,
+from .outputs import (DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, OBSERVED, ONSET_RECORD, POSITION_SLOTS, RECORDS,
                       SERIES)
 from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError
@@ -244,10 +244,9 @@ def _only_asked(asked, diagnostics, records, contact_record):
     """The diagnostics the observers produce that no output asked reads set to NaN (they may
     not have run, or cover only part of the run), and the records not asked emptied: (records,
     contact record)."""
-    for names in OBSERVED_BY.values():
-        for name in names:
-            if name in diagnostics and name not in asked:
-                diagnostics[name] = math.nan
+    for name in OBSERVED - asked:
+        if name in diagnostics:
+            diagnostics[name] = math.nan
     onsets = {ONSET_RECORD[name] for name in asked if name in ONSET_RECORD}
     records = {name: rec if name in onsets or f"tension_record_{name}" in asked else rec[:0]
                for name, rec in records.items()}

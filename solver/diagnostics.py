@@ -102,6 +102,15 @@ def failed_at(diag, t, kind):
 
 
 @kernel
+def largest_tension(diag):
+    """The larger of both surfaces' largest tensions, with its place and time, as max_abs_strain."""
+    up, lo = diag[D_MAX_UPPER], diag[D_MAX_LOWER]
+    diag[D_MAX_ABS] = max(up, lo)
+    diag[D_MAX_ABS_X] = diag[D_MAX_UPPER_X] if up >= lo else diag[D_MAX_LOWER_X]
+    diag[D_MAX_ABS_T] = diag[D_MAX_UPPER_T] if up >= lo else diag[D_MAX_LOWER_T]
+
+
+@kernel
 def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
     """The run's summary diagnostics at its end; returns the final status. residuals = (the
     largest work over the run, the largest energy residual, the largest body residual); the
@@ -124,10 +133,7 @@ def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
         status = ENERGY_VIOLATION
         diag[D_FAIL_T] = t
         diag[D_FAIL_KIND] = FAIL_ENERGY_BOUND
-    up, lo = diag[D_MAX_UPPER], diag[D_MAX_LOWER]
-    diag[D_MAX_ABS] = max(up, lo)
-    diag[D_MAX_ABS_X] = diag[D_MAX_UPPER_X] if up >= lo else diag[D_MAX_LOWER_X]
-    diag[D_MAX_ABS_T] = diag[D_MAX_UPPER_T] if up >= lo else diag[D_MAX_LOWER_T]
+    largest_tension(diag)
     steps, rejected, rhs_count = counts
     diag[D_STEPS] = steps
     diag[D_REJECTED] = rejected

@@ -202,6 +202,8 @@ OBSERVED_BY = {
                     "impact_zone_max_strain_lower_time", "impact_zone_max_strain_at_edge",
                     "impact_zone_max_strain_lower_at_edge"),
 }
+#: every output some observer produces (the others come from every run)
+OBSERVED = frozenset(name for names in OBSERVED_BY.values() for name in names)
 #: the record whose crossings answer each crack-onset output (time and place)
 ONSET_RECORD = {name: record for record in RECORDS for name in onset_names(record)}
 #: every output a run can be asked for by name (the fields have solve's own argument)

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import layout as kn
-from .diagnostics import Records, Run
+from .diagnostics import Records, Run, largest_tension
 from .loop import initial_state, new_state, new_workspace, observe_step, state_at
 from .model.body import body_accel, body_residual
 from .model.contact import count_contacts, gap_peak
@@ -105,11 +105,7 @@ class _Observers:
     def finish(self):
         """The records (solver.loop.integrate's), and the largest tension of either surface into
         diag."""
-        diag = self.diag
-        up, lo = diag[kn.D_MAX_UPPER], diag[kn.D_MAX_LOWER]
-        s = 0 if up >= lo else 3                         # the surface with the larger tension
-        diag[kn.D_MAX_ABS], diag[kn.D_MAX_ABS_T], diag[kn.D_MAX_ABS_X] = (
-            diag[kn.D_MAX_UPPER + s], diag[kn.D_MAX_UPPER_T + s], diag[kn.D_MAX_UPPER_X + s])
+        largest_tension(self.diag)
         return Records(*self.records)
 
 

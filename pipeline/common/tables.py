@@ -7,7 +7,7 @@ pipeline."""
 import math
 
 from solver import DIAGNOSTIC_INFO, STATUS_INFO
-from solver.outputs import OBSERVED_BY, ONSET_RECORD, RECORDS, SERIES, TENSION_RECORD
+from solver.outputs import OBSERVED, ONSET_RECORD, RECORDS, SERIES, TENSION_RECORD
 
 #: variable name -> (long_name, units) for the per-case series (the solver's table
 #: solver.outputs.SERIES, and the time) and run records
@@ -79,21 +79,20 @@ def run_records(result, time_scale, stage_duration) -> dict:
             "smallest_step": math.nan if none else result.smallest_step}
 
 
-def asked_attributes(output, name: str) -> dict:
-    """What a variable of a study (or a case) that computes only some outputs ([output] outputs,
-    end; output: anything with outputs, end and answer_eps_Y) says of itself: an output not
-    computed is NaN and says so; with end "answered" a crack onset is final up to answer_eps_Y,
-    and every other value covers the run up to time_reached."""
-    if output.outputs is None:
+def asked_attributes(name: str, outputs, answered_eps_Y=None) -> dict:
+    """What a variable of a study (or a case) that computed only some outputs says of itself:
+    outputs, the outputs computed ([output] outputs; None: every one); answered_eps_Y, where the
+    runs ended at their crack onsets ([output] end = "answered"), the largest eps_Y they answer.
+    An output not computed is NaN and says so; a crack onset of an answered run is final up to
+    answered_eps_Y, and every other value but the run records covers the run up to time_reached."""
+    if outputs is None:
         return {}
-    observed = {n for names in OBSERVED_BY.values() for n in names}
-    if name in observed and name not in output.outputs:
+    if name in OBSERVED and name not in outputs:
         return {"computed": "no: not among [output] outputs, NaN (solver.observe.asked)"}
-    if output.end != "answered" or name in ("t_sc", "stage_duration", "time_reached", "run_time",
-                                            "error_estimate_run_time", "steps", "rejected_steps", "smallest_step"):
+    if answered_eps_Y is None or name in RECORD_INFO:
         return {}
     if name in ONSET_RECORD:
-        return {"final_up_to_eps_Y": output.answer_eps_Y,
+        return {"final_up_to_eps_Y": answered_eps_Y,
                 "computed": "each run ended when its crack onsets up to final_up_to_eps_Y were final"}
     return {"covers": "the run up to time_reached: it ended when its crack onsets were final ([output] end = "
                       "\"answered\")"}

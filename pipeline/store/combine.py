@@ -58,9 +58,9 @@ def parameter_coord(key, values):
 
 def per_case_variables(study: Study) -> list:
     """(name, tail dims, kind, attrs) of every study.nc variable stored per case."""
-    out = [(name, dims, kind, {**attrs, **asked_attributes(study.output, name)})
-           for name, dims, kind, attrs in _per_case_variables(study)]
-    return out
+    answered = study.output.answer_eps_Y if study.output.end == "answered" else None
+    return [(name, dims, kind, {**attrs, **asked_attributes(name, study.output.outputs, answered)})
+            for name, dims, kind, attrs in _per_case_variables(study)]
 
 
 def _per_case_variables(study: Study) -> list:

@@ -4,7 +4,6 @@ the solver itself imports no xarray)."""
 from __future__ import annotations
 
 import json
-from types import SimpleNamespace
 
 import numpy as np
 import xarray as xr
@@ -35,9 +34,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     decade from 1e-5 to 1e-1 and the paper's 8e-5, as a study's)."""
     T = result.times.size
     data = {}
-    asked = SimpleNamespace(outputs=None if result.outputs is None else tuple(sorted(result.outputs)),
-                            end="answered" if result.end_reason == "answered" else "stage",
-                            answer_eps_Y=result.answered_eps_Y)
+    answered = result.answered_eps_Y if result.end_reason == "answered" else None
     for name, values in result.fields.items():
         data[name] = (("t", "x"), np.asarray(values), _attrs(*FIELD_INFO[name]))
     series = {name: (name, *SERIES_INFO[name]) for name in ("contact_intervals", "force")}
@@ -51,7 +48,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
                      {**_attrs("1: the run reached this time", "1"), "flag_values": np.array([0, 1], np.int8),
                       "flag_meanings": "not_reached reached"})
     for name, value in diagnostic_values(result).items():
-        data[name] = ((), value, {**_attrs(*DIAGNOSTIC_INFO[name][:2]), **asked_attributes(asked, name)})
+        data[name] = ((), value, {**_attrs(*DIAGNOSTIC_INFO[name][:2]), **asked_attributes(name, result.outputs, answered)})
     p = result.parameters
     records = run_records(result, p.time_scale, p.stage_duration)
     for name, (long_name, units) in RECORD_INFO.items():
@@ -69,7 +66,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
         raise ParameterError(f"eps_Y = {eps.max():g} is above {result.answered_eps_Y:g}, the largest the run "
                              f"answered (end = 'answered')")
     for name, values in onset_from_records(result.tension_record, eps).items():
-        data[name] = (("eps_Y",), values, {**_attrs(*CRACK_INFO[name]), **asked_attributes(asked, name)})
+        data[name] = (("eps_Y",), values, {**_attrs(*CRACK_INFO[name]), **asked_attributes(name, result.outputs, answered)})
     for record, (_, _, follows) in TENSION_RECORDS.items():     # the event records, one table each
         rows = np.asarray(result.tension_record[record], dtype=float).reshape(-1, 5)
         dim = f"tension_node_{record}"

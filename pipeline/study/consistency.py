@@ -222,15 +222,14 @@ def check_outputs_read(study) -> None:
     """With [output] outputs, every output the study reads is among them: its [analysis]
     outputs and its [search] event (the outputs every run computes, such as bottoming_time,
     need not be listed)."""
-    from solver.outputs import OBSERVED_BY
+    from solver.outputs import OBSERVED
     from .search import EVENTS
     asked = study.output.outputs
     if asked is None:
         return
-    observed = {name for names in OBSERVED_BY.values() for name in names}
     read = [("[analysis] outputs", name) for name in (study.analysis.outputs if study.analysis else ())]
     read += [("[search] event", EVENTS[study.search.event])] if study.search else []
     for where, name in read:
-        if name in observed and name not in asked:
+        if name in OBSERVED and name not in asked:
             raise StudyError(f"{where}: {name} is not among [output] outputs: add it there, or drop [output] "
                              f"outputs to compute every output")
