@@ -5,6 +5,8 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from .store.ledger import Ledger
 
 
@@ -22,7 +24,6 @@ TABLE_ROWS = 200
 
 def _row_values(study, cid: str, flat: int | None, keys: list) -> list:
     if flat is not None and study.grid:
-        import numpy as np
         idx = np.unravel_index(flat, study.shape)
         return [_fmt(study.grid[k][int(j)]) for k, j in zip(keys, idx)]
     case = study.run(cid)

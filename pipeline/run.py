@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from .common.errors import EXIT_FAILED, EXIT_OK, ResultsIOError, StudyError, WriteFailed, write_failed
+from .common.interrupts import check
 from .compute import batch_system
 from .compute.session import jobs_directory, session_for
 from .figures import KINDS, make_plots
@@ -278,7 +279,6 @@ def _todo(study, states: dict, rerun_failed: bool) -> tuple:
 def _run_locked(options, study, out_dir: Path, session=None) -> int:
     """Plan, compute and stream, combine (again, where a batch file turned out damaged), figures,
     report."""
-    from .common.interrupts import check
     from .common.tables import NUMERICAL_FAILURES
     batches = _prepare_dirs(out_dir)
     from .study.study_files import keep_study_copy

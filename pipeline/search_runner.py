@@ -17,6 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
+from solver import EPS_Y_INFO, PARAMETER_INFO
+
 from .common import provenance
 from .common.errors import EXIT_OK, StudyError
 from .common.tables import COMPLETE
@@ -151,7 +153,6 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
     crossing, the runs it took and the search's status."""
     import xarray as xr
 
-    from solver import PARAMETER_INFO
     search = study.search
     key, (long_name, units) = search.key, PARAMETER_INFO[search.key]
     eps_list = search.eps_Y
@@ -196,7 +197,6 @@ def write_search(study, out_dir: Path, targets: list, points: list) -> Path:
             values_ = np.array([p[k] for p in points], dtype=float)
             coords[k] = (d, values_, {"long_name": PARAMETER_INFO[k][0], "units": PARAMETER_INFO[k][1]})
     if eps_list:
-        from solver import EPS_Y_INFO
         coords["eps_Y"] = ("eps_Y", np.array(eps_list), {"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
     runs = len({(t.point, v) for t in targets for v in t.values})
     attrs = {"title": f"floe-impact threshold search of study {study.name}", "search": json.dumps(asdict(search)),

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from . import first_compile
 from .compile import kernel_cache, parallel_compile
 from . import layout as kn
 from .control import make_control
@@ -435,8 +436,8 @@ def compile_kernels() -> None:
 
         python -c "import solver; solver.compile_kernels()"   # once, after an install or an edit
     """
-    p, s, times = parallel_compile.tiny_case()
-    with parallel_compile.helper():              # a second process compiles part of integrate's tree
+    p, s, times = first_compile.tiny_case()
+    with parallel_compile.helper(first_compile.run_helper):   # a second process compiles part of integrate's tree
         solve(p, s, times=times, fields=FIELDS)
         solve(p, replace(s, integrator="rk4"), times=times, fields=(), locate_eps_Y=[1e-6])
     compile_crack_onset()

@@ -27,6 +27,7 @@ import numpy as np
 
 from . import layout as kn
 from .diagnostics import Records, Run, largest_tension
+from .keys import ParameterError
 from .loop import initial_state, new_state, new_workspace, observe_step, state_at
 from .model.body import body_accel, body_residual
 from .model.contact import count_contacts, gap_peak
@@ -300,7 +301,6 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
     try:
         from scipy.integrate import DOP853
     except ImportError:                                      # pragma: no cover
-        from .parameters import ParameterError
         raise ParameterError("integrator dop853 needs scipy: pip install scipy") from None
     system = _System(tab, coupled_damping)
     T, diag = t_out.size, out.diag

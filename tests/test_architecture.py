@@ -294,6 +294,69 @@ def test_the_layout_block_names_every_folder():
 
 
 
+#: the libraries a command that does not need them should not pay for (numba too: the doors
+#: answer a bad argument at once); an import of the project's own may wait inside a function
+#: only to spare its module one of them
+HEAVY = ("numba", "xarray", "dask", "distributed", "matplotlib", "scipy", "netCDF4", "openturns", "SALib",
+         "dask_jobqueue")
+
+
+def _top_imports(name, path, tree, known) -> tuple:
+    """(the modules of known, the heavy libraries) a module imports when it is imported: its
+    top-level statements, an if/try at its top included, functions and classes' methods not."""
+    statements = [node for top in tree.body if not isinstance(top, (ast.FunctionDef, ast.ClassDef))
+                  for node in ast.walk(top)]
+    own = _imports(name, path, ast.Module(body=[s for s in statements if isinstance(s, (ast.Import, ast.ImportFrom))],
+                                          type_ignores=[]), known)
+    heavy = {a.name.split(".")[0] for s in statements if isinstance(s, ast.Import) for a in s.names}
+    heavy |= {s.module.split(".")[0] for s in statements if isinstance(s, ast.ImportFrom) and s.module and not s.level}
+    return own, heavy & set(HEAVY)
+
+
+def _heavy_at_import(modules: dict) -> dict:
+    """module -> the heavy libraries importing it loads (its packages' __init__ and what they and
+    it import at their tops, transitively)."""
+    top = {name: _top_imports(name, path, tree, modules) for name, (path, tree) in modules.items()}
+    memo = {}
+
+    def loads(name, seen):
+        if name in memo or name in seen:
+            return memo.get(name, set())
+        seen.add(name)
+        parents = [".".join(name.split(".")[:i]) for i in range(1, name.count(".") + 1)]
+        found = set(top[name][1]).union(*(loads(m, seen) for m in [*parents, *top[name][0]] if m in top))
+        memo[name] = found
+        return found
+    return {name: loads(name, set()) for name in modules}
+
+
+def _deferred_for_nothing(modules: dict) -> list:
+    """The imports of the project's own inside a function that spare their module no heavy library."""
+    heavy, found = _heavy_at_import(modules), []
+    for name, (path, tree) in modules.items():
+        for function in (n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))):
+            for node in (n for n in ast.walk(function) if isinstance(n, (ast.Import, ast.ImportFrom))):
+                deps = _imports(name, path, ast.Module(body=[node], type_ignores=[]), modules)
+                if deps and not set().union(*(heavy[d] for d in deps)) - heavy[name]:
+                    found.append(f"{name}.{function.name}: {ast.unparse(node)}")
+    return sorted(set(found))
+
+
+def test_an_import_waits_inside_a_function_only_to_spare_a_heavy_library():
+    """Imports sit at a module's top, so a reader sees what it depends on; one of the project's
+    own waits inside a function only where the module it names loads numba, xarray, dask,
+    matplotlib, scipy or OpenTURNS and its own module does not (31 waited for nothing, among them
+    the study checks' imports of solver, which those modules import at their tops anyway)."""
+    modules = {**_modules("solver"), **_modules("pipeline")}
+    assert _deferred_for_nothing(modules) == []
+    # the check finds one that waits for nothing, and lets one that spares a library wait
+    fake = {"p": (Path("p/__init__.py"), ast.parse("")),
+            "p.light": (Path("p/light.py"), ast.parse("import json\ndef f():\n    from . import heavy\n    from . import other")),
+            "p.other": (Path("p/other.py"), ast.parse("X = 1")),
+            "p.heavy": (Path("p/heavy.py"), ast.parse("import xarray"))}
+    assert _deferred_for_nothing(fake) == ["p.light.f: from . import other"]
+
+
 def test_the_doors_import_no_heavy_library():
     """`import pipeline` and the command line's modules import neither numba nor xarray, dask,
     matplotlib or scipy: a bad argument or --help is answered at once (an import moved to a

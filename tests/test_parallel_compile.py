@@ -14,6 +14,7 @@ from numba.core.caching import NullCache
 
 import solver
 from solver import loop
+from solver import first_compile
 from solver.compile import parallel_compile
 from solver.compile.parallel_compile import Claims
 
@@ -35,14 +36,14 @@ def test_the_helpers_subtrees_are_those_integrate_calls(monkeypatch):
 
     integrate = solver.core.integrate
     monkeypatch.setattr(solver.core, "integrate", recording)
-    p, s, times = parallel_compile.tiny_case()
+    p, s, times = first_compile.tiny_case()
     solver.solve(p, s, times=times)
     argtypes = tuple(typeof(a) for a in seen[0])
     # integrate typed here (not its link-only library from the cache, which a run of this test
     # leaves there): its callees come from the link cache
     monkeypatch.setattr(loop.integrate.link_dispatcher, "_cache", NullCache())
     loop.integrate.link_dispatcher.compile(argtypes)
-    jobs = parallel_compile.helper_jobs()
+    jobs = first_compile.helper_jobs()
     assert [function.__name__ for function, _ in jobs] == ["observe_step", "take_step", "locate_event", "judge_step"]
     for function, job in jobs:
         assert job in function.link_dispatcher.overloads, function.__name__
@@ -166,7 +167,7 @@ def test_a_run_compiles_in_one_process_when_asked(monkeypatch):
     monkeypatch.setenv(parallel_compile.ENABLE, "0")
     started = []
     monkeypatch.setattr(parallel_compile.subprocess, "Popen", lambda *a, **k: started.append(a))
-    with parallel_compile.helper():
+    with parallel_compile.helper(first_compile.run_helper):
         pass
     assert started == [] and solver.compile.jit.claims is None
 

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..common.errors import StudyError
+from ..common.interrupts import check
 
 #: --cluster NAME: dask-jobqueue's cluster class, the command that submits a job, the one that
 #: lists the jobs (it must answer before a run starts)
@@ -294,7 +295,6 @@ def wait_for_a_worker(client, cluster, kind: str, directory: Path) -> None:
     makes them (said once); if every job has ended with no worker joined (a job script that
     fails on the compute node), StudyError names the log to read."""
 
-    from ..common.interrupts import check
     said = False
     started = listed_at = time.monotonic()
     while not client.scheduler_info()["workers"]:

@@ -309,8 +309,7 @@ def wait_for_workers(client, address: str) -> None:
 
 def kernels_loaded() -> bool:
     """On a worker: are the solver's kernels compiled or loaded from numba's cache?"""
-    import sys as _sys
-    loop = _sys.modules.get("solver.loop")
+    loop = sys.modules.get("solver.loop")
     return loop is not None and len(loop.integrate.signatures) > 0
 
 

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
+from solver import solve
+
 from ..common.tables import WRITE_FAILED
 from ..store.casefile import batch_dataset, case_arrays, write_batch
 from ..store.reduce import reduce_arrays
@@ -23,7 +25,6 @@ SINGLE_THREAD_ENV = {"OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1", "MKL_N
 
 def compute_case(case: Case):
     """Run the solver on one case; times past the end of its run are not integrated."""
-    from solver import solve
     t_sec = case.times_seconds()
     inside = t_sec <= case.t_end * (1 + 1e-12)
     times = np.minimum(t_sec[inside], case.t_end)

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
+from solver import DIAGNOSTIC_INFO, EPS_Y_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
 from solver.parameters import CHOICES
 from solver.settings import NAMED_SETTINGS
 
@@ -202,7 +202,6 @@ class StudyWriter:
         record = nc.createVariable("tension_record", str, ("tension_record",))
         record[:] = np.array(RECORD_NAMES, dtype=object)
         record.long_name = RECORD_LONG_NAME
-        from solver import EPS_Y_INFO
         eps = nc.createVariable("eps_Y", "f8", ("eps_Y",))
         eps[:] = study.output.eps_Y
         eps.setncatts({"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})

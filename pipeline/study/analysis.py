@@ -54,6 +54,7 @@ import importlib.util
 import math
 from dataclasses import dataclass
 
+from solver import DIAGNOSTIC_INFO
 from solver.outputs import CRACK_ONSET_TIMES
 
 from ..common.errors import StudyError, check_table
@@ -81,7 +82,6 @@ EVENT_TIMES = (*CRACK_OUTPUTS, "bottoming_time", "stop_time", "separation_time",
 
 def outputs_known() -> list:
     """The per-case numbers an analysis can take: the diagnostics and crack onset."""
-    from solver import DIAGNOSTIC_INFO
     return sorted({*DIAGNOSTIC_INFO, *CRACK_OUTPUTS} - {"error_estimate_time", "error_estimate_modes",
                                                          "error_estimate_quadrature"})
 

@@ -11,12 +11,15 @@ import math
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
-from solver.parameters import CHOICES, COUPLED_KEYS, NOT_MONOTONE
+from solver.outputs import OBSERVED
+from solver.parameters import (CHOICES, COUPLED_KEYS, NOT_MONOTONE, TIME_SCALE_KEYS, outside_physical_range,
+                               time_scale_of)
 from solver.settings import NAMED_SETTINGS, check_combination
 
-from .case import coordinate_times
 from ..common.errors import StudyError
+from .case import coordinate_times
 from .identity import SAMPLE
+from .search import EVENTS
 
 def body_masses(study) -> list:
     """Every body_mass value the study's cases take (inf: the paper's body)."""
@@ -32,7 +35,6 @@ def check_ranges(study) -> None:
     """Every parameter value within solver.parameters.PHYSICAL_RANGES (each grid value once;
     hi <= L at the grid's extremes; each [[cases]] entry), before anything is computed from
     them."""
-    from solver.parameters import outside_physical_range
     defaults = Parameters().as_dict()
     base = {**defaults, **study.base}
     tables = [("[base]", study.base)]
@@ -133,7 +135,6 @@ def _check_grid_combinations(study, params: dict) -> None:
 
 def stage_in_t_sc(study) -> np.ndarray:
     """stage / t_sc of every case, as an array that broadcasts to the grid's shape."""
-    from solver.parameters import TIME_SCALE_KEYS, time_scale_of
     if study._listed:
         return np.array([c.parameters.stage_duration / c.parameters.time_scale for c in study._listed])
     default = Parameters(**{k: v for k, v in study.base.items()}).as_dict()
@@ -222,8 +223,6 @@ def check_outputs_read(study) -> None:
     """With [output] outputs, every output the study reads is among them: its [analysis]
     outputs and its [search] event (the outputs every run computes, such as bottoming_time,
     need not be listed)."""
-    from solver.outputs import OBSERVED
-    from .search import EVENTS
     asked = study.output.outputs
     if asked is None:
         return

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from solver import PARAMETER_INFO
-from solver.parameters import CHOICES
+from solver import PARAMETER_INFO, Parameters
+from solver.parameters import CHOICES, ParameterError
 
 from ..common.errors import StudyError, check_table
 from .analysis import MORRIS_LEVELS
@@ -55,8 +55,6 @@ def _check_bound(where: str, key: str, bound: float, base: dict) -> None:
     """A key's bound on the [base] case (with the other sampled keys at their midpoints: a free
     floe's sampled duration, say) is a valid parameter (nu < 0.5, hi <= L, ...): named here
     rather than at the first sample past it."""
-    from solver import Parameters
-    from solver.parameters import ParameterError
     try:
         Parameters(**{**{k: v for k, v in base.items() if k in PARAMETER_INFO}, key: bound})
     except ParameterError as err:

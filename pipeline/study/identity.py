@@ -14,11 +14,12 @@ import itertools
 import json
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
-from solver.settings import check_combination
+from solver.parameters import PAPER_DEFAULTS
 from solver.revision import RESULTS_REVISION
+from solver.settings import check_combination
 
-from .case import Case
 from ..common.errors import StudyError
+from .case import Case
 
 #: bump when the layout of a batch file changes: cases stored under an older one are recomputed
 #: (9, 2026-11-25: the parameters edges and duration, the diagnostic gravity_time_ratio; 10: the
@@ -48,7 +49,6 @@ def id_value(name: str, value):
 def id_parameters(parameters: dict) -> dict:
     """The parameters a case id hashes: those beyond the paper's model are left out at the
     value that is the paper's (H = inf), so ids from before they existed still hold."""
-    from solver.parameters import PAPER_DEFAULTS
     return {k: id_value(k, v) for k, v in parameters.items() if not (k in PAPER_DEFAULTS and v == PAPER_DEFAULTS[k])}
 
 

@@ -39,7 +39,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from solver import PARAMETER_INFO, SETTING_INFO, Parameters, Settings
 from solver.outputs import CRACK_ONSET_TIMES
+from solver.parameters import NOT_MONOTONE, ParameterError, outside_physical_range
+from solver.settings import check_combination
 
 from ..common.errors import StudyError, check_table
 from .design import SAMPLED
@@ -131,9 +134,6 @@ def check_bracket(search: dict, values: dict, points: list, extreme: bool) -> No
     ``extreme``: a bracket that breaks the model is refused before anything is written, naming
     the bracket. ``values``: [base] and [solver]; ``points``: each point's own values (a grid's
     combinations, a design's samples, or [{}] for [base] alone)."""
-    from solver import PARAMETER_INFO, SETTING_INFO, Parameters, Settings
-    from solver.parameters import ParameterError, outside_physical_range
-    from solver.settings import check_combination
     key, scanned = search.key, scan_values(search)
     if len(points) * len(scanned) > MAX_CHECKS:
         scanned = [scanned[0], scanned[-1]]
@@ -163,7 +163,6 @@ def search_points(grid: dict, case_list: list) -> list:
     most MAX_CHECKS; beyond, each key's lowest and highest value, every value of the keys
     the checks are not monotone in), a design's samples, or [{}] for [base] alone."""
 
-    from solver.parameters import NOT_MONOTONE
     if not grid:
         return [dict(c) for c in case_list] or [{}]
     choices = list(grid.values())

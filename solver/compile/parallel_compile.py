@@ -7,7 +7,7 @@ process can compile part of the call tree and leave it where the first one finds
 
 * this process compiles ``integrate`` as usual, from its first line: the work space, the
   initial state (the layer's reaction under the Gauss rule, the largest subtree), and on;
-* the helper compiles subtrees this process reaches late (:func:`helper_jobs`): the observers
+* the helper compiles subtrees this process reaches late (solver.first_compile.helper_jobs): the observers
   (``observe_step``), the step, the event search (it takes steps) and the step's verdict, then the
   crack-onset kernels;
 * a function is compiled by one process only: before compiling, a process claims it (a file
@@ -16,10 +16,8 @@ process can compile part of the call tree and leave it where the first one finds
   never wait on each other. A claim whose process has ended is taken over.
 
 The helper needs the exact argument types of its subtrees before ``integrate`` is typed:
-:func:`helper_jobs` builds them as ``integrate`` does, from the same tiny case
-(compile_kernels' first solve). If they drift from ``integrate``'s, the helper's work is not
-used (the results are the same, the compile is slower), and tests/test_parallel_compile.py
-fails.
+solver/first_compile.py builds them as ``integrate`` does, from the same tiny case
+(compile_kernels' first solve); this module is the machinery only, and knows no kernel.
 
 The code that runs is the same: each function's IR is the same whichever process lowered it,
 and ``integrate``'s whole program is optimised once, in this process (``make bit-for-bit``).
@@ -38,9 +36,6 @@ import threading
 import time
 import warnings
 from pathlib import Path
-
-import numpy as np
-from numba import typeof, types
 
 from . import jit, kernel_cache
 
@@ -118,69 +113,6 @@ class Claims:
         self.held.clear()
 
 
-def _field(named, name):
-    """The numba type of field `name` of the named-tuple type `named`."""
-    return named.types[named.fields.index(name)]
-
-
-def _returns(function, *argtypes):
-    """The return type of a kernel at these argument types (compiled for linking, cached)."""
-    dispatcher = function.link_dispatcher
-    dispatcher.compile(argtypes)
-    return dispatcher.overloads[argtypes].signature.return_type
-
-
-def tiny_case():
-    """(Parameters, Settings, times) of the tiny case compile_kernels solves first."""
-    from ..parameters import Parameters
-    from ..settings import Settings
-    p = Parameters(Nmod=2)
-    return p, Settings(subintervals=16), np.array([0.0, p.stage_duration])
-
-
-def helper_jobs():
-    """The helper's subtrees, [(kernel, argument types)], in the order it compiles them (what
-    ``integrate``, solver/loop.py, reaches after the initial state), with the types it calls
-    them at in compile_kernels' first solve."""
-    from ..control import make_control
-    from ..diagnostics import Outputs
-    from ..loop import judge_step, observe_step, new_workspace, new_state
-    from ..model.assemble import Tables
-    from ..observe.events import locate_event
-    from ..observe.tension import Dense
-    from ..step import Carried, Coefficients, Start, take_step
-    p, s, _ = tiny_case()
-    model = typeof(Tables(p, s.subintervals, False, s.quadrature, s.quadrature_density).model)
-    f8, i8, a1 = types.float64, types.int64, typeof(np.empty(1))
-    control = typeof(make_control(0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1, 0.0))
-    diag = _field(typeof(Outputs(*(np.empty((1, 1)),) * 3, np.empty(1), *(np.empty((1, 1)),) * 2)), "diag")
-    ws = _returns(new_workspace, i8, model, i8, i8, f8)
-    state = _returns(new_state, i8, i8)
-    work = _field(ws, "work")
-    dense = typeof(Dense(np.empty(1, np.complex128), np.empty(1), np.empty(1), np.empty(1)))
-    carried = typeof(Carried(0.0, 0.0, 0.0, 0.0, 0))
-    start = typeof(Start(np.empty(1, np.complex128), np.empty(1), np.empty(1)))
-    records = typeof((np.empty((1, 1)), 0) * 5)       # (tension upper, lower; contacts; zone upper, lower)
-    observers = types.Tuple([*(_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")), i8])
-    return [
-        (observe_step, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, dense)), records, diag)),
-        (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
-                     start, carried, f8, f8, f8, state)),
-        (locate_event, (_field(ws, "stepper"), f8, f8, start, carried, f8, f8, a1, state, a1)),
-        (judge_step, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
-                  types.Tuple((i8, f8, i8, f8, f8, f8)), types.UniTuple(f8, 3), diag)),
-    ]
-
-
-def run_helper() -> None:
-    """The helper process (started by ``helper``, which made it die with its parent): its
-    subtrees, then the crack-onset kernels."""
-    from ..fracture import compile_crack_onset
-    with claiming():
-        for function, argtypes in helper_jobs():
-            function.link_dispatcher.compile(argtypes)
-    compile_crack_onset()
-
 
 @contextlib.contextmanager
 def claiming():
@@ -231,15 +163,15 @@ def _stop_on_interrupt(process):
 
 
 @contextlib.contextmanager
-def helper():
-    """Within: a helper process compiles part of the kernels, and this process claims what it
-    compiles. At the end, wait for the helper; on an exception (Ctrl-C among them), stop it."""
+def helper(job):
+    """Within: a helper process runs ``job`` (a module-level function, with no arguments, that
+    compiles part of the kernels: solver.first_compile.run_helper), and this process claims what
+    it compiles. At the end, wait for the helper; on an exception (Ctrl-C among them), stop it."""
     directory = kernel_cache.SolverCacheLocator.directory
     if (os.environ.get(ENABLE, "1") == "0" or os.name != "posix" or not jit.LINK_ONLY or directory is None
             or _cpus() < 2 or jit.claims is not None or kernel_cache.is_complete()):
         yield
         return
-    package = __name__.rpartition(".")[0]              # "solver.compile", as this process imported it
     # the helper asks to die with this process before its imports (seconds on a loaded machine):
     # a parent killed while the helper still imported numba left it compiling, orphaned, once in
     # a full suite beside a long study; then it checks that its parent is still this process
@@ -248,7 +180,7 @@ def helper():
             "except (OSError, AttributeError):\n    pass\n"
             f"if os.getppid() != {os.getpid()}:\n    sys.exit(0)\n"
             f"sys.path.insert(0, {str(Path(__file__).resolve().parents[2])!r})\n"
-            f"from {package}.parallel_compile import run_helper\nrun_helper()\n")
+            f"from {job.__module__} import {job.__name__}\n{job.__name__}()\n")
     with tempfile.TemporaryFile() as log:
         process = subprocess.Popen([sys.executable, "-c", code], stdin=subprocess.DEVNULL,
                                    stdout=subprocess.DEVNULL, stderr=log)

@@ -26,6 +26,8 @@ import math
 
 from ..compile.jit import kernel
 from ..fracture import THIN_SPAN
+from ..keys import ParameterError
+from ..outputs import OBSERVED_BY, ONSET_RECORD, OUTPUT_NAMES, RECORDS
 
 #: the observers' bits in Control.observers
 TENSION, ZONE, CONTACTS, LAYER_MAXIMA, FLOE_MAXIMA = 1, 2, 4, 8, 16
@@ -87,8 +89,6 @@ def plan(outputs, eps_Y, end):
     "answered" and only crack onsets asked (eps_Y: the yield strains they are asked at), the run
     ends when they are final; anything else asked runs it to t_end. Raises ParameterError, one
     line, on a name that is no output or an "answered" end with no crack onset to answer."""
-    from ..keys import ParameterError
-    from ..outputs import OBSERVED_BY, ONSET_RECORD, OUTPUT_NAMES, RECORDS
     if end not in ENDS:
         raise ParameterError(f"end must be one of {', '.join(repr(e) for e in ENDS)}, got {end!r}")
     if outputs is None:
