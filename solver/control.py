@@ -17,7 +17,7 @@ from collections import namedtuple
 from .compile.jit import kernel
 from .layout import B_D, B_U
 from .observe.asked import ALL
-from .model.basis import field_sum
+from .model.basis import Field, field_sum
 from .model.plate import MASS, ONES, mode_a
 
 #: default bottoming threshold (Settings.bottoming_gap): the layer has bottomed out when its
@@ -102,7 +102,7 @@ def error_ratio(model, control, z, znew, err, errb, gap, scratch):
         # another: |err(delta)| <= GAP_ACCURACY (1 - delta)
         for n in range(z.shape[0]):
             scratch[n] = mode_a(err[n], n, model.plate)
-        e_delta = abs(field_sum(model.basis.lam1, model.basis.floe, (model.plate.modes[ONES], 0), scratch, gap[2]) - errb[B_D]) / he
+        e_delta = abs(field_sum(model.basis.lam1, model.basis.floe, Field(model.plate.modes[ONES], 0), scratch, gap[2]) - errb[B_D]) / he
         ratio = max(ratio, e_delta / (GAP_ACCURACY * (1.0 - gap[0])))
     if not math.isfinite(ratio):
         ratio = 1e10

@@ -258,7 +258,7 @@ def _kernel_loop(method):
     """solver.loop.integrate with the given method, as an Integrator's run."""
     def run(tab, control, t_out, a0, adot0, levels, outputs):
         status, n_out, records = integrate(method, tab.model, control, t_out, a0, adot0, levels, outputs)
-        return Run(status, n_out, Records(*records), "")
+        return Run(status, n_out, records, "")
     return run
 
 

@@ -35,6 +35,10 @@ Records = namedtuple("Records", "upper n_upper lower n_lower contacts n_contacts
 #: what an integrator returns: its status code, the number of output times filled, its Records,
 #: and what stopped it ("" where it ran to its end or its own status says why)
 Run = namedtuple("Run", "status n_out records failure")
+#: the energy identity's largest terms over a run: the work, the energy residual, the body's residual
+Residuals = namedtuple("Residuals", "peak_work max_residual max_body_residual")
+#: a run's counts: accepted steps, rejected steps, forcing evaluations
+Counts = namedtuple("Counts", "steps rejected rhs")
 
 
 @kernel
@@ -112,12 +116,11 @@ def largest_tension(diag):
 
 @kernel
 def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
-    """The run's summary diagnostics at its end; returns the final status. residuals = (the
-    largest work over the run, the largest energy residual, the largest body residual); the
-    residuals are reported relative to that work: the final work for the paper's body (W only
+    """The run's summary diagnostics at its end; returns the final status. residuals: the run's
+    Residuals, reported relative to its largest work: the final work for the paper's body (W only
     grows), the work at the deepest point for a body that rebounds and takes its energy back.
-    counts = (steps, rejected steps, forcing evaluations)."""
-    peak_work, max_residual, max_body_residual = residuals
+    counts: the run's Counts."""
+    peak_work, max_residual, max_body_residual = residuals.peak_work, residuals.max_residual, residuals.max_body_residual
     if status == LAYER_BOTTOMED_OUT and math.isnan(diag[D_BOTTOM_T]):
         diag[D_BOTTOM_T] = t                # not located: the last state the steps reached
         diag[D_BOTTOM_X] = gap[2]
@@ -134,8 +137,7 @@ def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
         diag[D_FAIL_T] = t
         diag[D_FAIL_KIND] = FAIL_ENERGY_BOUND
     largest_tension(diag)
-    steps, rejected, rhs_count = counts
-    diag[D_STEPS] = steps
-    diag[D_REJECTED] = rejected
-    diag[D_RHS] = rhs_count
+    diag[D_STEPS] = counts.steps
+    diag[D_REJECTED] = counts.rejected
+    diag[D_RHS] = counts.rhs
     return status

@@ -10,9 +10,9 @@ from numba import typeof, types
 
 from .compile.parallel_compile import claiming
 from .control import make_control
-from .diagnostics import Outputs
+from .diagnostics import Outputs, Records
 from .fracture import compile_crack_onset
-from .loop import judge_step, new_state, new_workspace, observe_step
+from .loop import Energies, Observers, StepEnds, Trial, judge_step, new_state, new_workspace, observe_step
 from .model.assemble import Tables
 from .observe.events import locate_event
 from .observe.tension import Dense
@@ -54,15 +54,17 @@ def helper_jobs():
     dense = typeof(Dense(np.empty(1, np.complex128), np.empty(1), np.empty(1), np.empty(1)))
     carried = typeof(Carried(0.0, 0.0, 0.0, 0.0, 0))
     start = typeof(Start(np.empty(1, np.complex128), np.empty(1), np.empty(1)))
-    records = typeof((np.empty((1, 1)), 0) * 5)       # (tension upper, lower; contacts; zone upper, lower)
-    observers = types.Tuple([*(_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")), i8])
+    records = typeof(Records(*(np.empty((1, 1)), 0) * 5))
+    observers = types.NamedTuple([*(_field(ws, name) for name in ("tension", "contact", "peaks0", "zone", "dense")), i8],
+                                 Observers)
+    ends = types.NamedTuple((i8, i8, f8, dense), StepEnds)
     return [
-        (observe_step, (model, observers, state, state, carried, f8, f8, types.Tuple((i8, i8, f8, dense)), records, diag)),
+        (observe_step, (model, observers, state, state, carried, f8, f8, ends, records, diag)),
         (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
                      start, carried, f8, f8, f8, state)),
         (locate_event, (_field(ws, "stepper"), f8, f8, start, carried, f8, f8, a1, state, a1)),
         (judge_step, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
-                  types.Tuple((i8, f8, i8, f8, f8, f8)), types.UniTuple(f8, 3), diag)),
+                      types.NamedTuple((i8, f8, i8, f8, f8, f8), Trial), types.NamedUniTuple(f8, 3, Energies), diag)),
     ]
 
 

@@ -19,8 +19,8 @@ import numpy as np
 from .arrays import copy_into
 from .control import energy_allowance, error_ratio, grown_step, next_step
 from .cubic import cubic_max, hermite
-from .diagnostics import (bottomed_at, failed_at, finish_diagnostics, record_output, running_maxima,
-                          start_diagnostics)
+from .diagnostics import (Counts, Records, Residuals, bottomed_at, failed_at, finish_diagnostics, record_output,
+                          running_maxima, start_diagnostics)
 from .compile.jit import kernel
 from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
                      D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T,
@@ -34,14 +34,15 @@ from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
 from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, answered, asks
 from .observe.body import observe_body
-from .observe.contacts import contact_work, observe_contacts
+from .observe.contacts import Snapshot, contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
 from .observe.events import locate_event
-from .observe.layer_maxima import finish_layer_maxima, maxima_work, observe_layer_maxima
-from .observe.record import append_row
-from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, dense_due, global_state, observe_tensions,
-                              tension_work)
-from .observe.zone import observe_zone, zone_work
+from .observe.layer_maxima import LayerEnds, finish_layer_maxima, maxima_work, observe_layer_maxima
+from .observe.record import Rows, SurfaceRows, append_row
+from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, DenseStates, StepStrains, dense_due, global_state,
+                              observe_tensions, tension_work)
+from .observe.reach import Span
+from .observe.zone import ZoneEnds, observe_zone, zone_work
 from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
 
 #: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
@@ -54,8 +55,27 @@ from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_co
 Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense "
                                     "crossed")
 
+#: the observers' work and which of them run: TensionWork, ContactWork, the tension peaks at the
+#: step's start, ZoneWork, DenseMaxima, and the observers asked (Control.observers, observe.asked)
+Observers = namedtuple("Observers", "tension contact peaks0 zone dense asked")
+#: what the observers read of an accepted step besides its states: jmax at t, jmax and the force at
+#: t + h, the step's Dense
+StepEnds = namedtuple("StepEnds", "jmax jmax1 force1 dense")
+#: a trial step: its status, the work W(t + h), jmax at t + h, t, h, the error's exponent
+Trial = namedtuple("Trial", "status work1 jmax1 t h exponent")
+#: the energy identity's terms at t: E(t_start), the residual at t, W(t)
+Energies = namedtuple("Energies", "start residual work")
+
 #: a trial step's verdict
 ACCEPT, RETRY, STOP = 0, 1, 2
+
+
+@kernel
+def new_records(N_REC):
+    """Empty Records (diagnostics.Records) of a run: rows of N_REC columns, the contacts' of 2."""
+    none = np.int64(0)                  # (not a literal 0: numba would compile the observers twice)
+    return Records(np.empty((256, N_REC)), none, np.empty((256, N_REC)), none, np.empty((64, 2)), none,
+                   np.empty((256, N_REC)), none, np.empty((256, N_REC)), none)
 
 
 @kernel
@@ -99,15 +119,14 @@ def state_at(model, t, a, adot, fvals, state):
 @kernel
 def initial_state(model, ws, cur, t, a0, adot0, records, diag):
     """The state at t_start and its observers: (status, force, jmax, layer power, contacts,
-    records); status 1 if the layer is bottomed out already."""
+    Records); status 1 if the layer is bottomed out already."""
     st, force, jmax, lp = state_at(model, t, a0, adot0, ws.work.fvals, cur)
     if st != 0:
         return st, force, jmax, lp, 0, records
     s = body_position(model.body, t, cur.yb)
     contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
     cur.acc[2] = layer_energy(model, cur.a, s, cur.delta, jmax) if model.basis.rule == 1 else math.nan
-    rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
-    rec_c, n_c = append_row(rec_c, n_c, t, contacts, 0.0, 0.0, 0.0)
+    rec_c, n_c = append_row(records.contacts, records.n_contacts, t, contacts, 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
     tw = ws.tension
     for s_ in range(2):
@@ -117,14 +136,16 @@ def initial_state(model, ws, cur, t, a0, adot0, records, diag):
         diag[D_MAX_UPPER + 3 * s_] = peak[0]
         diag[D_MAX_UPPER_X + 3 * s_] = peak[2]
         diag[D_MAX_UPPER_T + 3 * s_] = t
-    rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, ws.zone, t, 0.0, (cur.eps, cur.delta, cur.a, cur.adot, jmax,
-                                                                       np.full((2, 4), -np.inf), cur.yb, cur.yb),
-                                              (tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing),
-                                               tw.marks), (rec_zu, n_zu, rec_zl, n_zl), diag)
+    zone = observe_zone(model, ws.zone, t, 0.0, ZoneEnds(cur.eps, cur.delta, cur.a, cur.adot, jmax,
+                                                         np.full((2, 4), -np.inf), cur.yb, cur.yb),
+                        DenseStates(tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing), tw.marks),
+                        SurfaceRows(records.zone_upper, records.n_zone_upper, records.zone_lower,
+                                    records.n_zone_lower), diag)
     gap_peak(model, s, body_speed(model.body, cur.yb), cur.delta, jmax, cur.a, cur.adot, ws.gap0)
     diag[D_MAX_DELTA] = ws.gap0[0]
     diag[D_MAX_DELTA_T] = t
-    return 0, force, jmax, lp, contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl)
+    return 0, force, jmax, lp, contacts, Records(records.upper, records.n_upper, records.lower, records.n_lower, rec_c,
+                                                 n_c, zone.upper, zone.n_upper, zone.lower, zone.n_lower)
 
 
 @kernel
@@ -150,12 +171,11 @@ def _finite_state(st, w_new, z, yb):
 
 
 @kernel(inline="llvm")
-def _residual(model, state, jm, w_new, e0):
+def _residual(model, z, delta, acc, jm, w_new, e0):
     """(E_plate + E_layer, the energy residual E_plate + E_layer + D - W - E(t_start)) at a state
     (its z, delta and acc: the arrays it reads, not the State, whose every array numba would
     count a reference to). The contact-resolving rule's E_layer is the one its last stage
     computed (acc[2]); the paper's, from delta."""
-    z, delta, acc = state
     if model.basis.rule == 1:
         e_layer = acc[2]
     else:
@@ -166,14 +186,13 @@ def _residual(model, state, jm, w_new, e0):
 
 @kernel(inline="llvm")
 def judge_step(adaptive, model, control, z0, new, gap0, scratch, trial, energies, diag):
-    """The verdict on a trial step from t (z0 at t) to new, trial = (status, W(t_new), jmax, t, h,
-    error exponent), energies = (E(t_start), the residual at t, W(t)), gap0 the gap at t and
-    scratch (N,): (verdict, h to retry with, error ratio, residual at t_new, run status,
+    """The verdict on a Trial step from t (z0 at t) to new, energies the Energies at t, gap0 the gap
+    at t and scratch (N,): (verdict, h to retry with, error ratio, residual at t_new, run status,
     rejections counted). A non-finite state or a stage at delta >= 1 retries at h/4, an error
     above the tolerance at the controller's h, a jump of the energy identity at h/4; below h_min,
     or for a fixed step, the run stops with its reason."""
-    st, w_new, jm5, t, h_step, expo = trial
-    e0, resid, work = energies
+    st, w_new, jm5, t, h_step, expo = trial.status, trial.work1, trial.jmax1, trial.t, trial.h, trial.exponent
+    e0, resid, work = energies.start, energies.residual, energies.work
     if not _finite_state(st, w_new, new.z, new.yb):
         if not adaptive:
             failed_at(diag, t, float(FAIL_FIXED_STEP))
@@ -195,7 +214,7 @@ def judge_step(adaptive, model, control, z0, new, gap0, scratch, trial, energies
                 failed_at(diag, t, float(FAIL_STEP_UNDERFLOW))
                 return STOP, h, ratio, 0.0, STEP_LIMIT, 1
             return RETRY, h, ratio, 0.0, OK, 1
-    e_new, resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)
+    e_new, resid_new = _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)
     if not abs(resid_new - resid) <= energy_allowance(new.delta, jm5, e_new, w_new, e0, work, model.basis):
         diag[D_ENERGY_JUMPS] += 1.0
         h = 0.25 * h_step
@@ -207,9 +226,9 @@ def judge_step(adaptive, model, control, z0, new, gap0, scratch, trial, energies
 
 
 @kernel(inline="llvm")
-def _gap_at(model, t, state, jm, gap):
-    """a, a' of a state = (z, a, adot, yb, delta) from its z, and its gap (gap_peak) into gap."""
-    z, a, adot, yb, delta = state
+def _gap_at(model, t, z, a, adot, yb, delta, jm, gap):
+    """a, a' of a state (its arrays z, a, adot, yb, delta) from its z, and its gap (gap_peak) into
+    gap."""
     plate = model.plate
     for n in range(z.shape[0]):
         a[n] = mode_a(z[n], n, plate)
@@ -260,40 +279,41 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 
 @kernel(inline="llvm")
 def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag):
-    """The observers on the accepted step [t, t + h] from cur to new, at one fixed point:
-    observers = (TensionWork, ContactWork, the tension peaks at t, ZoneWork, DenseMaxima, the
-    observers asked: Control.observers, observe.asked), ends =
-    (jmax at t, jmax and F at t + h, the step's Dense). The step's dense states are computed on
-    demand from the Dense (tension.dense_due), or were given by an integrator with a dense output
-    of its own (the DOP853 reference: its Dense empty; a floe's maxima are then not located on
-    it). Returns (contacts at t + h, records, a free body left the ice)."""
-    tw, cw, peaks0, zw, dm, asked = observers
-    jmax, jm5, F5, dz = ends
-    rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl = records
+    """The Observers on the accepted step [t, t + h] from cur to new, at one fixed point, with the
+    step's StepEnds. The step's dense states are computed on demand from its Dense
+    (tension.dense_due), or were given by an integrator with a dense output of its own (the DOP853
+    reference: its Dense empty; a floe's maxima are then not located on it). Returns (contacts at
+    t + h, the Records, a free body left the ice)."""
+    tw, zw, asked, dz = observers.tension, observers.zone, observers.asked, ends.dense
+    jm5 = ends.jmax1
+    plate_wide = SurfaceRows(records.upper, records.n_upper, records.lower, records.n_lower)
+    contact = Rows(records.contacts, records.n_contacts)
+    zone = SurfaceRows(records.zone_upper, records.n_zone_upper, records.zone_lower, records.n_zone_lower)
     if asks(asked, TENSION):
         for s in range(2):
-            copy_into(peaks0[s], tw.track[PEAKS + s], 4)
-        rec_up, n_up, rec_lo, n_lo = observe_tensions(model, tw, t, h, (cur.eps, new.eps, new.a, new.adot), dz,
-                                                      (rec_up, n_up, rec_lo, n_lo), diag)
+            copy_into(observers.peaks0[s], tw.track[PEAKS + s], 4)
+        plate_wide = observe_tensions(model, tw, t, h, StepStrains(cur.eps, new.eps, new.a, new.adot), dz, plate_wide,
+                                      diag)
     if asks(asked, CONTACTS):
-        contacts, (rec_c, n_c), largest = observe_contacts(model, cw, t, h, (cur.a, cur.adot, cur.delta, cur.yb),
-                                                           jmax, (new.a, new.adot, new.delta, new.yb), jm5,
-                                                           carried.contacts, (rec_c, n_c))
+        contacts, contact, largest = observe_contacts(model, observers.contact, t, h,
+                                                      Snapshot(cur.a, cur.adot, cur.delta, cur.yb), ends.jmax,
+                                                      Snapshot(new.a, new.adot, new.delta, new.yb), jm5,
+                                                      carried.contacts, contact)
         if largest > diag[D_MAX_CONTACTS]:
             diag[D_MAX_CONTACTS] = largest
     else:                                        # the count the next step compares with
         contacts = count_contacts(new.delta, jm5, model.basis.mirror)
     if asks(asked, ZONE):
-        rec_zu, n_zu, rec_zl, n_zl = observe_zone(model, zw, t, h, (new.eps, new.delta, new.a, new.adot, jm5,
-                                                                     tw.track[STEP_BEST:STEP_BEST + 2], cur.yb,
-                                                                     new.yb),
-                                                  (tw.A, tw.AD, tw.eps, dz, tw.marks), (rec_zu, n_zu, rec_zl, n_zl),
-                                                  diag)
+        zone = observe_zone(model, zw, t, h, ZoneEnds(new.eps, new.delta, new.a, new.adot, jm5,
+                                                      tw.track[STEP_BEST:STEP_BEST + 2], cur.yb, new.yb),
+                            DenseStates(tw.A, tw.AD, tw.eps, dz, tw.marks), zone, diag)
     if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0 and asks(asked, FLOE_MAXIMA):
         # a floe: its maxima located at the run's end
-        observe_candidates(model, dm, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best, (zw.reach[2], zw.reach[3]))
-    left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, F5, contacts, (rec_c, n_c), diag)
-    return contacts, (rec_up, n_up, rec_lo, n_lo, rec_c, n_c, rec_zu, n_zu, rec_zl, n_zl), left
+        observe_candidates(model, observers.dense, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best,
+                           Span(zw.reach[2], zw.reach[3]))
+    left = observe_body(model.body, t, h, cur.yb, new.yb, carried.force, ends.force1, contacts, contact, diag)
+    return contacts, Records(plate_wide.upper, plate_wide.n_upper, plate_wide.lower, plate_wide.n_lower, contact.rows,
+                             contact.n, zone.upper, zone.n_upper, zone.lower, zone.n_lower), left
 
 
 @kernel
@@ -311,9 +331,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     """Integrate the mode equations (and a free body's motion) from control.t_start to t_end,
     landing on every t_out (sorted, in [t_start, t_end]); a0, adot0: a_n [m] and a_n' [m s-1] at
     t_start; levels: tension levels to locate exactly on sub-steps (verification; usually
-    empty); out: the Outputs to fill. Returns (status, the number of output times filled,
-    records = (upper, n_upper, lower, n_lower, contacts, n_contacts, zone upper, n, zone lower,
-    n)): the tension records of both surfaces plate-wide and in the impact zone (rows
+    empty); out: the Outputs to fill. Returns (status, the number of output times filled, the
+    Records: the tension records of both surfaces plate-wide and in the impact zone (rows
     R_T..R_JOIN, first n valid) and the contact record (rows (t, count))."""
     N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
     start_diagnostics(diag, control.t_start)
@@ -321,21 +340,18 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
-    observers = (ws.tension, ws.contact, ws.peaks0, ws.zone, ws.dense, control.observers)
+    observers = Observers(ws.tension, ws.contact, ws.peaks0, ws.zone, ws.dense, control.observers)
     fixed, maxima, crossed, asked = ws.fixed, ws.maxima, ws.crossed, control.observers
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
     t = control.t_start
-    none = np.int64(0)                  # (not a literal 0: numba would compile the observers twice)
-    records = (np.empty((256, N_REC)), none, np.empty((256, N_REC)), none, np.empty((64, 2)), none,
-               np.empty((256, N_REC)), none, np.empty((256, N_REC)), none)
-    st, force, jmax, lp, contacts, records = initial_state(model, ws, cur, t, a0, adot0, records, diag)
+    st, force, jmax, lp, contacts, records = initial_state(model, ws, cur, t, a0, adot0, new_records(N_REC), diag)
     if st != 0:
         diag[D_T_REACHED] = t
         failed_at(diag, t, float(FAIL_BOTTOMED))
         return LAYER_BOTTOMED_OUT, 0, records
-    e0 = _residual(model, (cur.z, cur.delta, cur.acc), jmax, 0.0, 0.0)[0]
+    e0 = _residual(model, cur.z, cur.delta, cur.acc, jmax, 0.0, 0.0)[0]
     work = diss = err_sum = resid = max_residual = max_body_residual = peak_work = 0.0
     free_body = model.body.inv_mass > 0.0
     body_resid0 = body_residual(model.body, t, cur.yb, work)
@@ -368,8 +384,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         expo = 1.0 / 3.0 if event else 0.25
         verdict, h_try, ratio, resid_new, status, counted = judge_step(adaptive, model, control, cur.z, new, gap0,
                                                                    step_work.rows[0],
-                                                                   (st, w_new, jm5, t, h_step, expo),
-                                                                   (e0, resid, work), diag)
+                                                                   Trial(st, w_new, jm5, t, h_step, expo),
+                                                                   Energies(e0, resid, work), diag)
         rejected += counted
         if verdict != ACCEPT:
             h = h_try
@@ -377,7 +393,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                 break
             continue
         # ----- bottoming: the gap closes to bottom_gap inside the step
-        _gap_at(model, t_new, (new.z, new.a, new.adot, new.yb, new.delta), jm5, gap1)
+        _gap_at(model, t_new, new.z, new.a, new.adot, new.yb, new.delta, jm5, gap1)
         h_eff, reached = h_step, step_work.rows
         if _may_bottom(model, control, gap0, gap1, h_step):
             # on sub-steps into the stepper's own buffers: where the interpolant's crossing was
@@ -389,7 +405,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                 _copy_state(sub, new)
                 copy_into(gap1, value, 3)
                 reached = stepper.work.rows
-                resid_new = _residual(model, (new.z, new.delta, new.acc), jm5, w_new, e0)[1]
+                resid_new = _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)[1]
         # ----- accepted: observers on [t, t + h_eff], then the states swap
         steps += 1
         if not bottomed:
@@ -398,19 +414,19 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
         else:
             node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
-        dense_due(observers[0].marks, h_eff)
+        dense_due(observers.tension.marks, h_eff)
         contacts, records, left = observe_step(model, observers, cur, new, carried, t, h_eff,
-                                               (jmax, jm5, F5, Dense(cur.z, cur.forcing, reached[2], new.forcing)),
+                                               StepEnds(jmax, jm5, F5, Dense(cur.z, cur.forcing, reached[2], new.forcing)),
                                                records, diag)
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)
         if asks_levels:
             _locate_levels(ws, levels, out, start, carried, t, h_eff)
         if not bottomed and asks(asked, LAYER_MAXIMA):     # the force and compression located (on sub-steps)
-            observe_layer_maxima(stepper, maxima, start, carried, t, h_eff, (F5, gap1[0], gap0[0]), sub, value,
+            observe_layer_maxima(stepper, maxima, start, carried, t, h_eff, LayerEnds(F5, gap1[0], gap0[0]), sub, value,
                                  diag)
         separated = left and control.until_separation
-        done = answered(control.answer, (ws.tension.marks, ws.zone.marks), records, crossed)
+        done = answered(control.answer, ws.tension.marks, ws.zone.marks, records, crossed)
         cur, new = new, cur
         copy_into(gap0, gap1, 3)
         t, work, diss, lp, force, jmax, resid = t_new, w_new, cur.acc[0], cur.acc[1], F5, jm5, resid_new
@@ -432,6 +448,6 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         status = STOPPED                     # stopped, and still on the ice at the window's end
     finish_maxima(model, ws, asked, diag)
     out.diag[D_DISSIPATED] = diss
-    status = finish_diagnostics(diag, status, t, work, (peak_work, max_residual, max_body_residual), gap0,
-                                model.layer.he, (steps, rejected, rhs_count))
+    status = finish_diagnostics(diag, status, t, work, Residuals(peak_work, max_residual, max_body_residual), gap0,
+                                model.layer.he, Counts(steps, rejected, rhs_count))
     return status, k, records

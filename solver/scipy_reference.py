@@ -26,9 +26,9 @@ from __future__ import annotations
 import numpy as np
 
 from . import layout as kn
-from .diagnostics import Records, Run, largest_tension
+from .diagnostics import Run, largest_tension
 from .keys import ParameterError
-from .loop import initial_state, new_state, new_workspace, observe_step, state_at
+from .loop import Observers, StepEnds, initial_state, new_records, new_state, new_workspace, observe_step, state_at
 from .model.body import body_accel, body_residual
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
@@ -59,13 +59,11 @@ class _Observers:
         self.model, self.system, self.diag, self.N = model, system, diag, N
         self.ws = new_workspace(kn.ETD34, model, N, J, control.zone_margin)
         tw = self.ws.tension
-        self.observers = (tw, self.ws.contact, self.ws.peaks0, self.ws.zone, self.ws.dense, control.observers)
+        self.observers = Observers(tw, self.ws.contact, self.ws.peaks0, self.ws.zone, self.ws.dense, control.observers)
         self.fractions = [np.arange(1, A.shape[0] + 1) / (A.shape[0] + 1) for A in (tw.A, tw.A2)]
         self.cur, self.new = new_state(N, J), new_state(N, J)
         self.no_dense = Dense(np.empty(0, np.complex128), np.empty(0), np.empty(0), np.empty(0))
-        none = np.int64(0)
-        records = (np.empty((256, kn.N_REC)), none, np.empty((256, kn.N_REC)), none, np.empty((64, 2)), none,
-                   np.empty((256, kn.N_REC)), none, np.empty((256, kn.N_REC)), none)
+        records = new_records(kn.N_REC)
         self._body(t, y0, self.cur)
         a0, v0 = np.ascontiguousarray(y0[:N]), np.ascontiguousarray(y0[N:2 * N])
         _, self.force, self.jmax, _, self.contacts, self.records = initial_state(model, self.ws, self.cur, t, a0, v0,
@@ -96,7 +94,7 @@ class _Observers:
                                     np.ascontiguousarray(y1[N:2 * N]), self.ws.work.fvals, self.new)
             carried = Carried(self.force, 0.0, 0.0, 0.0, self.contacts)
             self.contacts, self.records, piece_left = observe_step(
-                self.model, self.observers, self.cur, self.new, carried, t0, hk, (self.jmax, j1, F1, self.no_dense),
+                self.model, self.observers, self.cur, self.new, carried, t0, hk, StepEnds(self.jmax, j1, F1, self.no_dense),
                 self.records, self.diag)
             left = left or piece_left
             self.cur, self.new = self.new, self.cur
@@ -107,7 +105,7 @@ class _Observers:
         """The records (solver.loop.integrate's), and the largest tension of either surface into
         diag."""
         largest_tension(self.diag)
-        return Records(*self.records)
+        return self.records
 
 
 class _LayerMaxima:

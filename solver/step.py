@@ -39,7 +39,7 @@ from collections import namedtuple
 
 from .compile.jit import kernel
 from .layout import B_D, B_U, ETD34
-from .model.body import body_error, body_step_work, body_accel, body_coefficients
+from .model.body import Stages, body_error, body_step_work, body_accel, body_coefficients
 from .model.contact import count_contacts
 from .model.layer import layer_forcing_at, layer_forcing_strain, rule_energy
 from .model.plate import (HALF_C, KIND, OMEGA, dissipation_rate, emul, mode_a, mode_adot, mode_phis, phi_from,
@@ -68,6 +68,10 @@ F_ROW, G_ROW, D_ROW, U_ROW, DISS_ROW, LP_ROW = range(6)
 Start = namedtuple("Start", "z forcing yb")
 #: all a sub-step needs besides its start: the method, the model, its own coefficients, scratch
 Stepper = namedtuple("Stepper", "method model coeffs work")
+#: what the local error estimate reads and fills of the step's end State: z, the forcing, yb, and
+#: err, errb that it fills (the arrays, not the State: numba counts a reference to every array of
+#: a tuple at each binding)
+ErrorEnd = namedtuple("ErrorEnd", "z forcing yb err errb")
 
 
 @kernel
@@ -114,13 +118,13 @@ def _stage(model, rows, fvals, zs, s, U, delta, P):
 
 
 @kernel(inline="llvm")
-def _last_stage(model, w, out, t_new):
+def _last_stage(model, w, zs, yb, delta, forcing, eps, t_new):
     """The forcing at the step's end (stage 5, the next step's first), with the strain at every
-    node into eps, out = (z, yb, delta, forcing, eps) of the step's end. Returns (status, jmax)."""
+    node into eps, from the step end's z and yb (its delta and forcing filled). Returns (status,
+    jmax)."""
     plate = model.plate
     a_work = w.rows[0]
     adot_work = w.rows[4]
-    zs, yb, delta, forcing, eps = out
     for n in range(zs.shape[0]):
         a_work[n] = mode_a(zs[n], n, plate)
     if model.layer.tau > 0.0:
@@ -226,9 +230,8 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
 
 
 @kernel(inline="llvm")
-def _update(method, model, coeffs, w, start, h, out):
-    """The step's solution into out = (z, yb) of the step's end from the stage table."""
-    z_out, yb_out = out
+def _update(method, model, coeffs, w, start, h, z_out, yb_out):
+    """The step's solution into z_out and yb_out of the step's end from the stage table."""
     C, Cb = coeffs.C, coeffs.Cb
     plate = model.plate
     z, N1 = start.z, start.forcing
@@ -251,15 +254,14 @@ def _update(method, model, coeffs, w, start, h, out):
 
 @kernel(inline="llvm")
 def _local_error(method, model, coeffs, w, start, h, event, out):
-    """The step's local error estimate into err and errb of out = (z, forcing, yb, err, errb) of
-    the step's end: ETD34's embedded estimate, or, across a change of contact (event), its
+    """The step's local error estimate into err and errb of the step end's ErrorEnd: ETD34's embedded estimate, or, across a change of contact (event), its
     difference from the exponential trapezoid, whose estimate does not read zero where the
     forcing is only (t - t*)^{3/2} smooth; RK4's against the exponential (Krogstad) update from
     the same stage values (RK4's Taylor approximation of e^{i w h} dominates its error; the
     body's update is the same in both)."""
     C, Cb = coeffs.C, coeffs.Cb
     kind = model.plate.modes[KIND]
-    z_out, N5, yb_out, err, errb = out
+    z_out, N5, yb_out, err, errb = out.z, out.forcing, out.yb, out.err, out.errb
     z, N1 = start.z, start.forcing
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
     d, u = start.yb[B_D], start.yb[B_U]
@@ -314,8 +316,8 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     else:
         st, jm = _rk4_stages(model, coeffs, w, start, t, t_new, h, out.delta)
     if st == 0:
-        _update(method, model, coeffs, w, start, h, (out.z, out.yb))
-        st, jm = _last_stage(model, w, (out.z, out.yb, out.delta, out.forcing, out.eps), t_new)
+        _update(method, model, coeffs, w, start, h, out.z, out.yb)
+        st, jm = _last_stage(model, w, out.z, out.yb, out.delta, out.forcing, out.eps, t_new)
     if st != 0:
         return 1, 0.0, jm, carried.work, event
     w.table[G_ROW, 5] = body_accel(body, w.table[F_ROW, 5])
@@ -323,11 +325,11 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
         event = event or count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
     else:
         event = count_contacts(out.delta, jm, model.basis.mirror) != carried.contacts
-    _local_error(method, model, coeffs, w, start, h, event, (out.z, out.forcing, out.yb, out.err, out.errb))
+    _local_error(method, model, coeffs, w, start, h, event, ErrorEnd(out.z, out.forcing, out.yb, out.err, out.errb))
     V = body.V
     F = w.table[F_ROW]
-    w_new = body_step_work(body, h, carried.work, (F[1], F[2], F[3], F[4]),
-                       (V - u, V - w.table[U_ROW, 2], V - w.table[U_ROW, 3], V - w.table[U_ROW, 4]))
+    w_new = body_step_work(body, h, carried.work, Stages(F[1], F[2], F[3], F[4]),
+                           Stages(V - u, V - w.table[U_ROW, 2], V - w.table[U_ROW, 3], V - w.table[U_ROW, 4]))
     D, Lp = w.table[DISS_ROW], w.table[LP_ROW]
     out.acc[0] = (carried.dissipated + h * ((D[1] + carried.power) / 6.0 + (D[2] + Lp[2] + D[3] + Lp[3]) / 3.0
                                             + (D[4] + Lp[4]) / 6.0) if damped else carried.dissipated)

@@ -168,6 +168,42 @@ def test_the_solvers_files_and_kernels_are_small():
     assert big == []
 
 
+def _anonymous_tuples(trees: dict) -> list:
+    """Where a kernel takes an anonymous tuple: it unpacks a parameter by position (``a, b = ends``),
+    or passes a tuple display, or a name bound to one, to another kernel. A named tuple is read by
+    its fields' names."""
+    functions = [node for tree in trees.values() for node in ast.walk(tree)
+                 if isinstance(node, ast.FunctionDef) and _is_kernel(node)]
+    kernels, found = {f.name for f in functions}, []
+    for f in functions:
+        params = {a.arg for a in f.args.args}
+        tupled = set()
+        for node in ast.walk(f):
+            if not isinstance(node, ast.Assign):
+                continue
+            for target in node.targets:
+                if isinstance(target, ast.Tuple) and isinstance(node.value, ast.Name) and node.value.id in params:
+                    found.append(f"{f.name} unpacks {node.value.id}")
+                pairs = zip(target.elts, node.value.elts) if isinstance(target, ast.Tuple) and isinstance(
+                    node.value, ast.Tuple) else [(target, node.value)]
+                tupled |= {name.id for name, value in pairs if isinstance(name, ast.Name) and isinstance(value, ast.Tuple)}
+        for call in ast.walk(f):
+            if isinstance(call, ast.Call) and isinstance(call.func, ast.Name) and call.func.id in kernels:
+                found += [f"{f.name} passes {ast.unparse(a)[:40]} to {call.func.id}" for a in call.args
+                          if isinstance(a, ast.Tuple) or (isinstance(a, ast.Name) and a.id in tupled)]
+    return sorted(set(found))
+
+
+def test_kernels_take_named_tuples_not_anonymous_ones():
+    """A tuple that crosses between kernels is a named tuple, read by its fields' names (26 kernels
+    unpacked anonymous tuples of 3 to 10 items to stay under the parameter cap)."""
+    assert _anonymous_tuples({name: tree for name, (_, tree) in _modules("solver").items()}) == []
+    # the check finds each way of taking one
+    fake = ast.parse("@kernel\ndef f(x, ends):\n    a, b = ends\n    zone = (a, b)\n    g(x, (a, b))\n    g(x, zone)\n"
+                     "    g(x, P(a, b))\n@kernel\ndef g(x, y):\n    return y.lo\n")
+    assert _anonymous_tuples({"m": fake}) == ["f passes (a, b) to g", "f passes zone to g", "f unpacks ends"]
+
+
 @pytest.mark.parametrize("forbidden", ["xarray", "dask", "matplotlib", "netCDF4", "pipeline"])
 def test_the_solver_is_pure_numerics(forbidden):
     for name, (path, tree) in _modules("solver").items():

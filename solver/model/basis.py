@@ -36,6 +36,9 @@ from ..compile.jit import kernel
 #: kind (0: these cosines; 1: a free floe's wet modes, solver.model.floe, whose node table is cosq
 #: and whose other tables and shapes are packed in floe; empty on the cosines)
 Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe")
+#: a modal field: its weights on the cosines (sum_n w_n c_n cos(lambda_n x)) and, on a floe's wet
+#: modes, its code instead (0 the deflection, 1 the upper-surface strain; solver.model.floe)
+Field = namedtuple("Field", "weights code")
 
 
 #: Settings.quadrature -> Basis.rule
@@ -294,7 +297,7 @@ def newton_move(x, d1, d2, xlo, xhi, stop):
 def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     """Largest value over continuous x near node j of the field
         v(x) = sign * scale * sum_n w_n c_n cos(lambda_n x) + q2 x^2 + q0
-    (field = (w, code): the weights w on the cosines, or a floe's field code, see field_sums),
+    (field: a Field, see field_sums),
     whose node values are sign * vals: Newton on v' from the parabola through j - 1, j, j + 1,
     kept within [x_{j-1}, x_{j+1}]. On an end node (x = 0, the symmetry line; x = L, the wall)
     the node. Returns (value, x). Refining on the modes, not on the node values, keeps the
@@ -326,7 +329,7 @@ def global_peak(eps, sign, basis, w, a):
     jtop = argmax_node(eps, sign, J)
     top = sign * eps[jtop]
     floor = top - PEAK_MARGIN * abs(top)
-    field = (w, 1)
+    field = Field(w, 1)
     bv, bx = continuous_peak(eps, sign, jtop, J, basis, field, a, 1.0, 0.0, 0.0)
     bj = jtop
     for j in range(J):
@@ -345,10 +348,10 @@ def global_peak(eps, sign, basis, w, a):
 def field_sums(lam1, floe, field, c, x):
     """A modal field and its first two x-derivatives at one point x (kernel coordinates), from
     a Basis's lam1 and floe (not the Basis: numba counts a reference to each of its arrays at
-    every call): field = (w, code), on the cosines (floe empty) sum_n w_n c_n cos(lambda_n x)
+    every call): field a Field, on the cosines (floe empty) sum_n w_n c_n cos(lambda_n x)
     (mode_sums), on a floe's wet modes the field of that code, 0 the deflection and 1 the
     upper-surface strain (solver.model.floe.floe_sums)."""
-    w, code = field
+    w, code = field.weights, field.code
     if floe.shape[0] == 0:
         return mode_sums(w, c, lam1, x)
     return floe_sums(floe, c, x, code)
@@ -357,7 +360,7 @@ def field_sums(lam1, floe, field, c, x):
 @kernel(inline="always")
 def field_sum(lam1, floe, field, c, x):
     """The value of field_sums alone (on the cosines, mode_sum)."""
-    w, code = field
+    w, code = field.weights, field.code
     if floe.shape[0] == 0:
         return mode_sum(w, c, lam1, x)
     return floe_sums(floe, c, x, code)[0]
@@ -371,7 +374,7 @@ def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
     if floe.shape[0] != 0:
         d = np.empty(c.shape[0])
         floe_dry(floe, c, d)
-        return dry_newton_peak(floe, d, x, xlo, xhi, sign, field[1])
+        return dry_newton_peak(floe, d, x, xlo, xhi, sign, field.code)
     for _ in range(8):
         s0, s1, s2 = field_sums(lam1, floe, field, c, x)
         x, done = newton_move(x, sign * s1, sign * s2, xlo, xhi, NEWTON_STOP * (xhi - xlo))

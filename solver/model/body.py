@@ -25,6 +25,8 @@ from ..layout import B_D, B_U
 #: [m s-2] (0 with 1/M = 0), the shape's R [m], p, flat = c [m], tanb = tan(deadrise), xc, the
 #: centre in kernel coordinates [m], and profile (J,), b(x_j) at the quadrature nodes [m]
 Body = namedtuple("Body", "V inv_mass g R p flat tanb xc profile")
+#: a quantity's values at a step's four stages (weights 1/6, 1/3, 1/3, 1/6)
+Stages = namedtuple("Stages", "first second third fourth")
 
 
 @kernel
@@ -161,9 +163,9 @@ def body_residual(body, t, yb, work):
 @kernel
 def body_step_work(body, h, work, F, U):
     """W(t + h) = W + int F U dt by the step's weights (1, 2, 2, 1)/6 over its stages: F and U
-    are the forces and the body's speeds at the four stages."""
-    F1, F2, F3, F4 = F
-    U1, U2, U3, U4 = U
+    are the Stages of the force and of the body's speed."""
+    F1, F2, F3, F4 = F.first, F.second, F.third, F.fourth
+    U1, U2, U3, U4 = U.first, U.second, U.third, U.fourth
     if body.inv_mass == 0.0:
         return work + h * body.V * (F1 / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
     return work + h * (F1 * U1 / 6.0 + (F2 * U2 + F3 * U3) / 3.0 + F4 * U4 / 6.0)

@@ -18,7 +18,7 @@ step; the contact observer on the bounded nodes equals the observer on every nod
 """
 import numpy as np
 
-from .basis import (NEWTON_STOP, newton_move, argmax_node, continuous_peak, field_sum, field_sums,
+from .basis import (NEWTON_STOP, Field, newton_move, argmax_node, continuous_peak, field_sum, field_sums,
                     modal_sum_range, refine)
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
 from ..compile.jit import kernel
@@ -146,7 +146,7 @@ def shape_peak(model, delta, j, n, a, s):
     with b', b'' from body_slope_curvature, kept within [x_{j-1}, x_{j+1}]. Returns (value, x)."""
     dx = model.basis.dx
     he = model.layer.he
-    deflection = (model.plate.modes[ONES], 0)
+    deflection = Field(model.plate.modes[ONES], 0)
     if j == 0 or j == n - 1:
         return delta[j], j * dx
     v, x = refine(delta, 1.0, j, n, dx)
@@ -170,7 +170,7 @@ def _corner_peak(model, a, s, v, x):
     """The larger of (v, x) and delta at the body's corners on the plate (a wedge's apex, a flat
     bottom's edges), where delta has a kink that Newton on delta' cannot settle on: (value, x)."""
     body = model.body
-    deflection = (model.plate.modes[ONES], 0)
+    deflection = Field(model.plate.modes[ONES], 0)
     for c in body_corners(body):
         if 0.0 <= c <= model.basis.length:
             d = (field_sum(model.basis.lam1, model.basis.floe, deflection, a, c) + s - body_profile(c, body)) / model.layer.he
@@ -187,7 +187,7 @@ def gap_peak(model, s, U, delta, jm, a, adot, out):
     delta holds the nodes j < jm (beyond them delta < 0); the peak is refined on the modes.
     """
     he = model.layer.he
-    deflection = (model.plate.modes[ONES], 0)
+    deflection = Field(model.plate.modes[ONES], 0)
     n = jm if jm < delta.shape[0] else delta.shape[0]
     j = argmax_node(delta, 1.0, n)
     if j == n - 1 and n < delta.shape[0]:

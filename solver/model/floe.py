@@ -38,11 +38,16 @@ one exact oscillator per wet mode, as for the walled plate.
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from ..compile.jit import kernel
 from .depth import depth_correction
+
+#: a piece [alpha, beta] of a subinterval on which g runs linearly from ga to gb (the paper's
+#: split subintervals: solver.model.layer.split_segments)
+Segment = namedtuple("Segment", "alpha beta ga gb")
 
 #: A floe's Basis.floe is one 1-D array (fewer arrays in the Basis tuple: numba counts a reference
 #: to each at every call that takes it): the four tables TABLE_* (N, J) one after the other, the
@@ -428,12 +433,12 @@ def _quintic(t):
 
 @kernel
 def floe_segment(P, cosq, floe, dx, j, segment, sign):
-    """P_n += sign * int_alpha^beta g(x) Psi_n(x) dx for g linear from ga to gb, segment = (alpha,
-    beta, ga, gb) inside the subinterval [x_j, x_j+1]: Psi_n there is the quintic Hermite of its
+    """P_n += sign * int_alpha^beta g(x) Psi_n(x) dx for g linear from ga to gb over the Segment
+    inside the subinterval [x_j, x_j+1]: Psi_n there is the quintic Hermite of its
     values, slopes and curvatures at the two nodes (error ~ (beta_N dx)^6 / 46080: 1e-9 at
     beta_N dx = 0.2), times g by the 4-node Gauss rule (exact for the product): the split
     subintervals of the paper's rule on a floe's wet modes (the cosines' add_segment)."""
-    alpha, beta, ga, gb = segment
+    alpha, beta, ga, gb = segment.alpha, segment.beta, segment.ga, segment.gb
     r = 0.5 * (beta - alpha)
     if r <= 0.0:
         return

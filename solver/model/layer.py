@@ -31,15 +31,18 @@ from collections import namedtuple
 import numpy as np
 
 from .basis import add_segment, modal_projection, modal_sum, modal_sum_strain, node_strain
-from .floe import TABLE_HAT, floe_plane, floe_segment
+from .floe import TABLE_HAT, Segment, floe_plane, floe_segment
 from .contact import contact_bound
 from ..compile.jit import kernel
 from .law import law_energy, law_pressure
 from .quadrature import gauss_energy, gauss_reaction
-from .plate import COEF, STRAIN
+from .plate import COEF, STRAIN, Modes
 
 #: the layer: he [m], K [Pa], tau = layer_tau [s] (0: elastic), law (LAW_CODES)
 Layer = namedtuple("Layer", "he K tau law")
+#: where the layer's reaction goes: fvals (J,) the nodes' f (the Gauss rule leaves he int G dx in
+#: fvals[0]), P (N,) the forcing
+ReactionOut = namedtuple("ReactionOut", "fvals P")
 
 #: layer_law -> the kernels' code
 LAW_CODES = {"paper": 0, "linear": 1}
@@ -79,9 +82,9 @@ def layer_forcing_at(model, s, U, a, adot, delta, fvals, P):
         return 0, 0.0, 0, 0.0
     jmax = contact_bound(model.body, model.basis, s, a, delta)
     modal_sum(a, model.basis.cosq, delta, jmax)
-    return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
-                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
-                                  np.bool_(False)), P)
+    st, force, jmax, power = layer_reaction(model.layer, model.body, model.basis, s, U, Modes(a, adot), jmax, delta,
+                                            ReactionOut(fvals, P), np.bool_(False))
+    return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF], st, force, jmax, power, P)
 
 
 @kernel(inline="always")
@@ -101,9 +104,9 @@ def layer_forcing_strain(model, s, U, a, adot, delta, fvals, P, eps):
     else:                            # a floe's wet modes: the strain from its own table
         modal_sum(a, cosq, delta, jmax)
         node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], a, eps)
-    return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF],
-                   layer_reaction(model.layer, model.body, model.basis, s, U, (a, adot), jmax, delta, (fvals, P),
-                                  np.bool_(True)), P)
+    st, force, jmax, power = layer_reaction(model.layer, model.body, model.basis, s, U, Modes(a, adot), jmax, delta,
+                                            ReactionOut(fvals, P), np.bool_(True))
+    return _scaled(model.layer.K, model.basis.mirror, model.plate.modes[COEF], st, force, jmax, power, P)
 
 
 @kernel(inline="always")
@@ -119,13 +122,12 @@ def rule_energy(model, fvals):
 
 
 @kernel(inline="always")
-def _scaled(K, mirror, coef, reaction, P):
-    """layer_reaction's result with P scaled by K coef_n (the modes' -2 K / (L M_n)), where it
-    succeeded; the force times mirror K. (Scalars and the one array it reads: binding a Model to
-    a name counts a reference to each of its arrays.)"""
-    st, force, jmax, power = reaction
+def _scaled(K, mirror, coef, st, force, jmax, power, P):
+    """layer_reaction's result (st, force, jmax, power) with P scaled by K coef_n (the modes' -2 K
+    / (L M_n)), where it succeeded; the force times mirror K. (Scalars and the one array it
+    reads: binding a Model to a name counts a reference to each of its arrays.)"""
     if st != 0:
-        return reaction
+        return st, force, jmax, power
     for n in range(P.shape[0]):
         P[n] *= K * coef[n]
     return 0, mirror * K * force, jmax, power
@@ -199,16 +201,16 @@ def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
 @kernel
 def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """The rest of layer_forcing_at, given the deflection sum_n a_n cos(lambda_n x_j) in delta
-    (j < jmax) and modes = (a, adot), out = (fvals, P): P / (K coef_n) and int f dx by the
-    basis's rule. The paper's (rule 0): the nodes' f (node_reaction), the hat weights on the
+    (j < jmax) and the Modes, into the ReactionOut: P / (K coef_n) and int f dx by the basis's
+    rule. The paper's (rule 0): the nodes' f (node_reaction), the hat weights on the
     nodes (the trapezoid's half weights at x = 0 and at the far end), and the split
     subintervals. The contact-resolving rule (1): delta at the nodes, then
     solver.model.quadrature, and with energy, he int G dx into fvals[0]. (The Body, Basis and
     Layer it reads, not the Model: see contact.py.)"""
     if basis.rule == 1:
         return _gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy)
-    adot = modes[1]
-    fvals, P = out
+    adot = modes.adot
+    fvals, P = out.fvals, out.P
     N = P.shape[0]
     J = delta.shape[0]
     cosq = basis.cosq
@@ -241,10 +243,10 @@ def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
 @kernel
 def _gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """layer_reaction by the contact-resolving rule: delta at the nodes j < jmax (status 1 if
-    one has delta >= 1), then gauss_reaction into out = (fvals, P), he int G dx into fvals[0]
+    one has delta >= 1), then gauss_reaction into the ReactionOut, he int G dx into fvals[0]
     if energy: (status, int f dx, jmax, the power with its factor mirror K), as the paper's rule
     returns them."""
-    fvals, P = out
+    fvals, P = out.fvals, out.P
     he = layer.he
     profile = body.profile
     for j in range(jmax):
@@ -276,26 +278,25 @@ def split_segments(basis, jmax, delta, fvals, P, force):
             if d0 > 0.0:
                 f0 = fvals[j]
                 xs = x0 + dx * f0 / (f0 - d1)
-                _segment(P, basis, j, (x0, x1, f0, 0.0), -1.0)
-                _segment(P, basis, j, (x0, xs, f0, 0.0), 1.0)
+                _segment(P, basis, j, Segment(x0, x1, f0, 0.0), -1.0)
+                _segment(P, basis, j, Segment(x0, xs, f0, 0.0), 1.0)
                 force += 0.5 * f0 * (xs - x0 - dx)
             else:
                 f1 = fvals[j + 1]
                 xs = x0 + dx * (-d0) / (f1 - d0)
-                _segment(P, basis, j, (x0, x1, 0.0, f1), -1.0)
-                _segment(P, basis, j, (xs, x1, 0.0, f1), 1.0)
+                _segment(P, basis, j, Segment(x0, x1, 0.0, f1), -1.0)
+                _segment(P, basis, j, Segment(xs, x1, 0.0, f1), 1.0)
                 force += 0.5 * f1 * (x1 - xs - dx)
     return force
 
 
 @kernel(inline="always")
 def _segment(P, basis, j, segment, sign):
-    """P_n += sign * int g(x) mode_n(x) dx over segment = (alpha, beta, ga, gb) in the
-    subinterval j, g linear from ga to gb: exact on the cosines (add_segment), by the quintic
-    Hermite of the modes on a floe (solver.model.floe.floe_segment)."""
-    alpha, beta, ga, gb = segment
+    """P_n += sign * int g(x) mode_n(x) dx over the Segment in the subinterval j, g linear from
+    ga to gb: exact on the cosines (add_segment), by the quintic Hermite of the modes on a floe
+    (solver.model.floe.floe_segment)."""
     if basis.kind == 0.0:
-        add_segment(P, basis.lam1, alpha, beta, ga, gb, sign)
+        add_segment(P, basis.lam1, segment.alpha, segment.beta, segment.ga, segment.gb, sign)
     else:
         floe_segment(P, basis.cosq, basis.floe, basis.dx, j, segment, sign)
 

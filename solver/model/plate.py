@@ -27,6 +27,8 @@ from ..compile.jit import kernel
 #: table, not eight arrays: numba counts a reference to every array a tuple holds each time the
 #: tuple is bound to a name, and the Plate is bound in every stage (docs/architecture.md)
 Plate = namedtuple("Plate", "modes lm_floor")
+#: the modes' amplitudes a_n [m] and rates a_n' [m s-1] (or a floe's dry coefficients and theirs)
+Modes = namedtuple("Modes", "a adot")
 #: rows of Plate.modes: omega_n [s-1]; coef = -2/(L M_n) (-1/(L M_n) on the full plate); strain =
 #: (hi/2) lambda_n^2 [m-1]; MASS = L M_n [kg m-1]; the Kelvin-Voigt damping HALF_C = c_n/2 [s-1];
 #: OMEGA_D = sqrt(omega^2 - c^2/4) of an oscillating mode (KIND 0; omega itself when c = 0) or

@@ -40,6 +40,7 @@ integration's error; against DOP853 on the same right-hand side the run agrees t
 """
 import cmath
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -48,6 +49,15 @@ from .body import body_corners, body_profile, body_slope_curvature
 from .floe import dry_table, floe_dry, floe_dry_sums, floe_wet
 from ..compile.jit import kernel
 from .law import law_energy, law_pressure
+from .plate import Modes
+
+#: what gauss_sums is asked: the projections P (project), the layer's energy (energy)
+Wanted = namedtuple("Wanted", "project energy")
+#: what a round adds to: sums (3,) [int f dx, the viscoelastic power, he int G dx], P (N,) the
+#: projections, Q (N,) scratch
+RoundOut = namedtuple("RoundOut", "sums P Q")
+#: what a round is asked: the projections, the energy, and whether it is the last round
+RoundFlags = namedtuple("RoundFlags", "project energy last")
 
 #: Gauss-Legendre nodes in a panel of the rule
 PANEL_POINTS = 8
@@ -374,14 +384,13 @@ def _split(panels, pieces):
 def _round(layer, body, basis, s, U, modes, panels, out, flags):
     """One round of the rule on the panels [lo_i, hi_i] (rows LO, HI): the panels resolved (for
     the paper's law, not near its pole, near_pole; in the last round, or at NARROWEST, all) add
-    to out = (sums, P, Q), sums = [int f dx, the viscoelastic power, he int G dx], and to P if
-    flags = (project, energy, last) asks (he int G dx only with energy; Q (N,): scratch);
+    to the RoundOut's sums, and to its P if the RoundFlags ask (he int G dx only with energy);
     returns (status, pieces), pieces[i] > 1 for the panels to cut. status 1: delta >= 1 at a
     node."""
-    a, adot = modes
+    a, adot = modes.a, modes.adot
     lo, hi = panels[LO], panels[HI]
-    sums, P, Q = out
-    project, energy, last = flags
+    sums, P, Q = out.sums, out.P, out.Q
+    project, energy, last = flags.project, flags.energy, flags.last
     he = layer.he
     m = basis.gauss_x.shape[0]
     K = m * lo.shape[0]
@@ -423,16 +432,16 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
 
 @kernel
 def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
-    """The rule over the contact intervals found from delta at the nodes j < jmax, modes = (a,
-    adot): (status, int f dx, the viscoelastic layer's power, he int G dx) without their factors
-    mirror K, wanted = (project, energy): P_n = int f cos(lambda_n x) dx unscaled (on a floe,
+    """The rule over the contact intervals found from delta at the nodes j < jmax, the Modes:
+    (status, int f dx, the viscoelastic layer's power, he int G dx) without their factors
+    mirror K, as Wanted: P_n = int f cos(lambda_n x) dx unscaled (on a floe,
     int f Psi_n dx), as layer_reaction leaves it, if project; the energy (else 0) if energy.
     On a floe the rule runs on the raw dry modes: their coefficients d = Q a once (floe_dry),
     then every point is O(N), and the projections come back to the wet modes (floe_wet)."""
     floe = basis.floe
     if floe.shape[0] == 0:
         return _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted)
-    a, adot = modes
+    a, adot = modes.a, modes.adot
     N = a.shape[0]
     d = np.empty(N)
     floe_dry(floe, a, d)
@@ -440,8 +449,8 @@ def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     if layer.tau > 0.0:
         floe_dry(floe, adot, ddot)
     Pd = np.empty(N)
-    st, force, power, stored = _gauss_sums(layer, body, basis, s, U, (d, ddot), jmax, delta, Pd, wanted)
-    if wanted[0]:
+    st, force, power, stored = _gauss_sums(layer, body, basis, s, U, Modes(d, ddot), jmax, delta, Pd, wanted)
+    if wanted.project:
         floe_wet(floe, Pd, P)
     return st, force, power, stored
 
@@ -450,8 +459,8 @@ def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
 def _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     """gauss_sums on the basis's own table (the cosines; a floe's raw dry modes). Rounds of
     panels: the first panels, then the pieces of those near the paper law's pole."""
-    project, energy = wanted
-    a = modes[0]
+    project, energy = wanted.project, wanted.energy
+    a = modes.a
     edges = np.empty(jmax + 8)
     count = contact_intervals(body, basis, s, a, layer.he, delta, jmax, edges)
     panels = first_panels(body, basis, edges, count)
@@ -460,8 +469,8 @@ def _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     sums = np.zeros(3)
     Q = np.empty(P.shape[0])
     for r in range(MAX_ROUNDS):
-        st, pieces = _round(layer, body, basis, s, U, modes, panels, (sums, P, Q),
-                            (project, energy, r == MAX_ROUNDS - 1))
+        st, pieces = _round(layer, body, basis, s, U, modes, panels, RoundOut(sums, P, Q),
+                            RoundFlags(project, energy, r == MAX_ROUNDS - 1))
         if st != 0:
             return 1, 0.0, 0.0, 0.0
         panels = _split(panels, pieces)
@@ -473,10 +482,10 @@ def _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
 @kernel
 def gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, P, energy):
     """P_n = int f cos(lambda_n x) dx over the contact intervals (unscaled, as layer_reaction
-    leaves it), given delta at the nodes j < jmax and modes = (a, adot): (status, int f dx, the viscoelastic layer's
+    leaves it), given delta at the nodes j < jmax and the Modes: (status, int f dx, the viscoelastic layer's
     power without its factor mirror K, he int G dx if energy else 0). status 1: delta >= 1 at a
     node of the rule."""
-    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, (np.bool_(True), energy))
+    return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, Wanted(np.bool_(True), energy))
 
 
 @kernel
@@ -484,7 +493,8 @@ def gauss_energy(layer, body, basis, s, a, delta, jmax):
     """he int G(delta) dx over the contact intervals on the rule's nodes (the caller's factor
     mirror K), delta at the nodes j < jmax."""
     P = np.empty(a.shape[0])
-    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, (a, a), jmax, delta, P, (np.bool_(False), np.bool_(True)))
+    st, _, _, energy = gauss_sums(layer, body, basis, s, 0.0, Modes(a, a), jmax, delta, P,
+                                  Wanted(np.bool_(False), np.bool_(True)))
     return energy if st == 0 else np.inf
 
 

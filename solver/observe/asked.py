@@ -60,13 +60,12 @@ def _record_final(level, run_max, joinable, n, crossed, r):
 
 
 @kernel
-def answered(levels, marks, records, crossed):
+def answered(levels, tension, zone, records, crossed):
     """Whether every crack onset asked is final: levels (4,) per record (upper, lower, the zone's
-    upper, lower; Control.answer), marks = (the tension observer's, the zone's: each surface's
-    running maximum, then 1 where its last step was stored), records the loop's (their row counts
-    read), crossed (4,) scratch, NaN at the start of the run."""
-    tension, zone = marks
-    counts = (records[1], records[3], records[7], records[9])
+    upper, lower; Control.answer), the tension observer's and the zone's marks (each surface's
+    running maximum, then 1 where its last step was stored), records the loop's Records (their
+    row counts read), crossed (4,) scratch, NaN at the start of the run."""
+    counts = (records.n_upper, records.n_lower, records.n_zone_upper, records.n_zone_lower)
     done = True
     for r in range(4):
         m = tension if r < 2 else zone

@@ -20,7 +20,7 @@ from ..model.body import body_accel, body_position, body_speed
 def observe_body(body, t, h, yb0, yb1, F0, F1, contacts, record, diag):
     """A free body's ends within the step [t, t + h] (the body at yb0, yb1, the force F0, F1 at
     its ends): its stops, the deepest penetration taken there, and its separation: no contact at
-    t + h while moving up after having stopped, at the last time the contact record (rows, count)
+    t + h while moving up after having stopped, at the last time the contact record (its Rows)
     went to 0 (located by observe_contacts). Returns True at the first separation."""
     if body.inv_mass == 0.0:
         return False
@@ -43,7 +43,7 @@ def observe_body(body, t, h, yb0, yb1, F0, F1, contacts, record, diag):
         return False
     if contacts != 0 or not U1 < 0.0:
         return False
-    rec_c, n_c = record
+    rec_c, n_c = record.rows, record.n
     t_sep = t + h
     if n_c > 0 and rec_c[n_c - 1, 1] == 0.0:
         t_sep = min(max(rec_c[n_c - 1, 0], diag[D_STOP_T]), t + h)

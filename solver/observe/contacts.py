@@ -23,7 +23,7 @@ from ..compile.jit import kernel
 from ..model.basis import modal_sum_range, refine
 from ..model.body import body_position, body_speed
 from ..model.contact import count_contacts, node_deltas, reach_in_step
-from .record import append_row
+from .record import Rows, append_row
 
 #: candidate nodes at most this far apart share one pass over the table rows (observe_contacts)
 RUN_GAP = 4
@@ -31,6 +31,9 @@ RUN_GAP = 4
 #: the contact observer's scratch: sgn (J,), the events' times ev_th and nodes ev_j (4 J + 16,),
 #: near (4, J): delta and its rate at both ends of the step on an event's node and neighbours
 ContactWork = namedtuple("ContactWork", "sgn ev_th ev_j near")
+#: what the contact observer reads of a state at one end of a step (the arrays, not the State:
+#: numba counts a reference to every array of a tuple at each binding)
+Snapshot = namedtuple("Snapshot", "a adot delta yb")
 
 
 @kernel
@@ -75,8 +78,8 @@ def _between_nodes(model, near, t0, h, end0, end1, j, th):
     J = model.basis.cosq.shape[1]
     if j <= 0 or j >= J - 1:
         return t0 + th * h
-    a0, adot0, _, yb0 = end0
-    a1, adot1, _, yb1 = end1
+    a0, adot0, yb0 = end0.a, end0.adot, end0.yb
+    a1, adot1, yb1 = end1.a, end1.adot, end1.yb
     body, he, cosq = model.body, model.layer.he, model.basis.cosq
     node_deltas(he, body, model.basis, a0, body_position(body, t0, yb0), near[0], j - 1, j + 2)
     node_deltas(he, body, model.basis, a1, body_position(body, t0 + h, yb1), near[1], j - 1, j + 2)
@@ -103,8 +106,8 @@ def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
     <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; the ends'
     delta are filled up to that range): (candidate nodes, their count, the range jm)."""
-    a0, _, delta0, yb0 = end0
-    a1, _, delta1, yb1 = end1
+    a0, delta0, yb0 = end0.a, end0.delta, end0.yb
+    a1, delta1, yb1 = end1.a, end1.delta, end1.yb
     body = model.body
     he = model.layer.he
     S0, S1 = body_position(body, t0, yb0), body_position(body, t0 + h, yb1)
@@ -133,8 +136,8 @@ def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
     step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
     candidate nodes. Returns the number of events."""
-    _, adot0, delta0, yb0 = end0
-    _, adot1, delta1, yb1 = end1
+    adot0, delta0, yb0 = end0.adot, end0.delta, end0.yb
+    adot1, delta1, yb1 = end1.adot, end1.delta, end1.yb
     he = model.layer.he
     cosq = model.basis.cosq
     U0, U1 = body_speed(model.body, yb0), body_speed(model.body, yb1)
@@ -177,13 +180,11 @@ def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
 @kernel(inline="llvm")
 def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
     """Changes of the number of contact intervals inside the step [t0, t0 + h], between its two
-    states, each given as end = (a, adot, delta, yb) (the arrays read of a State, not the State:
-    numba counts a reference to every array of a tuple at each binding), their nodes computed up
-    to jm0, jm1. record = (rows (t, count after the change), count of rows). Returns (contacts at
-    t1, record, largest count in the step)."""
-    rec, n = record
-    _, adot0, _, yb0 = end0
-    _, adot1, delta1, yb1 = end1
+    states, each a Snapshot, their nodes computed up to jm0, jm1; record: the Rows (t, count after
+    the change). Returns (contacts at t1, the record, largest count in the step)."""
+    rec, n = record.rows, record.n
+    adot0, yb0 = end0.adot, end0.yb
+    adot1, delta1, yb1 = end1.adot, end1.delta, end1.yb
     he = model.layer.he
     U0, U1 = body_speed(model.body, yb0), body_speed(model.body, yb1)
     Ub = max(abs(U0), abs(U1))
@@ -199,7 +200,7 @@ def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
     n_ev = _sign_changes(model, cw, h, end0, end1, cand, nc, jm)
     largest = contacts
     if n_ev == 0:
-        return contacts, (rec, n), largest
+        return contacts, Rows(rec, n), largest
     mirror = model.basis.mirror
     for i in range(n_ev):
         j = int(cw.ev_j[i])
@@ -221,4 +222,4 @@ def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
         contacts = final
         if final > largest:
             largest = final
-    return contacts, (rec, n), largest
+    return contacts, Rows(rec, n), largest

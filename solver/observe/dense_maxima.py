@@ -102,8 +102,8 @@ def keep_candidate(dm, q, dz, values):
 def observe_candidates(model, dm, t0, h, dz, plate_best, zone_best, zone):
     """A floe's accepted step [t0, t0 + h] as a candidate of each quantity: plate_best (2, 3)
     each surface's plate-wide (max, time, x) over it, zone_best (2, 5) the zone's (max, time, x,
-    edge, speed), zone = (lo, hi) at its end."""
-    lo, hi = zone
+    edge, speed), zone its Span at the step's end."""
+    lo, hi = zone.lo, zone.hi
     values = dm.values
     for q in range(QUANTITIES):
         s = q % 2

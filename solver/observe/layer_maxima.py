@@ -54,6 +54,13 @@ W_BOUND, W_WAITS = 6, 7
 #: the observer's state: starts (5 rows: z, forcing, yb, scalars), each quantity's waiting
 #: candidate (2, 8), and held (1,): 1 once the previous step's start is kept
 MaximaWork = namedtuple("MaximaWork", "z forcing yb scalars waiting held")
+#: a kept start: its time, Start and Carried
+Kept = namedtuple("Kept", "t start carried")
+#: three samples of a quantity at a < b < c, fa <= fb >= fc
+Bracket = namedtuple("Bracket", "a b c fa fb fc")
+#: what the observer reads of a step's ends: the force and the largest delta at t + h, the
+#: largest delta at t
+LayerEnds = namedtuple("LayerEnds", "force1 delta1 delta0")
 
 
 @kernel
@@ -90,10 +97,10 @@ def _copy_row(mw, source, target):
 
 @kernel
 def _kept(mw, row):
-    """(t, Start, Carried) of a kept start."""
+    """The Kept start of a row."""
     sc = mw.scalars[row]
-    return (sc[S_T], Start(mw.z[row], mw.forcing[row], mw.yb[row]),
-            Carried(sc[S_FORCE], sc[S_WORK], sc[S_DISS], sc[S_POWER], np.int64(sc[S_CONTACTS])))
+    return Kept(sc[S_T], Start(mw.z[row], mw.forcing[row], mw.yb[row]),
+                Carried(sc[S_FORCE], sc[S_WORK], sc[S_DISS], sc[S_POWER], np.int64(sc[S_CONTACTS])))
 
 
 @kernel
@@ -130,12 +137,10 @@ def _lagrange(a, b, c, fa, fb, fc, u):
 
 
 @kernel
-def _search(stepper, kind, starts, bracket, out, gap):
-    """The maximum of the quantity (kind) in the bracket (a, b, c; fa <= fb >= fc), b the
-    boundary between the two starts' steps: starts = ((t, Start, Carried) left of b, the same
-    right of b). Returns (value, time)."""
-    left, right = starts
-    a, b, c, fa, fb, fc = bracket
+def _search(stepper, kind, left, right, bracket, out, gap):
+    """The maximum of the quantity (kind) in the Bracket, b the boundary between the steps of
+    the two Kept starts left and right of b. Returns (value, time)."""
+    a, b, c, fa, fb, fc = bracket.a, bracket.b, bracket.c, bracket.fa, bracket.fb, bracket.fc
     t_b = b
     width = c - a
     for _ in range(MAX_EVALUATIONS):
@@ -148,9 +153,9 @@ def _search(stepper, kind, starts, bracket, out, gap):
         if abs(u - b) < TIME_TOLERANCE * width:
             break
         if u <= t_b:
-            fu = _value_at(stepper, kind, left[1], left[2], left[0], u - left[0], out, gap)
+            fu = _value_at(stepper, kind, left.start, left.carried, left.t, u - left.t, out, gap)
         else:
-            fu = _value_at(stepper, kind, right[1], right[2], t_b, u - t_b, out, gap)
+            fu = _value_at(stepper, kind, right.start, right.carried, t_b, u - t_b, out, gap)
         if fu > fb:
             if u < b:
                 c, fc = b, fb
@@ -184,8 +189,8 @@ def _search_waiting(stepper, mw, kind, out, gap, diag):
     slot, slot_t = (D_MAX_FORCE, D_MAX_FORCE_T) if kind == 0 else (D_MAX_DELTA, D_MAX_DELTA_T)
     if not w[W_BOUND] > diag[slot]:
         return
-    v, tv = _search(stepper, float(kind), (_kept(mw, LEFT + 2 * kind), _kept(mw, RIGHT + 2 * kind)),
-                    (w[0], w[1], w[2], w[3], w[4], w[5]), out, gap)
+    v, tv = _search(stepper, float(kind), _kept(mw, LEFT + 2 * kind), _kept(mw, RIGHT + 2 * kind),
+                    Bracket(w[0], w[1], w[2], w[3], w[4], w[5]), out, gap)
     if v > diag[slot]:
         diag[slot] = v
         diag[slot_t] = tv
@@ -196,9 +201,8 @@ def observe_layer_maxima(stepper, mw, start, carried, t, h, ends, out, gap, diag
     """After the accepted step [t, t + h] from start (its carried scalars at t): where t is a
     local maximum of the step-end samples of the force or the largest delta, a candidate for the
     run's maximum between t - h_prev and t + h, which waits or is searched (module docstring).
-    ends = (F, largest delta) at t + h and the largest delta at t. Then the step's start becomes
-    the previous one."""
-    F1, d1, d0 = ends
+    ends: the step's LayerEnds. Then the step's start becomes the previous one."""
+    F1, d1, d0 = ends.force1, ends.delta1, ends.delta0
     held = mw.held[0] == 1.0 and h > 0.0
     for kind in range(2):
         w = mw.waiting[kind]

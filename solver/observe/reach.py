@@ -16,11 +16,18 @@ DOP853, whose samples resolve the front (a 6 m floe's reach, 0.5716 m, to 2e-9 m
 1e-10, where step ends alone left it 2.6e-6 m short).
 """
 import math
+from collections import namedtuple
 
 from ..cubic import hermite
 from ..compile.jit import kernel
 from ..layout import B_D, B_U
 from ..model.contact import node_deltas
+
+#: the zone's ends [lo, hi] [m] (kernel coordinates)
+Span = namedtuple("Span", "lo hi")
+#: what zone_track starts from: the contact's reach c at a step's start, its extent at the
+#: step's start and end (from every node), the margin [m]
+Reach = namedtuple("Reach", "c0 extent0 extent1 margin")
 
 
 @kernel
@@ -116,16 +123,14 @@ def reach_at(model, a, s, c, delta):
 
 
 @kernel
-def zone_track(model, t0, h, reach, bodies, A, delta, track):
+def zone_track(model, t0, h, reach, yb0, yb1, A, delta, track):
     """The zone at the dense-output times t0 + k h / K, k = 0..K, into track[k] = (lo, hi, dlo/dt,
-    dhi/dt, the contact's extent, its reach so far): reach = (the reach c at t0, the extent at t0
-    and at t0 + h (from every node), the margin); inside, the extent at the states A (reach_at,
-    the body's penetration from the cubic Hermite of its deficits bodies = (yb at t0, at t0 +
-    h)). Where the extent peaks at a sample, the reach from then on is the peak of its parabola
-    through that sample and its neighbours (the contact's farthest reach between samples). The
-    ends' speeds are differences of the samples."""
-    c0, e0, e1, margin = reach
-    yb0, yb1 = bodies
+    dhi/dt, the contact's extent, its reach so far): reach, a Reach; inside, the extent at the
+    states A (reach_at, the body's penetration from the cubic Hermite of its deficits at t0, yb0,
+    and at t0 + h, yb1). Where the extent peaks at a sample, the reach from then on is the peak
+    of its parabola through that sample and its neighbours (the contact's farthest reach between
+    samples). The ends' speeds are differences of the samples."""
+    c0, e0, e1, margin = reach.c0, reach.extent0, reach.extent1, reach.margin
     body = model.body
     K = A.shape[0] + 1
     hk = h / K

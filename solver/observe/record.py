@@ -1,8 +1,16 @@
 """Growable records (rows of floats) that the observers append to inside the kernels."""
+from collections import namedtuple
+
 import numpy as np
 
 from ..arrays import copy_into
 from ..compile.jit import kernel
+
+#: a growable record (append_row): its rows and how many of them are filled
+Rows = namedtuple("Rows", "rows n")
+#: the records of both surfaces (upper: row 0 of the tension arrays), each with its count of
+#: filled rows
+SurfaceRows = namedtuple("SurfaceRows", "upper n_upper lower n_lower")
 
 
 @kernel

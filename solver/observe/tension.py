@@ -23,10 +23,10 @@ from ..arrays import copy_into
 from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
-from ..model.basis import climb, field_sum, field_sums, global_peak, newton_peak, node_strain
+from ..model.basis import Field, climb, field_sum, field_sums, global_peak, newton_peak, node_strain
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
-from .record import append_row
+from .record import SurfaceRows, append_row
 
 #: the peak tension is sampled at TENSION_SAMPLES - 1 points inside each step, from the
 #: exponential dense output: modes that oscillate within a step (omega h ~ 5 at N = 60) give
@@ -59,6 +59,14 @@ PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
 RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH = 0, 2, 4, 5
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
+#: what the tension observer reads of a step's two states: eps at its start; eps, a and a' at its
+#: end (the arrays, not the States: numba counts a reference to every array of a tuple at each
+#: binding)
+StepStrains = namedtuple("StepStrains", "eps0 eps1 a1 adot1")
+#: a step's dense-output states and what makes them: A, AD (TENSION_SAMPLES - 1, N) the states
+#: at t0 + k h / K (computed on demand, ensure_dense), an eps scratch (J,), the step's Dense,
+#: the marks (DENSE: computed)
+DenseStates = namedtuple("DenseStates", "A AD eps dense marks")
 
 
 @kernel
@@ -98,7 +106,7 @@ def global_state(model, eps, sign, a, adot, track):
     strain = model.plate.modes[STRAIN]
     v, x, j = global_peak(eps, sign, model.basis, strain, a)
     track[0] = v
-    track[1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, 1), adot, x)
+    track[1] = sign * field_sum(model.basis.lam1, model.basis.floe, Field(strain, 1), adot, x)
     track[2] = x
     track[3] = j
 
@@ -175,7 +183,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     ensure_dense(model, h, dz, tw.A, tw.AD, tw.marks)
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
-    field, dx, L = (model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length
+    field, dx, L = Field(model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length
     xf = p0[2]
     for k in range(1, K):
         peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, field, tw.A[k - 1], tw.AD[k - 1],
@@ -220,7 +228,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
         node_strain(model.basis.cosq, model.basis.floe, strain, tw.A2[k - 1], tw.eps)
         v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1])
         samples[k, 0] = v
-        samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, (strain, 1), tw.AD2[k - 1], x)
+        samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, Field(strain, 1), tw.AD2[k - 1], x)
         samples[k, 2] = x
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
@@ -228,7 +236,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
 @kernel(inline="llvm")
 def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
-    [t0, t0 + h], between its two states: ends = (eps at t0, eps, a and a' at t0 + h).
+    [t0, t0 + h], between its two states: ends, a StepStrains.
 
     tw.track[PEAKS + s] holds (value, rate, x, node) of the global peak at t0 and receives it at t1. The
     peak is followed from the step's start to its end through TENSION_SAMPLES - 1 samples of the
@@ -238,12 +246,12 @@ def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     and JOINABLE + s). Returns (rec, n); track BEST receives the (max, time, x) of the step.
     """
     sign = 1.0 - 2.0 * s
-    eps0, eps1, a1, adot1 = ends
+    eps0, eps1 = ends.eps0, ends.eps1
     J = eps1.shape[0]
     p0, p1, best, piece = tw.track[P0], tw.track[P1], tw.track[BEST], tw.track[PIECE]
     copy_into(p0, tw.track[PEAKS + s], p0.shape[0])
     j0 = int(p0[3])
-    global_state(model, eps1, sign, a1, adot1, p1)
+    global_state(model, eps1, sign, ends.a1, ends.adot1, p1)
     jb0 = climb(eps0, sign, int(p1[3]), J)
     best[0] = -np.inf
     # one track through the step, unless the peak at t1 climbs back to another local peak at t0
@@ -263,11 +271,9 @@ def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
 
 @kernel
 def observe_tensions(model, tw, t, h, ends, dz, records, diag):
-    """The tension records of both surfaces over the accepted step (observe_tension; ends = (eps
-    at t, eps, a and a' at t + h): the arrays it reads of the two states, not the States, whose
-    every array numba would count a reference to), records = (upper, n_upper, lower, n_lower);
-    the largest tensions into diag. Returns the records."""
-    rec_up, n_up, rec_lo, n_lo = records
+    """The tension records of both surfaces over the accepted step (observe_tension; ends, a
+    StepStrains), records a SurfaceRows; the largest tensions into diag. Returns the records."""
+    rec_up, n_up, rec_lo, n_lo = records.upper, records.n_upper, records.lower, records.n_lower
     for s in range(2):                  # (a loop: numba compiles a copy per literal surface index)
         if s == 0:
             rec_up, n_up = observe_tension(model, tw, s, t, h, ends, dz, rec_up, n_up)
@@ -275,7 +281,7 @@ def observe_tensions(model, tw, t, h, ends, dz, records, diag):
             rec_lo, n_lo = observe_tension(model, tw, s, t, h, ends, dz, rec_lo, n_lo)
         _largest(tw.track[BEST], s, diag)
         copy_into(tw.track[STEP_BEST + s], tw.track[BEST], 3)
-    return rec_up, n_up, rec_lo, n_lo
+    return SurfaceRows(rec_up, n_up, rec_lo, n_lo)
 
 
 @kernel(inline="llvm")

@@ -43,10 +43,11 @@ import numpy as np
 from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
-from ..model.basis import dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
+from ..model.basis import Field, dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
 from ..model.floe import floe_dry, floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
-from .reach import contact_extent, zone_ends, zone_track
+from .reach import Reach, Span, contact_extent, zone_ends, zone_track
+from .record import SurfaceRows
 from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_dense
 
 #: the observer's state: peaks (2, 5) each surface's (value, rate, x, node, slope) of the zone's
@@ -60,6 +61,18 @@ from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_den
 #: (zone_track); marks (4,): each surface's record's running maximum, then 1 where its last step
 #: was stored
 ZoneWork = namedtuple("ZoneWork", "peaks reach best dry pair chain track marks")
+#: what the zone's observer reads of a step's end: eps at the nodes, delta, a, a' at t0 + h, the
+#: jmax below which delta is computed, each surface's plate-wide (max, time, x) over the step
+#: (rows 0 and 1 of an array; -inf: none), the body's deficits yb at t0 and at t0 + h
+ZoneEnds = namedtuple("ZoneEnds", "eps1 delta1 a1 adot1 jmax1 plate_best yb0 yb1")
+#: a surface's largest zone value over a step: (value, time, x, edge: 0 a peak inside the zone,
+#: 1 its upper end, 2 its lower end; speed: the end's)
+Best = namedtuple("Best", "value t x edge speed")
+#: what _track reads: the step [t0, t0 + h], its Reach, the body's deficits at both ends, the
+#: step's DenseStates, the track (TENSION_SAMPLES + 1, 6) it fills
+ZoneTrack = namedtuple("ZoneTrack", "model t0 h reach yb0 yb1 inside track")
+#: the zone's ends [lo0, hi0] at a step's start and [lo1, hi1] at its end [m]
+ZoneMotion = namedtuple("ZoneMotion", "lo0 hi0 lo1 hi1")
 
 
 @kernel
@@ -80,7 +93,7 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
     the plate): the zone's two ends, and each local peak of the nodes refined on the modes within
     its two neighbours. Returns (value, x, node; the node -1: the zone's upper end inside the
     plate, -2: its lower end), value -inf for an empty zone."""
-    dx, J, field = basis.dx, eps.shape[0], (strain, 1)
+    dx, J, field = basis.dx, eps.shape[0], Field(strain, 1)
     lam1, floe = basis.lam1, basis.floe
     bv, bx, bj = -np.inf, lo, -1
     if not lo <= hi:
@@ -108,14 +121,14 @@ def zone_peak(eps, sign, basis, strain, a, lo, hi):
 
 @kernel
 def edge_speed(node, zone, h):
-    """The speed of the zone's end node (-1: upper, -2: lower) over a step h in which it moved
-    from zone[0:2] to zone[2:4] (0: a peak inside the zone, or no step)."""
+    """The speed of the zone's end node (-1: upper, -2: lower) over a step h in which it moved as
+    its ZoneMotion says (0: a peak inside the zone, or no step)."""
     if not h > 0.0:
         return 0.0
     if node == -2.0:
-        return (zone[2] - zone[0]) / h
+        return (zone.lo1 - zone.lo0) / h
     if node == -1.0:
-        return (zone[3] - zone[1]) / h
+        return (zone.hi1 - zone.hi0) / h
     return 0.0
 
 
@@ -123,12 +136,12 @@ def edge_speed(node, zone, h):
 def _sample_peak(model, sign, a, adot, x, mode, zone, dry, eps):
     """The zone's peak at one state (a, a') inside a step: (value, rate, x, node, slope), slope =
     sign * eps_x at x (for the rate of a moving end). mode 0: at the zone's end x; 1: the peak
-    near x, followed by Newton within 3 nodes; 2: the zone = (lo, hi) searched afresh (node
+    near x, followed by Newton within 3 nodes; 2: the zone (a Span) searched afresh (node
     strains, zone_peak). A floe's wet amplitudes become dry coefficients once (O(N) a point,
     into the dry (2, N) scratch); the walls' cosines are summed directly."""
     basis, strain = model.basis, model.plate.modes[STRAIN]
     floe, dx, lam1 = basis.floe, basis.dx, basis.lam1
-    lo, hi = zone
+    lo, hi = zone.lo, zone.hi
     j = -1.0
     if mode == 2:
         node_strain(basis.cosq, floe, strain, a, eps)
@@ -142,24 +155,23 @@ def _sample_peak(model, sign, a, adot, x, mode, zone, dry, eps):
         v0, v1, _ = floe_dry_sums(floe, dry[0], x, 1)
         return sign * v0, sign * floe_dry_sums(floe, dry[1], x, 1)[0], x, j, sign * v1
     if mode == 1:
-        x = newton_peak(x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign, (strain, 1), a, lam1, floe)
-    v0, v1, _ = field_sums(lam1, floe, (strain, 1), a, x)
-    return sign * v0, sign * field_sum(lam1, floe, (strain, 1), adot, x), x, j, sign * v1
+        x = newton_peak(x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign, Field(strain, 1), a, lam1, floe)
+    v0, v1, _ = field_sums(lam1, floe, Field(strain, 1), a, x)
+    return sign * v0, sign * field_sum(lam1, floe, Field(strain, 1), adot, x), x, j, sign * v1
 
 
 @kernel
-def _zone_samples(model, sign, h, track, inside, ends, samples):
+def _zone_samples(model, sign, h, track, inside, dry, p0, p1, samples):
     """The zone's peak at the dense-output states inside the step of length h into samples[k] =
-    (value, rate, x, node, slope) at t0 + k h / K, k = 0..K, the ends given: ends = the peaks at
+    (value, rate, x, node, slope) at t0 + k h / K, k = 0..K, the ends given: p0, p1 the peaks at
     t0 and t0 + h (rows as samples', their rates at a fixed place); track (K + 1, 4): the zone at
-    those times and its ends' speeds (zone_track); inside = (A, AD, eps scratch, Dense, marks,
-    dry (2, N) scratch), the dense states computed. As the ends say, the peak stays at one end of
+    those times and its ends' speeds (zone_track); inside: the DenseStates, computed; dry (2, N)
+    scratch. As the ends say, the peak stays at one end of
     the zone, or on one peak followed by Newton; else the zone is searched afresh at each sample
     (_sample_peak). At an end the rate is d/dt of eps at the moving end: eps_t + eps_x times the
     end's speed."""
-    A, AD, eps, dz, marks, dry = inside
+    A, AD, eps = inside.A, inside.AD, inside.eps
     K = A.shape[0] + 1
-    p0, p1 = ends
     dx = model.basis.dx
     end_both = p0[3] < 0 and p0[3] == p1[3]
     peak_both = p0[3] >= 0 and p1[3] >= 0 and abs(p1[2] - p0[2]) <= 3.0 * dx
@@ -173,7 +185,7 @@ def _zone_samples(model, sign, h, track, inside, ends, samples):
         if 0 < k < K:
             if end_both:
                 x = hi if p1[3] == -1.0 else lo
-            v, r, x, jn, slope = _sample_peak(model, sign, A[k - 1], AD[k - 1], x, mode, (lo, hi), dry, eps)
+            v, r, x, jn, slope = _sample_peak(model, sign, A[k - 1], AD[k - 1], x, mode, Span(lo, hi), dry, eps)
             samples[k, 0], samples[k, 1], samples[k, 2], samples[k, 4] = v, r, x, slope
             samples[k, 3] = jn if mode == 2 else p1[3]
         j = samples[k, 3]
@@ -183,12 +195,11 @@ def _zone_samples(model, sign, h, track, inside, ends, samples):
 
 @kernel
 def _samples_best(t0, h, dx, samples, best):
-    """best = (value, time, x, edge, speed) of the ends (edge: 0 a peak inside the zone, 1 its
-    upper end, 2 its lower end; speed: the end's), raised by the samples (rows (value, rate, x,
-    node, slope) at t0 + k h / K) and by the Hermite of values and rates between consecutive
-    samples on the same peak (within 3 nodes) or the same end of the zone (a Hermite across two
-    peaks bounds neither); the speed of an end between two samples is their secant's."""
-    bv, bt, bx, bedge, bspeed = best
+    """The Best of the ends, raised by the samples (rows (value, rate, x, node, slope) at
+    t0 + k h / K) and by the Hermite of values and rates between consecutive samples on the same
+    peak (within 3 nodes) or the same end of the zone (a Hermite across two peaks bounds
+    neither); the speed of an end between two samples is their secant's."""
+    bv, bt, bx, bedge, bspeed = best.value, best.t, best.x, best.edge, best.speed
     K = samples.shape[0] - 1
     hk = h / K
     v0, r0, x0, j0 = samples[0, 0], samples[0, 1], samples[0, 2], samples[0, 3]
@@ -205,7 +216,7 @@ def _samples_best(t0, h, dx, samples, best):
                 bv, bt, bx = vmax, t0 + (k - 1 + th) * hk, x0 + th * (x - x0)
                 bedge, bspeed = max(0.0, -j), (x - x0) / hk if end else 0.0
         v0, r0, x0, j0 = v, r, x, j
-    return bv, bt, bx, bedge, bspeed
+    return Best(bv, bt, bx, bedge, bspeed)
 
 
 @kernel
@@ -233,18 +244,19 @@ def _store_chain(t0, h, chain, rec, n, marks, s):
 @kernel
 def _end_peak(model, sign, a, adot, zone, eps, p):
     """The zone's peak at a step's end into p = (value, rate, x, node, slope): zone_peak on the
-    node strains eps, eps_t at the peak (fixed x), and at an end of the zone sign * eps_x."""
+    node strains eps within the zone's Span, eps_t at the peak (fixed x), and at an end of the
+    zone sign * eps_x."""
     basis, strain = model.basis, model.plate.modes[STRAIN]
-    v, x, j = zone_peak(eps, sign, basis, strain, a, zone[0], zone[1])
+    v, x, j = zone_peak(eps, sign, basis, strain, a, zone.lo, zone.hi)
     p[0], p[2], p[3] = v, x, float(j)
-    p[1] = sign * field_sum(basis.lam1, basis.floe, (strain, 1), adot, x)
-    p[4] = sign * field_sums(basis.lam1, basis.floe, (strain, 1), a, x)[1] if j < 0 and v > -np.inf else 0.0
+    p[1] = sign * field_sum(basis.lam1, basis.floe, Field(strain, 1), adot, x)
+    p[4] = sign * field_sums(basis.lam1, basis.floe, Field(strain, 1), a, x)[1] if j < 0 and v > -np.inf else 0.0
 
 
 @kernel
 def _moving(p, zone, h, row):
-    """row = p with the rate of an end of the zone that moves over the step (zone = its ends at
-    the step's start and end): + eps_x times the end's speed (edge_speed); a peak's as it is."""
+    """row = p with the rate of an end of the zone that moves over the step (its ZoneMotion): +
+    eps_x times the end's speed (edge_speed); a peak's as it is."""
     for c in range(5):
         row[c] = p[c]
     if p[3] < 0 and h > 0.0 and p[0] > -np.inf:
@@ -254,25 +266,24 @@ def _moving(p, zone, h, row):
 @kernel
 def _track(args, lo, hi):
     """The step's dense states (once a step) and the zone at its samples (zone_track) into
-    track, its ends kept within [lo, hi]; args = (model, t0, h, the reach's (c at t0, the
-    extent at t0 and at t0 + h, the margin), the body's deficits at t0 and t0 + h, (A, AD, eps
-    scratch, Dense, marks), track)."""
-    model, t0, h, reach, bodies, (A, AD, eps, dz, marks), track = args
-    ensure_dense(model, h, dz, A, AD, marks)
-    zone_track(model, t0, h, reach, bodies, A, eps, track)
+    args.track, its ends kept within [lo, hi]; args: a ZoneTrack."""
+    model, h, inside, track = args.model, args.h, args.inside, args.track
+    A = inside.A
+    ensure_dense(model, h, inside.dense, A, inside.AD, inside.marks)
+    zone_track(model, args.t0, h, args.reach, args.yb0, args.yb1, A, inside.eps, track)
     for k in range(A.shape[0] + 2):
         track[k, 0], track[k, 1] = max(track[k, 0], lo), min(track[k, 1], hi)
 
 
 @kernel
 def _with_plate_best(pb, t0, h, zone, found):
-    """The step's zone maximum ``found`` (value, t, x, edge, speed), or the plate-wide one ``pb``
-    (rows of plate_best: value, t, x) where it is larger and was in the zone, its ends moving
-    linearly over the step from zone[:2] to zone[2:]."""
-    if pb[0] > found[0] and h > 0.0:
+    """The step's zone maximum ``found`` (a Best), or the plate-wide one ``pb`` (rows of
+    plate_best: value, t, x) where it is larger and was in the zone, its ends moving linearly over
+    the step as their ZoneMotion says."""
+    if pb[0] > found.value and h > 0.0:
         th = (pb[1] - t0) / h
-        if zone[0] + th * (zone[2] - zone[0]) <= pb[2] <= zone[1] + th * (zone[3] - zone[1]):
-            return pb[0], pb[1], pb[2], 0.0, 0.0
+        if zone.lo0 + th * (zone.lo1 - zone.lo0) <= pb[2] <= zone.hi0 + th * (zone.hi1 - zone.hi0):
+            return Best(pb[0], pb[1], pb[2], 0.0, 0.0)
     return found
 
 
@@ -299,22 +310,19 @@ def _shift(p0, p1, fixed_rate):
 @kernel
 def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     """The zone's peaks of both surfaces at the end of the accepted step [t0, t0 + h], their
-    largest values over it and their running-maximum records (module docstring); ends = (eps at
-    the nodes, delta, a, a' at t0 + h, the jmax below which delta is computed, each surface's
-    plate-wide (max, time, x) over the step (rows 0 and 1 of an array; -inf: none), and the
-    body's deficits yb at t0 and at t0 + h); inside = (A, AD (K - 1, N): the dense-output states
-    at t0 + k h / K, computed on demand from the Dense unless the marks (tension.DENSE) say they
-    are, an eps scratch (J,), the Dense, the marks), at which the zone is sampled in a step that
-    does not resolve the modes or in which the peak changes (no rows: none, the ends only);
-    records = (upper, n_upper, lower, n_lower), the zone's tension records (rows as the
-    plate-wide ones, solver.fracture). Returns the records."""
-    eps1, delta1, a1, adot1, jmax1, plate_best, yb0, yb1 = ends
-    A, AD, eps, dz, marks = inside
-    rec_up, n_up, rec_lo, n_lo = records
+    largest values over it and their running-maximum records (module docstring); ends: the step
+    end's ZoneEnds; inside: the step's DenseStates, computed on demand from its Dense unless the
+    marks (tension.DENSE) say they are, at which the zone is sampled in a step that does not
+    resolve the modes or in which the peak changes (no rows: none, the ends only); records: the
+    zone's tension records, a SurfaceRows (rows as the plate-wide ones, solver.fracture).
+    Returns the records."""
+    a1, adot1, eps1, plate_best = ends.a1, ends.adot1, ends.eps1, ends.plate_best
+    A = inside.A
+    rec_up, n_up, rec_lo, n_lo = records.upper, records.n_upper, records.lower, records.n_lower
     basis = model.basis
     reach0 = zw.reach[0]
-    c = contact_extent(delta1, jmax1, basis.dx, model.body.xc)
-    track = (model, t0, h, (reach0, zw.reach[4], c, zw.reach[1]), (yb0, yb1), (A, AD, eps, dz, marks), zw.track)
+    c = contact_extent(ends.delta1, ends.jmax1, basis.dx, model.body.xc)
+    track = ZoneTrack(model, t0, h, Reach(reach0, zw.reach[4], c, zw.reach[1]), ends.yb0, ends.yb1, inside, zw.track)
     omega = model.plate.modes[OMEGA]
     # a step that resolves every mode (as the tension observer's criterion): the Hermite of the
     # ends holds between them; in a longer one the modes oscillate within the step and the
@@ -333,12 +341,12 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     lo, hi = zone_ends(model, zw.reach[0], zw.reach[1])
     if not lo < hi:         # no zone (walls whose margins cover the plate): nothing in it, its values NaN
         zw.reach[2], zw.reach[3], zw.reach[4] = lo, hi, c
-        return rec_up, n_up, rec_lo, n_lo
-    zone = (zw.reach[2] if h > 0.0 else lo, zw.reach[3] if h > 0.0 else hi, lo, hi)
+        return SurfaceRows(rec_up, n_up, rec_lo, n_lo)
+    zone = ZoneMotion(zw.reach[2] if h > 0.0 else lo, zw.reach[3] if h > 0.0 else hi, lo, hi)
     for s in range(2):
         sign = 1.0 - 2.0 * s
         p0, p1 = zw.peaks[s], zw.pair[1]
-        _end_peak(model, sign, a1, adot1, (lo, hi), eps1, p1)
+        _end_peak(model, sign, a1, adot1, Span(lo, hi), eps1, p1)
         fixed_rate = p1[1]                          # (at a fixed place: the next step adds its motion)
         _moving(p0, zone, h, zw.pair[0])
         _moving(p1, zone, h, p1)
@@ -364,15 +372,15 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
                 tracked = True
             chain = zw.chain[:K + 1]
             p1[1] = fixed_rate
-            _zone_samples(model, sign, h, zw.track[:K + 1], (A, AD, eps, dz, marks, zw.dry), (p0, p1), chain)
-            best, tb, xb, edge, speed = _samples_best(t0, h, basis.dx, chain, (best, tb, xb, edge, speed))
+            _zone_samples(model, sign, h, zw.track[:K + 1], inside, zw.dry, p0, p1, chain)
+            best, tb, xb, edge, speed = _samples_best(t0, h, basis.dx, chain, Best(best, tb, xb, edge, speed))
         if h > 0.0:
             if s == 0:
                 rec_up, n_up = _store_chain(t0, h, chain, rec_up, n_up, zw.marks, s)
             else:
                 rec_lo, n_lo = _store_chain(t0, h, chain, rec_lo, n_lo, zw.marks, s)
-        best, tb, xb, edge, speed = _with_plate_best(plate_best[s], t0, h, zone, (best, tb, xb, edge, speed))
+        best, tb, xb, edge, speed = _with_plate_best(plate_best[s], t0, h, zone, Best(best, tb, xb, edge, speed))
         _report(zw, s, diag, best, tb, xb, edge, speed)
         _shift(p0, p1, fixed_rate)
     zw.reach[2], zw.reach[3], zw.reach[4] = lo, hi, c
-    return rec_up, n_up, rec_lo, n_lo
+    return SurfaceRows(rec_up, n_up, rec_lo, n_lo)
