@@ -24,7 +24,8 @@ from solver.model.body import body_extent
 from solver.model.contact import contact_bound, count_contacts, reach_in_step
 from solver.model.layer import layer_forcing, layer_forcing_at
 from solver.model.plate import make_plate, phi_functions
-from solver.observe.contacts import contact_work, observe_contacts
+from solver.observe.contacts import Snapshot, contact_work, observe_contacts
+from solver.observe.record import Rows
 from solver.observe.tension import TENSION_SAMPLES
 from solver.step import State, dense_states
 
@@ -229,9 +230,9 @@ def test_contact_observer_on_the_bounded_nodes_equals_the_observer_on_every_node
             for d0, j0, d1, j1 in ((full0, J, full1, J), (part0, jm0, part1, jm1)):
                 s0, s1 = _state(a0, v0, d0.copy(), yb0), _state(a1, v1, d1.copy(), yb1)
                 work_c = contact_work(J)
-                end0, end1 = (s0.a, s0.adot, s0.delta, s0.yb), (s1.a, s1.adot, s1.delta, s1.yb)
+                end0, end1 = Snapshot(s0.a, s0.adot, s0.delta, s0.yb), Snapshot(s1.a, s1.adot, s1.delta, s1.yb)
                 count, (rec, n), largest = observe_contacts(tab.model, work_c, 0.0, h, end0, j0, end1, j1, contacts,
-                                                            (np.empty((64, 2)), 0))
+                                                            Rows(np.empty((64, 2)), 0))
                 runs.append((count, largest, rec[:n].copy()))
             assert runs[0][0] == runs[1][0] and runs[0][1] == runs[1][1], i
             np.testing.assert_allclose(runs[1][2], runs[0][2], rtol=1e-12, atol=1e-12 * h)
