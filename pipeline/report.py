@@ -67,10 +67,18 @@ def print_table(study, states: dict, stream=None, all_rows: bool = False, only=N
 
 def what_a_case_computes(study) -> str | None:
     """One line: the outputs each case computes ([output] outputs, solver.observe.asked) and
-    when its run ends; None for a study whose cases compute every output."""
+    when its run ends; for a study whose cases compute every output, the outputs an observer
+    makes that it reads ([output] outputs = "read" would compute only those), None where it
+    reads them all or none."""
+    from solver.outputs import OBSERVED          # (the solver's package loads numba: the doors do not)
     out = study.output
     if out.outputs is None:
-        return None
+        read = study.outputs_read()
+        if not read or len(read) >= len(OBSERVED):
+            return None
+        named = ", ".join(read) if len(read) <= 6 else f"{len(read)} of the {len(OBSERVED)}"
+        return (f"each case computes every output; the study reads {named} that observers make "
+                f'([output] outputs = "read" computes only those)')
     text = f"each case computes {', '.join(out.outputs)} (the others are NaN)"
     if out.end == "answered":
         text += f"; its run ends when its crack onsets up to eps_Y = {out.answer_eps_Y:g} are final"

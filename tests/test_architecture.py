@@ -353,17 +353,18 @@ def _heavy_at_import(modules: dict) -> dict:
     """module -> the heavy libraries importing it loads (its packages' __init__ and what they and
     it import at their tops, transitively)."""
     top = {name: _top_imports(name, path, tree, modules) for name, (path, tree) in modules.items()}
-    memo = {}
+    edges = {name: [m for m in [*(".".join(name.split(".")[:i]) for i in range(1, name.count(".") + 1)),
+                                *top[name][0]] if m in top] for name in top}
 
-    def loads(name, seen):
-        if name in memo or name in seen:
-            return memo.get(name, set())
-        seen.add(name)
-        parents = [".".join(name.split(".")[:i]) for i in range(1, name.count(".") + 1)]
-        found = set(top[name][1]).union(*(loads(m, seen) for m in [*parents, *top[name][0]] if m in top))
-        memo[name] = found
-        return found
-    return {name: loads(name, set()) for name in modules}
+    def loads(name):
+        seen, todo = {name}, [name]
+        while todo:
+            for m in edges[todo.pop()]:
+                if m not in seen:
+                    seen.add(m)
+                    todo.append(m)
+        return set().union(*(top[m][1] for m in seen))
+    return {name: loads(name) for name in modules}
 
 
 def _deferred_for_nothing(modules: dict) -> list:

@@ -79,7 +79,7 @@ def test_the_ids_say_what_a_case_holds():
     ((f"outputs = {ONSETS}\n", ""), 'end = "answered" needs \\[output\\] outputs'),
     ((f"outputs = {ONSETS}\n", 'outputs = ["max_force"]\n'), "no crack onset among"),
     ((f"outputs = {ONSETS}\n", 'outputs = ["max_stress"]\n'), "unknown output 'max_stress'"),
-    (("[solver]\n", '[plots]\nkinds = ["diagnostics"]\n[solver]\n'), "'diagnostics' reads outputs beyond"),
+    (("[solver]\n", '[plots]\nkinds = ["diagnostics"]\n[solver]\n'), "'diagnostics' reads max_strain, which is not among"),
 ])
 def test_a_bad_request_is_one_line_before_anything_runs(change, message):
     with pytest.raises(StudyError, match=message):
@@ -111,3 +111,33 @@ def test_the_crack_onset_sensitivity_is_the_full_runs_to_the_last_digit(tmp_path
     assert set(a.data_vars) == set(b.data_vars) and a.data_vars
     for name in a.data_vars:
         assert np.array_equal(a[name].values, b[name].values, equal_nan=True), name
+
+
+def test_outputs_read_computes_what_the_study_reads(tmp_path):
+    """[output] outputs = "read" is the study's own reads (its [analysis] outputs, [search] event,
+    plots' outputs, records): the same cases as the list written out; a plot whose outputs are not
+    computed is one line naming the output; a study that reads nothing observed is one line; the
+    dry run of a study that computes everything says what it reads."""
+    sweep = FULL.replace("[solver]", '[plots]\nkinds = ["crack_onset"]\n[solver]')
+    read = load_study_text(sweep.replace("fields = []\n", 'fields = []\nrecords = false\noutputs = "read"\n'), "r")
+    onsets = ("crack_onset_time", "crack_onset_time_lower", "impact_zone_crack_onset_time",
+              "impact_zone_crack_onset_time_lower")
+    assert read.output.outputs == tuple(sorted(onsets))
+    listed = load_study_text(sweep.replace("fields = []\n", f"fields = []\nrecords = false\noutputs = {list(onsets)!r}\n"
+                                           .replace("'", '"')), "l")
+    assert read.run_ids == listed.run_ids
+    with pytest.raises(StudyError, match="'diagnostics' reads max_strain, which is not among"):
+        load_study_text(ANSWERED.replace("[solver]", '[plots]\nkinds = ["diagnostics"]\n[solver]'), "d")
+    assert load_study_text(ANSWERED.replace("[solver]", '[plots]\nkinds = ["crack_onset"]\n[solver]')
+                           .replace(ONSETS, repr(list(onsets)).replace("'", '"')), "c").plots == ["crack_onset"]
+    nothing = FULL.replace("fields = []\n", 'fields = []\nrecords = false\noutputs = "read"\n').replace(
+        "[solver]", '[plots]\nkinds = ["paper_fig2"]\n[solver]')
+    path = tmp_path / "nothing.toml"
+    path.write_text(nothing)
+    code, out, err = run_cli("run", path, "--out", tmp_path / "nothing", "--dry-run")
+    assert code == 2 and err.strip().count("\n") == 0 and "reads no output an observer computes" in err
+    assert not (tmp_path / "nothing").exists()
+    path.write_text(sweep)
+    code, out, _ = run_cli("run", path, "--out", tmp_path / "sweep", "--dry-run")
+    assert code == 0 and ("the study reads 8 of the 36 that observers make ([output] outputs = \"read\" computes "
+                          "only those)") in out

@@ -85,3 +85,24 @@ def test_a_sweep_over_decades_with_its_zero_is_drawn_on_a_log_axis(tmp_path, mon
     assert [float(t) for t in axes[0].get_xticks()] == [1e-4, 1e-2]
     assert "dashed: tau = 0" in axes[0].figure._suptitle.get_text()        # tau = 0 as a dashed line
     plt.close("all")
+
+
+def test_each_figure_reads_only_the_observed_outputs_its_kind_declares(listed, tmp_path):
+    """A study that computes only some outputs draws the figures whose outputs it holds
+    (pipeline.study.definition.PLOT_READS): each sweep figure draws from a study.nc without the
+    observed outputs its kind does not declare, and every observed output a figure module names
+    is declared by one of the kinds that module draws."""
+    import re
+    from solver.outputs import OBSERVED
+    from pipeline.study.definition import PLOT_READS
+    for kind in ("diagnostics", "crack_onset"):
+        unread = [name for name in OBSERVED if name not in PLOT_READS[kind] and name in listed]
+        paths, _ = sweeps.__dict__[figures.KINDS[kind].draw.split(".")[1]](listed.drop_vars(unread), ["case"],
+                                                                            tmp_path)
+        assert paths and all(p.is_file() for p in paths), kind
+    by_module = {}
+    for kind, entry in figures.KINDS.items():
+        by_module.setdefault(entry.draw.split(".")[0], set()).update(PLOT_READS.get(kind, ()))
+    for module, declared in by_module.items():
+        named = set(re.findall(r'"([a-z_]+)"', (ROOT / "pipeline" / "figures" / f"{module}.py").read_text()))
+        assert sorted(named & set(OBSERVED) - declared) == [], module

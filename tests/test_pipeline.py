@@ -235,12 +235,14 @@ def test_dry_run_says_what_would_run_and_status_what_is_done(regression_run, tmp
     fresh = tmp_path / "never_run"
     code, outp, _ = run_cli("run", "studies/regression_small.toml", "--out", fresh, "--dry-run")
     lines = outp.splitlines()
-    assert code == 0 and lines[1] == "would run (4):" and not fresh.exists()
-    assert lines[2].split() == ["case_id", "V", "hi", "state"]             # no role column: no references
-    assert all(line.split()[-1] == "pending" for line in lines[3:7])
-    assert lines[7].startswith("estimated output: ") and "of worker memory per case" in lines[7]
+    assert code == 0 and lines[2] == "would run (4):" and not fresh.exists()
+    assert lines[1].startswith("each case computes every output; the study reads 17 of the 36 that observers make")
+    assert lines[3].split() == ["case_id", "V", "hi", "state"]             # no role column: no references
+    assert all(line.split()[-1] == "pending" for line in lines[4:8])
+    assert lines[8].startswith("estimated output: ") and "of worker memory per case" in lines[8]
     code, outp, _ = run_cli("status", "regression_small", "--out", regression_run)
-    rows = [line.split() for line in outp.splitlines()[1:-1]]
+    assert outp.splitlines()[-2].startswith("each case computes every output; the study reads 17")
+    rows = [line.split() for line in outp.splitlines()[1:-2]]
     assert code == 0 and outp.splitlines()[-1] == "regression_small: 4 cases: 4 ok"
     assert len(rows) == 4 and all(r[-1] == "ok" for r in rows) and "would run" not in outp
 

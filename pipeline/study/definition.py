@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
+from solver.outputs import OBSERVED, RECORDS
 
 from ..common.errors import StudyError
 from .analysis import Analysis, check_analysis
@@ -40,14 +41,27 @@ from .case import Case, coordinate_times
 from .consistency import body_masses, check_grid_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
 from .design import Design, check_design, design_cases, design_size
 from .identity import grid_case_ids, grid_label, make_case, resolve_sample
-from .search import Search, check_bracket, check_search, search_points
-from .sections import (EPS_Y_AS_PARAMETER, SECTIONS, Output, check_grid, check_output, check_parameters,
-                       check_reference, check_solver)
+from .search import EVENTS, Search, check_bracket, check_search, search_points
+from .sections import (EPS_Y_AS_PARAMETER, READ, SECTIONS, Output, check_answerable, check_grid, check_output,
+                       check_parameters, check_reference, check_solver)
 
 #: the plot kinds a study can ask for ([plots]); pipeline.figures.KINDS draws each, one entry
 #: per name (tests/test_architecture.py holds the two together)
 PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop", "design",
               "sensitivity", "emulator")
+#: the outputs an observer makes (solver.outputs.OBSERVED) that each plot kind reads; the others
+#: read none (sensitivity and emulator draw the [analysis] outputs). tests/test_figures.py draws
+#: each kind from a study.nc that holds no other observed output
+ONSETS = ("crack_onset_time", "crack_onset_time_lower", "impact_zone_crack_onset_time",
+          "impact_zone_crack_onset_time_lower")
+PLOT_READS = {
+    "diagnostics": ("max_strain", "max_strain_lower", "max_strain_x", "max_strain_lower_x", "impact_zone_max_strain",
+                    "impact_zone_max_strain_lower", *ONSETS, "max_contact_intervals", "max_force", "max_compression"),
+    "crack_onset": ONSETS,
+    "extremes": ("max_compression",),
+    "drop": ("max_strain", "max_force", "crack_onset_time"),
+    "design": ("max_strain", "max_force", "crack_onset_time"),
+}
 #: grid keys whose study.nc dimension has another name (the key is also a result's name)
 DIM_NAMES = {"error_estimate": "error_estimate_on"}
 
@@ -166,6 +180,16 @@ class Study:
         return [*self.output.eps_Y, *(self.analysis.eps_Y if self.analysis else ()),
                 *(self.search.eps_Y if self.search else ())]
 
+    def outputs_read(self) -> tuple:
+        """The outputs an observer makes (solver.outputs.OBSERVED) that the study reads: its
+        [analysis] outputs, its [search] event, its plots' (PLOT_READS), and the tension records
+        where [output] records = true. Sorted."""
+        read = set(self.analysis.outputs if self.analysis else ())
+        read |= {EVENTS[self.search.event]} if self.search else set()
+        read |= {name for kind in self.plots for name in PLOT_READS.get(kind, ())}
+        read |= {f"tension_record_{record}" for record in RECORDS} if self.output.records else set()
+        return tuple(sorted(read & OBSERVED))
+
     def all_cases(self) -> list:
         """Every distinct run as a Case (small studies; large ones go through run_ids)."""
         return [self.run(cid) for cid in self.run_ids]
@@ -195,6 +219,8 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
     study = Study(name=name, path=path, text=text, description=description, base=base,
                   grid=grid, case_list=case_list, output=output, solver=solver, plots=plots,
                   reference=reference, design=design, analysis=analysis, search=search)
+    if output.outputs == READ:
+        study.output = output = replace(output, outputs=_read(study))
     masses = body_masses(study)
     study.output = replace(study.output, body=any(math.isfinite(m) for m in masses if isinstance(m, (int, float))))
     if output.end == "answered":
@@ -279,11 +305,21 @@ def _search(data, base, grid, case_list, design, analysis, values, extreme) -> t
     return search, {**base, search.key: search.bracket[0]}
 
 
+def _read(study) -> tuple:
+    """[output] outputs = "read", resolved: what the study reads (Study.outputs_read)."""
+    read = study.outputs_read()
+    if not read:
+        raise StudyError('[output] outputs = "read": the study reads no output an observer computes (its [plots] '
+                         'kinds, [analysis] and [search] read none): list the outputs instead')
+    check_answerable(read, study.output.end)
+    return read
+
+
 def _plots(table, design, analysis, search, output) -> list:
     """[plots] kinds, or the defaults: a design's figures, none for a search (it draws
     search.png itself), the diagnostics and crack onset otherwise. A study that computes only
-    some outputs ([output] outputs) draws only the figures of its analysis (the others read
-    every diagnostic)."""
+    some outputs ([output] outputs) draws a figure only where they hold what it reads
+    (PLOT_READS); by default, the figures of its analysis."""
     if not isinstance(table, dict) or set(table) - {"kinds"}:
         raise StudyError("[plots] takes one key: kinds = [...]")
     plots = table.get("kinds", ["diagnostics", "crack_onset"])
@@ -291,11 +327,14 @@ def _plots(table, design, analysis, search, output) -> list:
         raise StudyError(f"[plots] kinds must be a list from {', '.join(PLOT_KINDS)}")
     if output.outputs is not None:
         drawn = ["sensitivity"] + (["emulator"] if analysis and analysis.method == "pce" else [])
-        beyond = [k for k in plots if k not in drawn] if "kinds" in table else []
-        if beyond:
-            raise StudyError(f"[plots] {beyond[0]!r} reads outputs beyond [output] outputs: drop it, or drop "
-                             f"[output] outputs to compute every output")
-        return plots if "kinds" in table else [k for k in drawn if analysis]
+        if "kinds" not in table:
+            return [k for k in drawn if analysis]
+        for kind in plots if output.outputs != READ else ():
+            missing = [name for name in PLOT_READS.get(kind, ()) if name not in output.outputs]
+            if missing:
+                raise StudyError(f"[plots] {kind!r} reads {missing[0]}, which is not among [output] outputs: add "
+                                 f"it there, drop the plot, or drop [output] outputs to compute every output")
+        return plots
     if "kinds" in table:
         return plots
     if search:

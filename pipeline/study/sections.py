@@ -210,25 +210,37 @@ def check_output(out) -> Output:
                   eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"], outputs=outputs)
 
 
+#: [output] outputs = "read": each case computes what the study reads (Study.outputs_read)
+READ = "read"
+
+
 def _check_outputs(asked, end):
-    """[output] outputs: the names each case computes (sorted), or None (every one); an
-    "answered" end needs them, and a crack onset among them."""
+    """[output] outputs: the names each case computes (sorted), "read" (what the study reads, known
+    once its other sections are: load_study_text), or None (every one); an "answered" end needs
+    them, and a crack onset among them."""
+    if asked == READ:
+        return READ
     if asked is None:
         if end == "answered":
             raise StudyError('[output] end = "answered" needs [output] outputs: the crack onsets the runs answer, '
                              'for example outputs = ["crack_onset_time", "crack_onset_time_lower"]')
         return None
     if not isinstance(asked, list) or not asked or not all(isinstance(o, str) for o in asked):
-        raise StudyError(f"[output] outputs must be a non-empty list of output names, got {asked!r}")
+        raise StudyError(f'[output] outputs must be a non-empty list of output names, or "read", got {asked!r}')
     for name in asked:
         if name not in OUTPUT_NAMES:
             raise StudyError(f"[output] outputs: unknown output {name!r}; known: {', '.join(OUTPUT_NAMES)}")
     if len(set(asked)) != len(asked):
         raise StudyError("[output] outputs: an output is listed twice")
-    if end == "answered" and not set(asked) & set(ONSET_RECORD):
+    check_answerable(asked, end)
+    return tuple(sorted(asked))
+
+
+def check_answerable(outputs, end) -> None:
+    """An "answered" end needs a crack onset among the outputs."""
+    if end == "answered" and not set(outputs) & set(ONSET_RECORD):
         raise StudyError('[output] end = "answered" with no crack onset among [output] outputs: nothing ends a '
                          'run early')
-    return tuple(sorted(asked))
 
 
 def check_eps_Y(spec) -> list:
