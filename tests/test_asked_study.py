@@ -68,8 +68,10 @@ def test_the_ids_say_what_a_case_holds():
     full = load_study_text(FULL, "s").case_ids
     answered = load_study_text(ANSWERED, "s").case_ids
     higher = load_study_text(ANSWERED.replace("8e-5]", "1e-4]"), "s").case_ids
-    stage = load_study_text(ANSWERED.replace('end = "answered"\n', ""), "s").case_ids
+    stage = load_study_text(ANSWERED.replace('end = "answered"\n', 'end = "stage"\n'), "s").case_ids
     assert len({*full, *answered, *higher, *stage}) == 4 * len(full)
+    # crack onsets only and no end given: the answer ends each run, the same cases
+    assert load_study_text(ANSWERED.replace('end = "answered"\n', ""), "s").case_ids == answered
     assert answered == load_study_text(ANSWERED, "s").case_ids == [c.case_id for c in
                                                                    load_study_text(ANSWERED, "s").cases]
 
@@ -122,7 +124,13 @@ def test_outputs_read_computes_what_the_study_reads(tmp_path):
     read = load_study_text(sweep.replace("fields = []\n", 'fields = []\nrecords = false\noutputs = "read"\n'), "r")
     onsets = ("crack_onset_time", "crack_onset_time_lower", "impact_zone_crack_onset_time",
               "impact_zone_crack_onset_time_lower")
-    assert read.output.outputs == tuple(sorted(onsets))
+    assert read.output.outputs == tuple(sorted(onsets)) and read.output.end == "answered"
+    assert read.output.answer_eps_Y == 8e-5               # no end given, crack onsets only: the answer ends a run
+    staged = load_study_text(sweep.replace("fields = []\n", 'fields = []\nrecords = false\noutputs = "read"\n'
+                                                          'end = "stage"\n'), "s")
+    assert staged.output.end == "stage" and set(staged.run_ids).isdisjoint(read.run_ids)
+    assert load_study_text(FULL.replace("fields = []\n", 'fields = []\noutputs = ["crack_onset_time", "max_force"]\n'),
+                           "m").output.end == "stage"             # max force reads the whole stage
     listed = load_study_text(sweep.replace("fields = []\n", f"fields = []\nrecords = false\noutputs = {list(onsets)!r}\n"
                                            .replace("'", '"')), "l")
     assert read.run_ids == listed.run_ids

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
-from solver.outputs import OBSERVED, RECORDS
+from solver.outputs import OBSERVED, ONSET_RECORD, RECORDS
 
 from ..common.errors import StudyError
 from .analysis import Analysis, check_analysis
@@ -221,6 +221,8 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
                   reference=reference, design=design, analysis=analysis, search=search)
     if output.outputs == READ:
         study.output = output = replace(output, outputs=_read(study))
+    if not output.end_given and output.outputs is not None and set(output.outputs) <= set(ONSET_RECORD):
+        study.output = output = replace(output, end="answered")     # the answers: nothing read changes
     masses = body_masses(study)
     study.output = replace(study.output, body=any(math.isfinite(m) for m in masses if isinstance(m, (int, float))))
     if output.end == "answered":

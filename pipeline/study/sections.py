@@ -32,7 +32,8 @@ OUTPUT_KEYS = {"times", "fields", "x_points", "eps_Y", "end", "records", "output
 #: stage); "last_output" stops at the last output time (diagnostics cover 0..that time);
 #: "separation" (a free body in every case) runs until the body leaves the ice, at the latest
 #: to the last output time; "answered" (with [output] outputs that are crack onsets only) ends each
-#: run when its crack onsets up to the study's largest eps_Y are final (solver.observe.asked)
+#: run when its crack onsets up to the study's largest eps_Y are final (solver.observe.asked): the
+#: default where [output] outputs (listed, or "read") are crack onsets only and end is not given
 ENDS = ("stage", "last_output", "separation", "answered")
 
 
@@ -146,7 +147,9 @@ class Output:
     are stored), set by the study from its cases, not by the table; outputs: the outputs each
     case computes (names of solver.outputs.OUTPUT_NAMES, sorted; None: every one, the default), the
     others stored as NaN (solver.observe.asked); answer_eps_Y: with end "answered", the largest
-    eps_Y the study reads (of [output], [analysis] and [search]), set by the study."""
+    eps_Y the study reads (of [output], [analysis] and [search]), set by the study; end_given:
+    whether the table says how far a case runs (without it, a study whose outputs are crack onsets
+    only ends each run at its answer: load_study_text)."""
 
     times: dict
     fields: tuple
@@ -157,6 +160,7 @@ class Output:
     body: bool = False
     outputs: tuple | None = None
     answer_eps_Y: float | None = None
+    end_given: bool = True
 
 
 def check_output(out) -> Output:
@@ -207,7 +211,8 @@ def check_output(out) -> Output:
         raise StudyError(f"[output] records must be true or false, got {result['records']!r}")
     outputs = _check_outputs(out.get("outputs"), result["end"])
     return Output(times=result["times"], fields=tuple(fields), x_points=result["x_points"],
-                  eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"], outputs=outputs)
+                  eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"], outputs=outputs,
+                  end_given="end" in out)
 
 
 #: [output] outputs = "read": each case computes what the study reads (Study.outputs_read)
