@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
+.PHONY: help setup docs study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -83,6 +83,9 @@ layout-slots: setup  ## rewrite solver/layout.py's D_*, R_*, S_* slots from the 
 
 bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 25 cases (15 at the paper's rule, 8 Gauss, a floe under each), settings pinned, every output array
 	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)
+
+bench-integrator: setup  ## the time integrators' error against wall time on seven cases against the continuous-x model (issue 56's measure, about 10 min) -> results/bench/time_integrator.{md,csv}
+	$(PY) benchmarks/time_integrator.py
 
 bench-answered: setup  ## a crack-onset run (end = "answered") beside the full run, five cases at N = 60 -> results/bench/answered.md
 	$(PY) benchmarks/answered.py

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
-from solver.outputs import OBSERVED, ONSET_RECORD, RECORDS
+from solver.outputs import CRACK_ONSET_TIMES, OBSERVED, ONSET_RECORD, RECORDS
 
 from ..common.errors import StudyError
 from .analysis import Analysis, check_analysis
@@ -50,14 +50,13 @@ from .sections import (EPS_Y_AS_PARAMETER, READ, SECTIONS, Output, check_answera
 PLOT_KINDS = ("diagnostics", "crack_onset", "paper_fig2", "work_precision", "extremes", "drop", "design",
               "sensitivity", "emulator")
 #: the outputs an observer makes (solver.outputs.OBSERVED) that each plot kind reads; the others
-#: read none (sensitivity and emulator draw the [analysis] outputs). tests/test_figures.py draws
-#: each kind from a study.nc that holds no other observed output
-ONSETS = ("crack_onset_time", "crack_onset_time_lower", "impact_zone_crack_onset_time",
-          "impact_zone_crack_onset_time_lower")
+#: read none (sensitivity and emulator draw the [analysis] outputs). tests/test_frictions.py draws
+#: the sweep figures from a study.nc that holds no other observed output
 PLOT_READS = {
     "diagnostics": ("max_strain", "max_strain_lower", "max_strain_x", "max_strain_lower_x", "impact_zone_max_strain",
-                    "impact_zone_max_strain_lower", *ONSETS, "max_contact_intervals", "max_force", "max_compression"),
-    "crack_onset": ONSETS,
+                    "impact_zone_max_strain_lower", *CRACK_ONSET_TIMES, "max_contact_intervals", "max_force",
+                    "max_compression"),
+    "crack_onset": CRACK_ONSET_TIMES,
     "extremes": ("max_compression",),
     "drop": ("max_strain", "max_force", "crack_onset_time"),
     "design": ("max_strain", "max_force", "crack_onset_time"),
