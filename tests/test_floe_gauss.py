@@ -118,7 +118,7 @@ def test_the_error_estimate_sees_a_floes_time_error():
 
 @pytest.mark.parametrize("L, changes, bounds", [
     (6.0, dict(Nmod=20), (1e-7, 1e-7, 1e-7, 1e-7)),
-    (2.0, dict(Nmod=16, V=2.0), (5e-7, 2e-7, 5e-7, 2e-7))])
+    pytest.param(2.0, dict(Nmod=16, V=2.0), (5e-7, 2e-7, 5e-7, 2e-7), marks=pytest.mark.slow)])
 def test_maxima_on_a_floe_agree_with_dop853(L, changes, bounds):
     """The plate-wide and impact-zone maxima of both surfaces, located on the dense output
     (solver.observe.dense_maxima), etd34 at 1e-10 against DOP853 at 1e-12, 10 ms. Measured:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..common.errors import StudyError
-from ..common.interrupts import check
+from ..common import interrupts
 
 #: --cluster NAME: dask-jobqueue's cluster class, the command that submits a job, the one that
 #: lists the jobs (it must answer before a run starts)
@@ -294,11 +294,10 @@ def wait_for_a_worker(client, cluster, kind: str, directory: Path) -> None:
     """Until the first worker joins: the jobs may wait in the queue for as long as the site
     makes them (said once); if every job has ended with no worker joined (a job script that
     fails on the compute node), StudyError names the log to read."""
-
     said = False
     started = listed_at = time.monotonic()
     while not client.scheduler_info()["workers"]:
-        check()
+        interrupts.check()
         if not said and time.monotonic() - started > 5 * POLL:
             print(f"waiting for the worker jobs to start ({SYSTEMS[kind][2][0]} shows them; their logs are in "
                   f"{directory})", file=sys.stderr, flush=True)
