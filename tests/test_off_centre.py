@@ -151,6 +151,7 @@ def test_energy_identity_off_centre_falls_with_the_quadrature():
     assert -2.4 < slope < -1.6
 
 
+@pytest.mark.slow          # (9 s; the default suite holds off-centre runs to their mirror images)
 def test_off_centre_agrees_with_dop853():
     p = Parameters(Nmod=16, x0=1.5)
     a, _ = against_dop853(p, 2.5 * p.time_scale)
