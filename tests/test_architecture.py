@@ -394,6 +394,26 @@ def test_an_import_waits_inside_a_function_only_to_spare_a_heavy_library():
     assert _deferred_for_nothing(fake) == ["p.light.f: from . import other"]
 
 
+def _shadowed(tree) -> list:
+    """The names a module imports at its top and defines again there (a def, class or assignment)."""
+    imported = {a.asname or a.name.split(".")[0] for node in tree.body if isinstance(node, (ast.Import, ast.ImportFrom))
+                for a in node.names}
+    defined = [node.name for node in tree.body if isinstance(node, (ast.FunctionDef, ast.ClassDef))]
+    defined += [t.id for node in tree.body if isinstance(node, ast.Assign) for t in node.targets
+                if isinstance(t, ast.Name)]
+    return sorted(set(defined) & imported)
+
+
+def test_no_module_defines_a_name_it_imports():
+    """A name imported at a module's top is not defined there again: the batch system's own
+    check(kind, directory) shadowed the interrupts' check() once its import moved to the top,
+    and only the cluster tests saw the TypeError."""
+    found = [f"{name}: {', '.join(names)}" for name, (_, tree) in {**_modules("solver"), **_modules("pipeline")}.items()
+             if (names := _shadowed(tree))]
+    assert found == []
+    assert _shadowed(ast.parse("from .a import check, x\nimport numpy as np\ndef check(kind): pass\nnp = 1")) == \
+        ["check", "np"]
+
 def test_the_doors_import_no_heavy_library():
     """`import pipeline` and the command line's modules import neither numba nor xarray, dask,
     matplotlib or scipy: a bad argument or --help is answered at once (an import moved to a
