@@ -14,7 +14,7 @@ def ledger_states(study, out_dir: Path, ledger=None) -> dict:
     """case_id -> 'ok' | failed status | 'pending', from the study's ledger alone (no result
     file is opened)."""
     ledger = ledger if ledger is not None else Ledger.load(out_dir)
-    recorded = ledger.states()
+    recorded = ledger.states(study.wider_ids)
     return {cid: recorded.get(cid, "pending") for cid in study.run_ids}
 
 

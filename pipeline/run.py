@@ -22,7 +22,7 @@ from .compute import batch_system
 from .compute.session import jobs_directory, session_for
 from .figures import KINDS, make_plots
 from .report import case_label, ledger_states, print_table, study_size, what_a_case_computes
-from .store.ledger import BATCHES, LEDGER, inputs_fingerprint, is_up_to_date, reconcile, set_aside, sidecar
+from .store.ledger import BATCHES, LEDGER, Ledger, inputs_fingerprint, is_up_to_date, reconcile, set_aside, sidecar
 from .store.lock import StudyLock
 
 
@@ -153,12 +153,13 @@ RESULTS_MARKERS = {"ledger.jsonl", "batches", ".lock"}
 
 def _dry_run(study, out_dir: Path, all_rows: bool, rerun_failed: bool) -> int:
     """What a run would do: the cases it would compute, what is done, and the output size."""
-    states = ledger_states(study, out_dir)
+    ledger = Ledger.load(out_dir)
+    states = ledger_states(study, out_dir, ledger)
     items, _ = _todo(study, states, rerun_failed)
     todo = [cid for cid, _ in items]
     from .common.tables import FAILED
     failed = sum(1 for cid in study.run_ids if states[cid] in FAILED) if not rerun_failed else 0
-    print(f"{study.name}: {study_size(study)}, {len(todo)} to run, {len(study.run_ids) - len(todo)} already done "
+    print(f"{study.name}: {study_size(study)}, {len(todo)} to run, {_done(study, ledger, states, len(todo))} "
           f"-> {out_dir}")
     computes = what_a_case_computes(study)
     if computes:
@@ -263,6 +264,18 @@ def _workers_for(requested: int, runs: int, batches: Path) -> int:
     return max(1, min(requested, runs + earlier))
 
 
+def _done(study, ledger, states: dict, todo: int) -> str:
+    """'N already done', and how many of them a stored run that computed everything serves
+    (Study.wider_ids)."""
+    text = f"{len(study.run_ids) - todo} already done"
+    if study.wider_ids:
+        own = ledger.index()
+        served = sum(1 for cid in study.wider_ids if cid not in own and states.get(cid, "pending") != "pending")
+        if served:
+            text += f" ({served} of them by stored runs that computed every output)"
+    return text
+
+
 def _todo(study, states: dict, rerun_failed: bool) -> tuple:
     """The runs to compute as (items [case_id, position or -1], signatures)."""
     from .common.tables import FAILED
@@ -296,7 +309,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
               f"(b_mean/V: L^2/(6RV) for the paper's parabola); those times are not integrated and stay NaN",
               file=sys.stderr)
     skipped = len(study.run_ids) - len(items)
-    print(f"{study.name}: {study_size(study)}, {len(items)} to run, {skipped} already done "
+    print(f"{study.name}: {study_size(study)}, {len(items)} to run, {_done(study, ledger, states, len(items))} "
           f"-> {out_dir}", file=sys.stderr)
     if items and study.n_cases > 1000 and "error_estimate" not in study.solver and "error_estimate" not in study.grid:
         print("note: every case also runs the error estimate's companion (0.79x the integration, measured); "
@@ -366,7 +379,7 @@ def _run_locked(options, study, out_dir: Path, session=None) -> int:
 def _combine(options, study, out_dir: Path, ledger, states: dict, session, computed: bool, writer=None):
     """Write study.nc if its inputs changed; True if written, False if up to date, None if a
     damaged batch file was found (set aside and dropped from the ledger)."""
-    index = ledger.index()
+    index = ledger.index(study.wider_ids)
     fingerprint = inputs_fingerprint(study, index)
     path = out_dir / "study.nc"
     if not computed and is_up_to_date(out_dir, fingerprint):
@@ -463,7 +476,7 @@ def _plots(options, study, out_dir: Path, fresh: bool) -> None:
 def _summary(study, ledger, states: dict, computed: set) -> None:
     """The cases that did not end ok: listed (30 at most) when this run computed them, one
     line when they are old news (status lists them)."""
-    index = ledger.index()
+    index = ledger.index(study.wider_ids)
     from .common.tables import COMPLETE
     not_ok = [cid for cid in study.run_ids if states[cid] not in COMPLETE]
     if not not_ok:

@@ -25,8 +25,8 @@ from .loop import integrate
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import plan as plan_outputs
-from .outputs import (DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, OBSERVED, ONSET_RECORD, POSITION_SLOTS, RECORDS,
-                      SERIES)
+from .outputs import (DIAGNOSTIC_INFO, FIELD_INFO, FIELDS, OBSERVED, POSITION_SLOTS, RECORDS, SERIES,
+                      records_kept)
 from .fracture import compile_crack_onset, crack_onset, thin_record
 from .parameters import Parameters, ParameterError
 from .settings import Settings, check_combination
@@ -248,9 +248,8 @@ def _only_asked(asked, diagnostics, records, contact_record):
     for name in OBSERVED - asked:
         if name in diagnostics:
             diagnostics[name] = math.nan
-    onsets = {ONSET_RECORD[name] for name in asked if name in ONSET_RECORD}
-    records = {name: rec if name in onsets or f"tension_record_{name}" in asked else rec[:0]
-               for name, rec in records.items()}
+    kept = records_kept(asked)
+    records = {name: rec if name in kept else rec[:0] for name, rec in records.items()}
     return records, contact_record if "contact_record" in asked else contact_record[:0]
 
 

@@ -206,6 +206,17 @@ OBSERVED_BY = {
 OBSERVED = frozenset(name for names in OBSERVED_BY.values() for name in names)
 #: the record whose crossings answer each crack-onset output (time and place)
 ONSET_RECORD = {name: record for record in RECORDS for name in onset_names(record)}
+
+
+def records_kept(asked) -> frozenset:
+    """The tension records (of RECORDS) a run asked for ``asked`` (names of OUTPUT_NAMES; None:
+    every one) reports: those asked by name, and those whose crack onsets are asked."""
+    if asked is None:
+        return frozenset(RECORDS)
+    return frozenset(record for record in RECORDS if f"tension_record_{record}" in asked
+                     or any(ONSET_RECORD[name] == record for name in asked if name in ONSET_RECORD))
+
+
 #: every output a run can be asked for by name (the fields have solve's own argument)
 OUTPUT_NAMES = (*DIAGNOSTIC_INFO, *(f"tension_record_{r}" for r in RECORDS), "contact_record", *ONSET_RECORD,
                 *(row.name for row in SERIES if row.name))

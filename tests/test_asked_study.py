@@ -149,3 +149,31 @@ def test_outputs_read_computes_what_the_study_reads(tmp_path):
     code, out, _ = run_cli("run", path, "--out", tmp_path / "sweep", "--dry-run")
     assert code == 0 and ("the study reads 8 of the 36 that observers make ([output] outputs = \"read\" computes "
                           "only those)") in out
+
+
+def test_a_narrowed_study_reuses_the_runs_that_computed_everything(tmp_path):
+    """A study whose [output] narrows to crack onsets, run where the full study's runs are
+    stored, computes nothing: each case is served by its full run, and study.nc holds what the
+    narrowed study computed afresh holds, bit for bit, for every output it computes; what it
+    does not compute is NaN there too, though the full runs have it (their records included).
+    Widened again past what is stored (no run computed everything), it computes every case."""
+    computed, _ = _run(tmp_path, "fresh", ANSWERED.replace("eps_Y = [3e-5", "records = true\neps_Y = [3e-5"))
+    _run(tmp_path, "s", FULL)
+    (tmp_path / "s.toml").write_text(ANSWERED.replace("eps_Y = [3e-5", "records = true\neps_Y = [3e-5"))
+    code, out, err = run_cli("run", tmp_path / "s.toml", "--out", tmp_path / "s", "--no-plots", "--workers", "1")
+    assert code == 0, err
+    assert "0 to run, 4 already done (4 of them by stored runs that computed every output)" in err
+    served = xr.load_dataset(tmp_path / "s" / "study.nc")
+    for name in ("crack_onset_time", "crack_onset_x", "crack_onset_time_lower", "crack_onset_x_lower"):
+        assert np.array_equal(served[name].values, computed[name].values, equal_nan=True), name
+        assert np.all(np.isfinite(served[name].values)), name
+    for name in ("max_strain", "max_force", "impact_zone_crack_onset_time", "max_contact_intervals"):
+        assert np.all(np.isnan(served[name].values)) and np.all(np.isnan(computed[name].values)), name
+    assert np.array_equal(served["tension_record_count"].values[..., 2:], computed["tension_record_count"].values[..., 2:])
+    assert not served["tension_record_count"].values[..., 2:].any()         # the zone's records: not asked
+    assert served.sizes["contact_change"] == computed.sizes["contact_change"] == 0
+    assert np.all(served["time_reached"].values > 2 * computed["time_reached"].values)   # the full runs' stage
+    # what only the answered runs hold cannot serve a study that reads more
+    (tmp_path / "fresh.toml").write_text(FULL)
+    code, out, err = run_cli("run", tmp_path / "fresh.toml", "--out", tmp_path / "fresh", "--dry-run")
+    assert code == 0 and "4 to run" in out + err, out + err

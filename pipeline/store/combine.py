@@ -413,7 +413,7 @@ def stream_spec(study: Study):
     come from other batches)."""
     if study.references:
         return None
-    return [study.output.eps_Y, [v[0] for v in per_case_variables(study)], study.output.records]
+    return [study.output.eps_Y, [v[0] for v in per_case_variables(study)], study.output.records, study.output.outputs]
 
 
 def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=None,
@@ -437,7 +437,8 @@ def write_study(study: Study, out_dir: Path, index: dict, states: dict, mapper=N
             groups[file][1] = [f for f, u in zip(groups[file][1], unseen) if u]
             groups[file][2] = [r for r, u in zip(groups[file][2], unseen) if u]
     tasks = [(file, (str(out_dir / BATCHES / file), sha, rows, study.output.eps_Y, names,
-                     study.output.records, refs)) for file, (sha, flat, rows, refs) in groups.items()]
+                     study.output.records, refs, study.output.outputs))
+             for file, (sha, flat, rows, refs) in groups.items()]
     mapper = mapper or _serial
     damaged = set()
     try:

@@ -93,17 +93,25 @@ class Ledger:
                 ledger.entries.append(entry)
         return ledger
 
-    def index(self) -> dict:
-        """case_id -> (entry, position of the case in its batch); the last entry wins."""
+    def index(self, wider: dict | None = None) -> dict:
+        """case_id -> (entry, position of the case in its batch); the last entry wins. wider
+        (Study.wider_ids: case id -> the id of the run that computes everything, at least as
+        far): a case the ledger does not hold is served by the complete result of its wider run."""
         out = {}
         for entry in self.entries:
             for position, row in enumerate(entry["cases"]):
                 out[row[0]] = (entry, position)
+        if not wider:
+            return out
+        from ..common.tables import COMPLETE      # (loads the solver, hence numba: status and the doors do not)
+        for cid, wide in wider.items():
+            if cid not in out and wide in out and out[wide][0]["cases"][out[wide][1]][1] in COMPLETE:
+                out[cid] = out[wide]
         return out
 
-    def states(self) -> dict:
-        """case_id -> status of every case the ledger records."""
-        return {cid: entry["cases"][pos][1] for cid, (entry, pos) in self.index().items()}
+    def states(self, wider: dict | None = None) -> dict:
+        """case_id -> status of every case the ledger records (or serves: index)."""
+        return {cid: entry["cases"][pos][1] for cid, (entry, pos) in self.index(wider).items()}
 
     def append(self, entry: dict) -> None:
         """Add a batch's line; on disk (fsynced) before the call returns. A write that fails

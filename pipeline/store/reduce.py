@@ -10,6 +10,8 @@ import numpy as np
 
 from .casefile import DamagedFile, read_batch_arrays, tension_records
 from .fracture import CRACK_INFO, onset_from_records
+from solver.outputs import OBSERVED, records_kept
+
 from ..common.tables import CONTACT_RECORD_INFO, RECORD_NAMES, TENSION_RECORD_INFO
 
 ERROR_INFO = {
@@ -50,39 +52,60 @@ def _for_errors(ds: dict, position) -> dict:
             "records": tension_records(ds, (position,))}
 
 
-def reduce_arrays(ds: dict, positions: np.ndarray, eps_Y: list, names: list, records: bool) -> dict:
+def computes(outputs, name: str) -> bool:
+    """Whether a study whose [output] outputs are ``outputs`` (None: every one) computes ``name``."""
+    return outputs is None or name not in OBSERVED or name in outputs
+
+
+def reduce_arrays(ds: dict, positions: np.ndarray, eps_Y: list, names: list, records: bool,
+                  outputs=None) -> dict:
     """What study.nc stores for the cases at ``positions`` of a batch (its variables as
     arrays, from the file or still in the worker's memory): the per-case variables, crack
-    onset along eps_Y from the tension records, and (records) the ragged records."""
+    onset along eps_Y from the tension records, and (records) the ragged records. ``outputs``:
+    the study's [output] outputs (None: every one); an observed output not among them is left
+    out (NaN in study.nc) and so is a record not among them (no rows), also where the stored
+    run computed it (a run that computed everything, serving a study that asks for less)."""
     out = {}
     for name in names:
-        if name in ds and name not in ("tension_record_count", "contact_change_entries"):
+        if name in ds and name not in ("tension_record_count", "contact_change_entries") and computes(outputs, name):
             out[name] = ds[name][positions]
     crack = {name: [] for name in CRACK_INFO}
     for p in positions:
         for name, values in onset_from_records(tension_records(ds, (int(p),)), eps_Y).items():
             crack[name].append(values)
     for name in CRACK_INFO:
-        out[name] = np.array(crack[name]).reshape(len(positions), len(eps_Y))
+        if computes(outputs, name):
+            out[name] = np.array(crack[name]).reshape(len(positions), len(eps_Y))
     if records:
-        counts = ds["tension_record_count"]
-        starts = (np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
-        pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(RECORD_NAMES))]
-        out["tension_record_count"] = counts[positions]
-        for name in TENSION_RECORD_INFO:
-            col = ds[name]
-            out[name] = np.concatenate([col[a:a + n] for a, n in pieces] or [np.empty(0)])
-        entries = ds["contact_change_entries"]
-        cstart = np.cumsum(entries) - entries
-        out["contact_change_entries"] = entries[positions]
-        for name in CONTACT_RECORD_INFO:
-            col = ds[name]
-            out[name] = np.concatenate([col[cstart[p]:cstart[p] + entries[p]] for p in positions] or [np.empty(0)])
+        out.update(_records(ds, positions, outputs))
+    return out
+
+
+def _records(ds: dict, positions: np.ndarray, outputs) -> dict:
+    """The ragged records of the cases at ``positions``: the tension records' rows and the
+    contact record's entries, each a record the study computes (``outputs``)."""
+    out = {}
+    counts = ds["tension_record_count"]
+    starts = (np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
+    kept = np.array([record in records_kept(outputs) for record in RECORD_NAMES])
+    pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(RECORD_NAMES)) if kept[s]]
+    out["tension_record_count"] = np.where(kept, counts[positions], 0)
+    for name in TENSION_RECORD_INFO:
+        col = ds[name]
+        out[name] = np.concatenate([col[a:a + n] for a, n in pieces] or [np.empty(0)])
+    entries = ds["contact_change_entries"]
+    cstart = np.cumsum(entries) - entries
+    contacts = computes(outputs, "contact_record")
+    out["contact_change_entries"] = entries[positions] if contacts else np.zeros(len(positions), dtype=entries.dtype)
+    for name in CONTACT_RECORD_INFO:
+        col = ds[name]
+        out[name] = np.concatenate([col[cstart[p]:cstart[p] + entries[p]] for p in positions if contacts]
+                                   or [np.empty(0)])
     return out
 
 
 def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, records: bool,
-                 refs: dict) -> dict:
+                 refs: dict, outputs=None) -> dict:
     """Read one batch file (checked against its checksum) and return what study.nc stores for
     the cases ``rows`` ([position in the batch, reference key or None]); ``refs``: reference
     key -> [path, sha256, position]. A damaged file returns {"damaged": [file names], ...}."""
@@ -93,7 +116,7 @@ def reduce_batch(path: str, sha256: str, rows: list, eps_Y: list, names: list, r
     except DamagedFile as err:
         return {"damaged": [Path(path).name], "message": str(err)}
     positions = np.array([r[0] for r in rows], dtype=np.int64)
-    out = reduce_arrays(ds, positions, eps_Y, names, records)
+    out = reduce_arrays(ds, positions, eps_Y, names, records, outputs)
     if any(r[1] is not None for r in rows):
         cache, damaged = {}, []
         errors = {name: np.full(len(rows), np.nan) for name in ERROR_INFO}

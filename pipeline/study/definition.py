@@ -40,7 +40,7 @@ from .analysis import Analysis, check_analysis
 from .case import Case, coordinate_times
 from .consistency import body_masses, check_grid_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
 from .design import Design, check_design, design_cases, design_size
-from .identity import grid_case_ids, grid_label, make_case, resolve_sample
+from .identity import case_id, grid_case_ids, grid_label, make_case, resolve_sample, wider_output
 from .search import EVENTS, Search, check_bracket, check_search, search_points
 from .sections import (EPS_Y_AS_PARAMETER, READ, SECTIONS, Output, check_answerable, check_grid, check_output,
                        check_parameters, check_reference, check_solver)
@@ -145,6 +145,21 @@ class Study:
         for ref in self.references.values():
             seen.setdefault(ref.case_id, None)
         return list(seen)
+
+    @cached_property
+    def wider_ids(self) -> dict:
+        """case id -> the id of the run that computes every output over the same times and at
+        least as far (identity.wider_output), for a study whose [output] computes less: a stored
+        complete result under that id serves the case, its values the study reads bit for bit
+        (pipeline.store.ledger.Ledger.index). Empty where the study computes everything."""
+        wide = wider_output(self.output)
+        if wide is None:
+            return {}
+        if self._listed:
+            wider = [case_id(c.parameters, c.settings, wide) for c in self._listed]
+        else:
+            wider = grid_case_ids(replace(self, output=wide))
+        return dict(zip(self.case_ids, wider))
 
     @cached_property
     def _extra_runs(self) -> dict:

@@ -12,6 +12,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+from dataclasses import replace
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
 from solver.parameters import PAPER_DEFAULTS
@@ -116,6 +117,18 @@ def case_id(parameters: Parameters, settings: Settings, output: dict) -> str:
     the same data)."""
     text = _payload_text(id_parameters(parameters.as_dict()), used_settings(settings), output)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def wider_output(output):
+    """The [output] of the run that computes everything over the same times and fields, and at
+    least as far, as a run asked for ``output``: every output (outputs None), to the stage's end
+    where ``output`` ends at its answer. Its stored result holds every value a run asked for
+    ``output`` reads, bit for bit (solver.observe.asked: an observer switched off changes no
+    step), so a study that narrowed its [output] reuses it (``Study.wider_ids``). None where
+    ``output`` asks for everything already."""
+    if output.outputs is None and output.end != "answered":
+        return None
+    return replace(output, outputs=None, answer_eps_Y=None, end="stage" if output.end == "answered" else output.end)
 
 
 def make_case(index, values: dict, output: dict, label: str) -> Case:
