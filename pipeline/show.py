@@ -134,16 +134,17 @@ def _same(actual, text: str) -> bool:
     return bool(np.isclose(float(actual), value, rtol=1e-9, atol=0.0))
 
 
-def stored_case(out_dir: Path, case_id: str):
+def stored_case(out_dir: Path, case_id: str, wider: dict | None = None):
     """The case's slice of its batch file (xarray, loaded; checksum verified), or None when
-    the ledger has no entry for it."""
+    the ledger has no entry for it; wider (Study.wider_ids): a case served by the stored run
+    that computed everything gives that run's slice."""
     from .store.casefile import read_batch
-    index = Ledger.load(out_dir).index()
+    index = Ledger.load(out_dir).index(wider)
     if case_id not in index:
         return None
-    entry, _ = index[case_id]
+    entry, position = index[case_id]
     ds = read_batch(Path(out_dir) / BATCHES / entry["file"], entry.get("sha256"))
-    position = list(ds["case"].values).index(case_id)
+    position = list(ds["case"].values).index(entry["cases"][position][0])
     return ds, position
 
 
@@ -180,7 +181,7 @@ def show(study, out_dir: Path, case_id: str, x: float | None = None, points: int
 
     case = study.run(case_id)
     p = case.parameters
-    stored = stored_case(out_dir, case_id)
+    stored = stored_case(out_dir, case_id, study.wider_ids)
     lines = [f"case {case_id} of {study.name}: " + ", ".join(
         f"{k}={case.value(k):g}" if not isinstance(case.value(k), str) else f"{k}={case.value(k)}"
         for k in study.varying_keys)]

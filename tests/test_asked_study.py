@@ -173,6 +173,9 @@ def test_a_narrowed_study_reuses_the_runs_that_computed_everything(tmp_path):
     assert not served["tension_record_count"].values[..., 2:].any()         # the zone's records: not asked
     assert served.sizes["contact_change"] == computed.sizes["contact_change"] == 0
     assert np.all(served["time_reached"].values > 2 * computed["time_reached"].values)   # the full runs' stage
+    code, out, err = run_cli("show", tmp_path / "s.toml", "--out", tmp_path / "s", "--case", "V=5,hi=0.5",
+                             "--figure", tmp_path / "served.png")
+    assert code == 0 and "status: ok" in out.splitlines(), err      # the stored run that served it
     # what only the answered runs hold cannot serve a study that reads more
     (tmp_path / "fresh.toml").write_text(FULL)
     code, out, err = run_cli("run", tmp_path / "fresh.toml", "--out", tmp_path / "fresh", "--dry-run")
