@@ -1,6 +1,8 @@
 """A study that computes only what it reads ([output] outputs, end = "answered"): its crack onsets
 are the full study's bit for bit, its cases' ids say what they hold, and what it did not compute
 is labelled, never passed off as a result."""
+import shutil
+
 import numpy as np
 import pytest
 import xarray as xr
@@ -36,12 +38,18 @@ def _run(tmp_path, name, text):
     return xr.load_dataset(tmp_path / name / "study.nc"), out
 
 
-def test_an_answered_study_gives_the_full_studys_crack_onsets_bit_for_bit(tmp_path):
+@pytest.fixture(scope="module")
+def full_and_answered(tmp_path_factory):
+    """The directory holding FULL and ANSWERED run to completion, and their study.nc."""
+    tmp_path = tmp_path_factory.mktemp("asked")
+    return tmp_path, _run(tmp_path, "full", FULL)[0], _run(tmp_path, "answered", ANSWERED)[0]
+
+
+def test_an_answered_study_gives_the_full_studys_crack_onsets_bit_for_bit(full_and_answered):
     """The crack onsets of study.nc (both surfaces, every eps_Y) are the full study's to the
     bit; each run ended earlier; what it did not compute is NaN and labelled; a crack onset
     beyond the eps_Y it answered is refused, one line; the dry run says what a case computes."""
-    full, _ = _run(tmp_path, "full", FULL)
-    answered, _ = _run(tmp_path, "answered", ANSWERED)
+    tmp_path, full, answered = full_and_answered
     for name in ("crack_onset_time", "crack_onset_x", "crack_onset_time_lower", "crack_onset_x_lower"):
         assert np.array_equal(full[name].values, answered[name].values, equal_nan=True), name
         assert np.all(np.isfinite(answered[name].values)), name
@@ -151,15 +159,15 @@ def test_outputs_read_computes_what_the_study_reads(tmp_path):
                           "only those)") in out
 
 
-def test_a_narrowed_study_reuses_the_runs_that_computed_everything(tmp_path):
+def test_a_narrowed_study_reuses_the_runs_that_computed_everything(full_and_answered, tmp_path):
     """A study whose [output] narrows to crack onsets, run where the full study's runs are
     stored, computes nothing: each case is served by its full run, and study.nc holds what the
     narrowed study computed afresh holds, bit for bit, for every output it computes; what it
     does not compute is NaN there too, though the full runs have it (their records included).
     Widened again past what is stored (no run computed everything), it computes every case."""
-    computed, _ = _run(tmp_path, "fresh", ANSWERED.replace("eps_Y = [3e-5", "records = true\neps_Y = [3e-5"))
-    _run(tmp_path, "s", FULL)
-    (tmp_path / "s.toml").write_text(ANSWERED.replace("eps_Y = [3e-5", "records = true\neps_Y = [3e-5"))
+    stored, _, computed = full_and_answered
+    shutil.copytree(stored / "full", tmp_path / "s")
+    (tmp_path / "s.toml").write_text(ANSWERED)
     code, out, err = run_cli("run", tmp_path / "s.toml", "--out", tmp_path / "s", "--no-plots", "--workers", "1")
     assert code == 0, err
     assert "0 to run, 4 already done (4 of them by stored runs that computed every output)" in err
@@ -177,6 +185,7 @@ def test_a_narrowed_study_reuses_the_runs_that_computed_everything(tmp_path):
                              "--figure", tmp_path / "served.png")
     assert code == 0 and "status: ok" in out.splitlines(), err      # the stored run that served it
     # what only the answered runs hold cannot serve a study that reads more
+    shutil.copytree(stored / "answered", tmp_path / "fresh")
     (tmp_path / "fresh.toml").write_text(FULL)
     code, out, err = run_cli("run", tmp_path / "fresh.toml", "--out", tmp_path / "fresh", "--dry-run")
     assert code == 0 and "4 to run" in out + err, out + err
