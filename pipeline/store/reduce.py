@@ -8,10 +8,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .casefile import DamagedFile, read_batch_arrays, tension_records
-from .fracture import CRACK_INFO, onset_from_records
 from solver.outputs import OBSERVED, records_kept
 
+from .casefile import DamagedFile, read_batch_arrays, tension_records
+from .fracture import CRACK_INFO, onset_from_records
 from ..common.tables import CONTACT_RECORD_INFO, RECORD_NAMES, TENSION_RECORD_INFO
 
 ERROR_INFO = {
