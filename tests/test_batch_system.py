@@ -398,10 +398,13 @@ def _assert_no_listener_answers_a_stranger(runner: int):
 
 def _assert_a_client_without_credentials_is_refused(out: Path):
     """A dask client that reaches the run's scheduler without its credentials gets nowhere:
-    in plain TCP, or in TLS with credentials of its own (a stranger's fresh CA)."""
-    log = next((out / "jobs").glob("*.err")).read_text()
-    address = next(word for line in log.splitlines() if "Registered to:" in line
-                   for word in line.split() if word.startswith("tls://"))
+    in plain TCP, or in TLS with credentials of its own (a stranger's fresh CA). The address is
+    read from the log of a job whose worker registered (a job cancelled before its worker did,
+    and the order in which the logs are listed, leave others without it)."""
+    logs = [path.read_text() for path in sorted((out / "jobs").glob("*.err"))]
+    address = next((word for log in logs for line in log.splitlines() if "Registered to:" in line
+                    for word in line.split() if word.startswith("tls://")), None)
+    assert address is not None, f"no job log says where its worker registered: {len(logs)} logs"
     code = ("import sys\nfrom distributed import Client\nfrom distributed.security import Security\n"
             f"for address, security in (({address.replace('tls://', 'tcp://')!r}, None), "
             f"({address!r}, Security.temporary())):\n"
