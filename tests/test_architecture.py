@@ -414,6 +414,7 @@ def test_no_module_defines_a_name_it_imports():
     assert _shadowed(ast.parse("from .a import check, x\nimport numpy as np\ndef check(kind): pass\nnp = 1")) == \
         ["check", "np"]
 
+
 def test_the_doors_import_no_heavy_library():
     """`import pipeline` and the command line's modules import neither numba nor xarray, dask,
     matplotlib or scipy: a bad argument or --help is answered at once (an import moved to a

@@ -251,7 +251,8 @@ def test_spawned_workers_ignore_a_ctrl_c_during_the_cluster_start(monkeypatch, c
             # or holds it blocked (inherited from the runner's start; it is dropped, ignored, when
             # unblocked: in a full suite it stayed so, and the wait ran to its 30 s)
             deadline = time.monotonic() + 30
-            while any(_pending(pid) and not _pending(pid, "SigBlk") for pid in workers) and time.monotonic() < deadline:
+            while any(_sigint(pid, "ShdPnd", "SigPnd") and not _sigint(pid, "SigBlk") for pid in workers) \
+                    and time.monotonic() < deadline:
                 time.sleep(0.05)
             sent["workers"] = workers
             sent["alive"] = [pid for pid in workers if _alive(pid)]
@@ -280,12 +281,12 @@ def _alive(pid: int) -> bool:
     return state not in "ZX"
 
 
-def _pending(pid: int, *keys) -> bool:
-    """SIGINT pending in the process ``pid`` (its ShdPnd or SigPnd bit), from /proc; with keys,
-    SIGINT's bit in those (SigBlk: blocked)."""
+def _sigint(pid: int, *keys) -> bool:
+    """SIGINT's bit in any of the process ``pid``'s signal masks ``keys`` of /proc/<pid>/status
+    (ShdPnd, SigPnd: pending; SigBlk: blocked)."""
     try:
         status = dict(line.split(":", 1) for line in open(f"/proc/{pid}/status").read().splitlines())
     except OSError:
         return False
     bit = 1 << (signal.SIGINT - 1)
-    return any(int(status[key].strip(), 16) & bit for key in (keys or ("ShdPnd", "SigPnd")))
+    return any(int(status[key].strip(), 16) & bit for key in keys)

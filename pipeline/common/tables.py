@@ -79,6 +79,12 @@ def run_records(result, time_scale, stage_duration) -> dict:
             "smallest_step": math.nan if none else result.smallest_step}
 
 
+def computes(outputs, name: str) -> bool:
+    """Whether a study (or a case) whose [output] outputs are ``outputs`` (None: every one)
+    computes ``name``: every name but an observed output left out of them."""
+    return outputs is None or name not in OBSERVED or name in outputs
+
+
 def asked_attributes(name: str, outputs, answered_eps_Y=None) -> dict:
     """What a variable of a study (or a case) that computed only some outputs says of itself:
     outputs, the outputs computed ([output] outputs; None: every one); answered_eps_Y, where the
@@ -87,7 +93,7 @@ def asked_attributes(name: str, outputs, answered_eps_Y=None) -> dict:
     answered_eps_Y, and every other value but the run records covers the run up to time_reached."""
     if outputs is None:
         return {}
-    if name in OBSERVED and name not in outputs:
+    if not computes(outputs, name):
         return {"computed": "no: not among [output] outputs, NaN (solver.observe.asked)"}
     if answered_eps_Y is None or name in RECORD_INFO:
         return {}

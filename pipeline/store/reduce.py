@@ -8,11 +8,11 @@ from pathlib import Path
 
 import numpy as np
 
-from solver.outputs import OBSERVED, records_kept
+from solver.outputs import records_kept
 
 from .casefile import DamagedFile, read_batch_arrays, tension_records
 from .fracture import CRACK_INFO, onset_from_records
-from ..common.tables import CONTACT_RECORD_INFO, RECORD_NAMES, TENSION_RECORD_INFO
+from ..common.tables import CONTACT_RECORD_INFO, RECORD_NAMES, TENSION_RECORD_INFO, computes
 
 ERROR_INFO = {
     "error_strain": ("relative L2 difference of the strain from the reference run over the snapshots "
@@ -52,11 +52,6 @@ def _for_errors(ds: dict, position) -> dict:
             "records": tension_records(ds, (position,))}
 
 
-def computes(outputs, name: str) -> bool:
-    """Whether a study whose [output] outputs are ``outputs`` (None: every one) computes ``name``."""
-    return outputs is None or name not in OBSERVED or name in outputs
-
-
 def reduce_arrays(ds: dict, positions: np.ndarray, eps_Y: list, names: list, records: bool,
                   outputs=None) -> dict:
     """What study.nc stores for the cases at ``positions`` of a batch (its variables as
@@ -87,7 +82,8 @@ def _records(ds: dict, positions: np.ndarray, outputs) -> dict:
     out = {}
     counts = ds["tension_record_count"]
     starts = (np.cumsum(counts.ravel()) - counts.ravel()).reshape(counts.shape)
-    kept = np.array([record in records_kept(outputs) for record in RECORD_NAMES])
+    names = records_kept(outputs)
+    kept = np.array([record in names for record in RECORD_NAMES])
     pieces = [(int(starts[p, s]), int(counts[p, s])) for p in positions for s in range(len(RECORD_NAMES)) if kept[s]]
     out["tension_record_count"] = np.where(kept, counts[positions], 0)
     for name in TENSION_RECORD_INFO:

@@ -126,7 +126,7 @@ def wider_output(output):
     ``output`` reads, bit for bit (solver.observe.asked: an observer switched off changes no
     step), so a study that narrowed its [output] reuses it (``Study.wider_ids``). None where
     ``output`` asks for everything already."""
-    if output.outputs is None and output.end != "answered":
+    if output.outputs is None:                  # (an answered end needs outputs: sections._check_outputs)
         return None
     return replace(output, outputs=None, answer_eps_Y=None, end="stage" if output.end == "answered" else output.end)
 
