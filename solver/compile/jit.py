@@ -28,6 +28,12 @@ moving 23 helpers of the step, the loop, the error control and the observers fro
 inlining to LLVM's cut the first compile by a fifth, bit for bit (docs/performance.md). The
 8 small helpers of the forcing's innermost loop (model/layer.py, model/basis.py) keep numba's
 ``inline="always"`` (a plain numba dispatcher): under LLVM's they measured 2 % slower.
+A kernel called from another kernel is compiled for its arguments' plain types: numba types a
+constant argument as a literal (``floe_dry_sums(floe, d, x, 0)``: ``Literal[int](0)``) and would
+compile a copy of the callee, and of everything it inlines, for each constant its callers pass
+(25 such copies, 3 s of a one-process compile: docs/performance.md). A kernel that needs a
+constant's value at compile time (a tuple index, an array's dimension count) takes it from a
+module constant, not from an argument.
 """
 from __future__ import annotations
 
@@ -218,6 +224,10 @@ class Kernel:
         pipeline = InlineLinkOnlyCompiler if always_inline else LinkOnlyCompiler
         self.link_dispatcher = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
                                     pipeline_class=pipeline, **options)(py_func)
+        # a constant argument at a call site is typed Literal[int](0), and numba compiles a copy
+        # of the callee for each constant: the link dispatcher compiles for the plain types
+        self.link_dispatcher.get_call_template = functools.partial(_plain_call_template,
+                                                                   self.link_dispatcher.get_call_template)
         try:
             self.link_dispatcher._cache = LinkCache(py_func)
         except RuntimeError:                         # no locator for its file: not cached
@@ -244,6 +254,13 @@ class Kernel:
 
     def __repr__(self):
         return f"<solver kernel {self.py_func.__module__}.{self.py_func.__qualname__}>"
+
+
+def _plain_call_template(get_call_template, args, kws):
+    """The link dispatcher's call template for the arguments' plain types (``Literal[int](0)``
+    as ``int64``): one copy of a kernel whatever constants its callers pass."""
+    return get_call_template(tuple(types.unliteral(a) for a in args),
+                             {name: types.unliteral(a) for name, a in kws.items()})
 
 
 def _kernel_named(module, qualname):
