@@ -126,7 +126,7 @@ def initial_state(model, ws, cur, t, a0, adot0, records, diag):
     s = body_position(model.body, t, cur.yb)
     contacts = count_contacts(cur.delta, jmax, model.basis.mirror)
     cur.acc[2] = layer_energy(model, cur.a, s, cur.delta, jmax) if model.basis.rule == 1 else math.nan
-    rec_c, n_c = append_row(records.contacts, records.n_contacts, t, contacts, 0.0, 0.0, 0.0)
+    rec_c, n_c = append_row(records.contacts, records.n_contacts, t, float(contacts), 0.0, 0.0, 0.0)
     diag[D_MAX_CONTACTS] = contacts
     tw = ws.tension
     for s_ in range(2):

@@ -212,13 +212,13 @@ def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
                 t_ev = _between_nodes(model, cw.near, t0, h, end0, end1, j, cw.ev_th[i])
                 if n > 0:
                     t_ev = max(t_ev, rec[n - 1, 0])      # the record stays in time order
-            rec, n = append_row(rec, n, t_ev, c, 0.0, 0.0, 0.0)
+            rec, n = append_row(rec, n, t_ev, float(c), 0.0, 0.0, 0.0)
             contacts = c
             if c > largest:
                 largest = c
     final = count_contacts(delta1, jm, mirror)
     if final != contacts:               # the end pattern is exact: it wins
-        rec, n = append_row(rec, n, t0 + h, final, 0.0, 0.0, 0.0)
+        rec, n = append_row(rec, n, t0 + h, float(final), 0.0, 0.0, 0.0)
         contacts = final
         if final > largest:
             largest = final

@@ -150,7 +150,7 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
             best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
     if not best[0] > run_max:
         return rec, n, False
-    rec, n = append_chain(t0, h, samples[:K + 1], rec, n, joinable)
+    rec, n = append_chain(t0, h, samples[:K + 1], rec, n, joinable == 1.0)
     return rec, n, True
 
 
