@@ -187,11 +187,14 @@ OBSERVED_BY = {
     "tension": ("max_strain", "max_strain_x", "max_strain_time", "max_strain_lower", "max_strain_lower_x",
                 "max_strain_lower_time", "max_abs_strain", "max_abs_strain_x", "max_abs_strain_time",
                 "tension_record_upper", "tension_record_lower", *onset_names("upper"), *onset_names("lower")),
-    "zone": ("impact_zone_max_strain", "impact_zone_max_strain_x", "impact_zone_max_strain_time",
-             "impact_zone_max_strain_lower", "impact_zone_max_strain_lower_x", "impact_zone_max_strain_lower_time",
-             "impact_zone_max_strain_at_edge", "impact_zone_max_strain_lower_at_edge", "contact_extent",
-             "tension_record_impact_zone_upper", "tension_record_impact_zone_lower",
+    # the zone's records and crack onsets (its own observer), and its maxima, which also take the
+    # plate-wide peak of a step where it lies in the zone (so they need the tension observer too)
+    "zone": ("contact_extent", "tension_record_impact_zone_upper", "tension_record_impact_zone_lower",
              *onset_names("impact_zone_upper"), *onset_names("impact_zone_lower")),
+    "zone_maxima": ("impact_zone_max_strain", "impact_zone_max_strain_x", "impact_zone_max_strain_time",
+                    "impact_zone_max_strain_lower", "impact_zone_max_strain_lower_x",
+                    "impact_zone_max_strain_lower_time", "impact_zone_max_strain_at_edge",
+                    "impact_zone_max_strain_lower_at_edge"),
     "contacts": ("max_contact_intervals", "contact_record"),
     "layer_maxima": ("max_force", "max_force_time", "max_compression", "max_compression_time"),
     # a floe's maxima, located on the dense output at the run's end (the walls' need nothing more)

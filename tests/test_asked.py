@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from solver import ParameterError, Parameters, Settings, solve
+from solver.observe.asked import TENSION, ZONE, plan
 from solver.outputs import OBSERVED_BY, ONSET_RECORD, RECORDS, onset_names
 
 S = Settings(error_estimate=False)
@@ -33,7 +34,7 @@ def full_runs():
 
 
 @pytest.mark.parametrize("name", list(CASES))
-@pytest.mark.parametrize("observer", ["tension", "zone", "contacts", "layer_maxima", "floe_maxima", None])
+@pytest.mark.parametrize("observer", ["tension", "zone", "zone_maxima", "contacts", "layer_maxima", "floe_maxima", None])
 def test_an_observer_alone_changes_no_step_and_its_outputs_are_the_full_runs(full_runs, name, observer):
     """With only one observer's outputs asked (None: only the series), the run takes the full
     run's steps to the bit (amplitudes, series, fields), and every output asked is the full
@@ -95,6 +96,19 @@ def test_only_the_surfaces_and_regions_asked_hold_the_run():
     four = solve(p, s, fields=(), outputs=ONSETS, eps_Y=EPS_Y, end="answered")
     assert upper.time_reached <= four.time_reached and upper.tension_record["lower"].shape[0] == 0
     assert _same(upper.crack_onset(EPS_Y)[0], four.crack_onset(EPS_Y)[0])
+
+
+def test_the_zones_records_run_without_the_plate_wide_observer():
+    """The impact zone's records and crack onsets switch on the zone's observer alone (the
+    plate-wide tension observer costs a third of a run: docs/performance.md); its maxima, which
+    take a step's plate-wide peak where it lies in the zone, switch on both. (That each gives
+    the full run's values bit for bit: test_an_observer_alone_...; the floe_crack_speed study
+    asks only the zone's lower onset.)"""
+    zone_onsets = (*onset_names("impact_zone_upper"), *onset_names("impact_zone_lower"))
+    assert plan(zone_onsets, [EPS_Y.max()], "answered")[0] == ZONE
+    assert plan(["tension_record_impact_zone_lower"], None, "stage")[0] == ZONE
+    assert plan(["impact_zone_max_strain_lower"], None, "stage")[0] & (ZONE | TENSION) == ZONE | TENSION
+    assert plan(onset_names("upper"), None, "stage")[0] == TENSION
 
 
 def test_anything_else_asked_runs_to_the_end():

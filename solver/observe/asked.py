@@ -3,7 +3,8 @@ r"""What a run is asked for: which observers run, and when its answers are final
 
 The observers are switched by the bits of ``Control.observers``: the tension records (TENSION:
 the plate-wide maxima, their records, so crack onset), the
-impact zone (ZONE: it reads the tension observer's step maxima, so it needs TENSION), the
+impact zone (ZONE: its records, so its crack onsets, and its reach; its maxima also take the
+plate-wide peak of a step where that lies in the zone, so they need TENSION as well), the
 contact intervals (CONTACTS: their record and largest count; the count at each step's end,
 which steers the step, is taken without them), the force and compression located inside the
 steps (LAYER_MAXIMA), a floe's tension maxima located on the dense output at the run's end
@@ -76,8 +77,8 @@ def answered(levels, tension, zone, records, crossed):
 
 
 #: an observer's name (solver.outputs.OBSERVED_BY) -> its bit
-BITS = {"tension": TENSION, "zone": ZONE | TENSION, "contacts": CONTACTS, "layer_maxima": LAYER_MAXIMA,
-        "floe_maxima": FLOE_MAXIMA | ZONE | TENSION}
+BITS = {"tension": TENSION, "zone": ZONE, "zone_maxima": ZONE | TENSION, "contacts": CONTACTS,
+        "layer_maxima": LAYER_MAXIMA, "floe_maxima": FLOE_MAXIMA | ZONE | TENSION}
 #: how a run may end: at t_end ("stage", whatever it was asked), or when its answers are final
 ENDS = ("stage", "answered")
 
