@@ -329,7 +329,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
-    observers, answer, asked = plan_outputs(outputs, eps_Y, end)
+    observers, answer, asked = plan_outputs(outputs, eps_Y, end, floe=p.edges == "free")
     tab = Tables(p, s.subintervals, full_plate, s.quadrature, s.quadrature_density)
     a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
     a0 = tab.to_kernel(a0)

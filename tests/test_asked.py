@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from solver import ParameterError, Parameters, Settings, solve
-from solver.observe.asked import TENSION, ZONE, plan
+from solver.observe.asked import FLOE_MAXIMA, TENSION, ZONE, plan
 from solver.outputs import OBSERVED_BY, ONSET_RECORD, RECORDS, onset_names
 
 S = Settings(error_estimate=False)
@@ -98,7 +98,7 @@ def test_only_the_surfaces_and_regions_asked_hold_the_run():
     assert _same(upper.crack_onset(EPS_Y)[0], four.crack_onset(EPS_Y)[0])
 
 
-def test_the_zones_records_run_without_the_plate_wide_observer():
+def test_each_output_switches_on_the_observers_it_reads_and_no_more():
     """The impact zone's records and crack onsets switch on the zone's observer alone (the
     plate-wide tension observer costs a third of a run: docs/performance.md); its maxima, which
     take a step's plate-wide peak where it lies in the zone, switch on both. (That each gives
@@ -109,6 +109,10 @@ def test_the_zones_records_run_without_the_plate_wide_observer():
     assert plan(["tension_record_impact_zone_lower"], None, "stage")[0] == ZONE
     assert plan(["impact_zone_max_strain_lower"], None, "stage")[0] & (ZONE | TENSION) == ZONE | TENSION
     assert plan(onset_names("upper"), None, "stage")[0] == TENSION
+    # the plate-wide maxima: on walls the tension observer alone (a floe's are located on the
+    # dense output at the run's end, from the zone's reach too)
+    assert plan(["max_strain"], None, "stage", floe=False)[0] == TENSION
+    assert plan(["max_strain"], None, "stage", floe=True)[0] == TENSION | ZONE | FLOE_MAXIMA
 
 
 def test_anything_else_asked_runs_to_the_end():

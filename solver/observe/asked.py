@@ -83,9 +83,11 @@ BITS = {"tension": TENSION, "zone": ZONE, "zone_maxima": ZONE | TENSION, "contac
 ENDS = ("stage", "answered")
 
 
-def plan(outputs, eps_Y, end):
+def plan(outputs, eps_Y, end, floe=True):
     """What a run computes for the outputs asked (names of solver.outputs.OUTPUT_NAMES; None:
-    every one): (the observers' bits, Control.answer, the set of outputs asked or None). With end
+    every one): (the observers' bits, Control.answer, the set of outputs asked or None); floe:
+    whether the run is a floe's (on walls the plate-wide and the zone's maxima need no
+    observer of a floe's maxima, and so not the zone's observer either). With end
     "answered" and only crack onsets asked (eps_Y: the yield strains they are asked at), the run
     ends when they are final; anything else asked runs it to t_end. Raises ParameterError, one
     line, on a name that is no output or an "answered" end with no crack onset to answer."""
@@ -101,7 +103,7 @@ def plan(outputs, eps_Y, end):
         raise ParameterError(f"unknown output {unknown[0]!r}; known: {', '.join(OUTPUT_NAMES)}")
     bits = 0
     for observer, names in OBSERVED_BY.items():
-        if asked & set(names):
+        if asked & set(names) and (floe or observer != "floe_maxima"):
             bits |= BITS[observer]
     onsets = asked & set(ONSET_RECORD)
     if end == "stage" or asked - onsets:
