@@ -34,7 +34,7 @@ def full_runs():
 
 
 @pytest.mark.parametrize("name", list(CASES))
-@pytest.mark.parametrize("observer", ["tension", "zone", "zone_maxima", "contacts", "layer_maxima", "floe_maxima", None])
+@pytest.mark.parametrize("observer", [*OBSERVED_BY, None])
 def test_an_observer_alone_changes_no_step_and_its_outputs_are_the_full_runs(full_runs, name, observer):
     """With only one observer's outputs asked (None: only the series), the run takes the full
     run's steps to the bit (amplitudes, series, fields), and every output asked is the full

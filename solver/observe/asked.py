@@ -86,8 +86,8 @@ ENDS = ("stage", "answered")
 def plan(outputs, eps_Y, end, floe=True):
     """What a run computes for the outputs asked (names of solver.outputs.OUTPUT_NAMES; None:
     every one): (the observers' bits, Control.answer, the set of outputs asked or None); floe:
-    whether the run is a floe's (on walls the plate-wide and the zone's maxima need no
-    observer of a floe's maxima, and so not the zone's observer either). With end
+    whether the run is a floe's (on walls no output needs the observer of a floe's maxima, nor,
+    through it, the zone's and the tension observer). With end
     "answered" and only crack onsets asked (eps_Y: the yield strains they are asked at), the run
     ends when they are final; anything else asked runs it to t_end. Raises ParameterError, one
     line, on a name that is no output or an "answered" end with no crack onset to answer."""

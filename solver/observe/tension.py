@@ -74,9 +74,10 @@ def tension_work(N, J):
     """A TensionWork for N modes and J nodes (allocated once per run)."""
     # (-inf: the step's bests STEP_BEST before the observer's first step; a run without it leaves
     # them so, and the impact zone's maxima then take none of them)
-    return TensionWork(np.full((9, 4), -np.inf), np.empty((TENSION_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, N)),
-                       np.empty((TENSION_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)),
-                       np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J), np.empty((SWITCH_SAMPLES + 1, 3)),
+    return TensionWork(np.full((9, 4), -np.inf), np.empty((TENSION_SAMPLES + 1, 3)),
+                       np.empty((TENSION_SAMPLES - 1, N)), np.empty((TENSION_SAMPLES - 1, N)),
+                       np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
+                       np.empty((SWITCH_SAMPLES + 1, 3)),
                        np.zeros(6))
 
 
