@@ -14,12 +14,13 @@ references:
   quadrature's floor.
 
 The runs: etd34 at tolerances 1e-6 .. 1e-11 (today's default is 1e-9) and rk4 (the paper's
-integrator) at step fractions 0.2, 0.1, 0.05 of the last mode's period (the paper's), on today's default
-quadrature, error estimate off (each run's wall time the smaller of two; the machine is noisy:
-compare ratios within one run); and today's default (etd34's run at its tolerance) with the
-estimate of a run with its error estimate on, set beside the measured error (the issue asks for it within 3x): its time part beside the
-error of the steps alone, its time and quadrature parts beside the error from the continuous
-model (its modes' part estimates the truncation at N, which no run here measures).
+integrator) at step fractions 0.2, 0.1, 0.05 of the last mode's period (the paper's), on today's
+default quadrature, error estimate off (each run's wall time the smaller of two; the machine is
+noisy: compare ratios within one run); and today's default (etd34's run at its tolerance) with
+the estimate of a run with its error estimate on, set beside the measured error (the issue asks
+for it within 3x): its time part beside the error of the steps alone, its time and quadrature
+parts beside the error from the continuous model (its modes' part estimates the truncation at N,
+which no run here measures).
 
 Writes results/bench/time_integrator.md (per case: today's default, then the cheapest run of
 each integrator that meets each error target 1e-4 .. 1e-7) and results/bench/time_integrator.csv
