@@ -70,7 +70,7 @@ Energies = namedtuple("Energies", "start residual work")
 ACCEPT, RETRY, STOP = 0, 1, 2
 
 
-@kernel
+@kernel(nrt=True)
 def new_records(N_REC):
     """Empty Records (diagnostics.Records) of a run: rows of N_REC columns, the contacts' of 2."""
     none = np.int64(0)                  # (not a literal 0: numba would compile the observers twice)
@@ -78,19 +78,19 @@ def new_records(N_REC):
                    np.empty((256, N_REC)), none, np.empty((256, N_REC)), none)
 
 
-@kernel
+@kernel(nrt=True)
 def new_state(N, J):
     """A State for N modes and J nodes (the body at d = u = 0)."""
     return State(np.empty(N, np.complex128), np.empty(N), np.empty(N), np.empty(N), np.empty(J), np.empty(J),
                  np.zeros(2), np.empty(N, np.complex128), np.zeros(2), np.zeros(3))
 
 
-@kernel
+@kernel(nrt=True)
 def _step_work(N, J):
     return StepWork(np.empty((2, N), np.complex128), np.empty((5, N)), np.empty(J), np.zeros((6, 6)))
 
 
-@kernel
+@kernel(nrt=True)
 def new_workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
@@ -99,7 +99,7 @@ def new_workspace(method, model, N, J, margin):
                      np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan))
 
 
-@kernel
+@kernel(nrt=True)
 def state_at(model, t, a, adot, fvals, state):
     """state's z, a, a', forcing, delta and eps from the modes' a, a' at t (its yb given): (status,
     force, jmax, the layer's power); fvals (J,) scratch. status 1 where the layer is bottomed out
@@ -116,7 +116,7 @@ def state_at(model, t, a, adot, fvals, state):
     return st, force, jmax, lp
 
 
-@kernel
+@kernel(nrt=True)
 def initial_state(model, ws, cur, t, a0, adot0, records, diag):
     """The state at t_start and its observers: (status, force, jmax, layer power, contacts,
     Records); status 1 if the layer is bottomed out already."""
@@ -277,7 +277,7 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
                     out.level_x[s, i] = ws.value[2]
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The Observers on the accepted step [t, t + h] from cur to new, at one fixed point, with the
     step's StepEnds. The step's dense states are computed on demand from its Dense

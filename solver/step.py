@@ -117,7 +117,7 @@ def _stage(model, rows, fvals, zs, s, U, delta, P):
     return layer_forcing_at(model, s, U, a_work, adot_work, delta, fvals, P)
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def _last_stage(model, w, zs, yb, delta, forcing, eps, t_new):
     """The forcing at the step's end (stage 5, the next step's first), with the strain at every
     node into eps, from the step end's z and yb (its delta and forcing filled). Returns (status,

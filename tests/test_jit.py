@@ -134,3 +134,99 @@ def test_this_numba_has_what_a_link_only_library_needs():
 def test_a_kernel_pickles_as_a_reference_to_itself():
     from solver.loop import integrate
     assert pickle.loads(pickle.dumps(integrate)) is integrate
+
+
+#: kernels that borrow their arrays and kernels that count references (solver/compile/jit.py)
+BORROWING = textwrap.dedent("""
+    import numpy as np
+    from solver.compile.jit import kernel
+
+    def _sum_pair(pair):
+        total = 0.0
+        for i in range(pair[0].shape[0]):
+            first = pair[0]
+            second = pair[1]
+            total += first[i] * second[i]
+        return total
+
+    borrowing = kernel(_sum_pair)
+    counting = kernel(nrt=True)(_sum_pair)
+
+    @kernel
+    def top(n):
+        x = np.arange(n) * 1.0
+        pair = (x, x + 1.0)
+        return borrowing(pair) + counting(pair)
+
+    @kernel
+    def hands_on(x):
+        return x                # numba accepts it without reference counting; the caller would decref it
+
+    @kernel
+    def top_hands(n):
+        return hands_on(np.ones(n)).sum()
+
+    @kernel(nrt=True)
+    def makes(n):
+        return np.ones(n)
+
+    @kernel
+    def takes(n):
+        return makes(n).sum()
+
+    @kernel
+    def top_takes(n):
+        return takes(n)
+
+    @kernel
+    def allocates(n):
+        return np.ones(n).sum()
+
+    @kernel
+    def top_allocates(n):
+        return allocates(n)
+""")
+
+BORROWING_PROBE = textwrap.dedent("""
+    import json, sys
+    sys.path.insert(0, sys.argv[1])
+    import borrowing_tree as tree
+
+    def refusal(entry):
+        try:
+            getattr(tree, entry)(4)
+        except Exception as error:
+            return type(error).__name__, str(error)
+        return None, ""
+
+    value = tree.top(4)
+    print(json.dumps({"value": value,
+                      "counted": {name: getattr(tree, name).link_dispatcher.targetoptions.get("_nrt", True)
+                                  for name in ("borrowing", "counting")},
+                      "hands_on": refusal("top_hands"), "takes": refusal("top_takes"),
+                      "allocates": refusal("top_allocates")}))
+""")
+
+
+def test_a_borrowing_kernel_counts_no_references_and_one_that_hands_arrays_on_is_refused_by_name(tmp_path):
+    """A kernel called from another borrows its arrays: it is compiled without numba's reference
+    counting, where the same function as @kernel(nrt=True) is compiled with it; both compute what
+    Python does. A borrowing kernel that returns an array, takes one from a kernel,
+    or makes one is refused when it compiles, by its name (a wrong mark is a compile error, not a
+    freed array)."""
+    import json
+    (tmp_path / "borrowing_tree.py").write_text(BORROWING)
+    env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
+    proc = subprocess.run([sys.executable, "-c", BORROWING_PROBE, str(tmp_path)], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    probe = json.loads(proc.stdout)
+    x = [0.0, 1.0, 2.0, 3.0]
+    assert probe["value"] == 2.0 * sum(v * (v + 1.0) for v in x)
+    assert probe["counted"] == {"borrowing": False, "counting": True}
+    kind, message = probe["hands_on"]
+    assert kind == "KernelNeedsNRT" and "hands_on returns" in message and "nrt=True" in message
+    kind, message = probe["takes"]
+    assert kind == "KernelNeedsNRT" and "takes takes" in message and "from makes" in message
+    kind, message = probe["allocates"]
+    assert kind == "TypingError" and "ones" in message

@@ -34,6 +34,16 @@ compile a copy of the callee, and of everything it inlines, for each constant it
 (25 such copies, 3 s of a one-process compile: docs/performance.md). A kernel that needs a
 constant's value at compile time (a tuple index, an array's dimension count) takes it from a
 module constant, not from an argument.
+
+A kernel called from another kernel *borrows* its arrays: its caller holds them for the length of
+the call, so numba's reference counting (NRT incref and decref at each binding of an array, and
+of every array a tuple holds) is compiled out of it (numba's ``_nrt=False``): 15 % of a run's
+time went there (docs/performance.md, "Reference counting"). A kernel that makes arrays
+(``np.empty``) or hands them to its caller (returns them, or a tuple of them; or calls a kernel
+that does) is ``@kernel(nrt=True)``: its references are counted as numba always counts them. A
+kernel left borrowing that does either is refused by name when it compiles (numba's typing
+refuses an allocation; :class:`LinkOnlyLowering` refuses an array handed on), so a wrong mark is
+a compile error, never a freed array. Machine code is bit for bit the same arithmetic.
 """
 from __future__ import annotations
 
@@ -42,7 +52,7 @@ import importlib
 
 from llvmlite import binding as llvm
 from numba import njit, types
-from numba.core import caching, codegen, compiler, sigutils, typed_passes
+from numba.core import caching, codegen, compiler, ir, sigutils, typed_passes
 from numba.core.compiler_machinery import register_pass
 from numba.extending import typeof_impl
 
@@ -172,6 +182,31 @@ class LinkCache(caching.Cache):
             claims.release(self, sig, data.codegen)
 
 
+class KernelNeedsNRT(TypeError):
+    """A borrowing kernel (no reference counting) that hands arrays to its caller."""
+
+
+def _refuse_handed_arrays(state):
+    """Refuse a borrowing kernel that returns arrays or takes them from a kernel that returns
+    them: without reference counting its caller would free what it still holds, or never free
+    what it was given."""
+    models = state.targetctx.data_model_manager
+    name = f"{state.func_id.modname}.{state.func_id.func_qualname}"
+    if models[state.return_type].contains_nrt_meminfo():
+        raise KernelNeedsNRT(f"kernel {name} returns {state.return_type}, which holds arrays: "
+                             f"declare it @kernel(nrt=True)")
+    for block in state.func_ir.blocks.values():
+        for assign in block.find_insts(ir.Assign):
+            call = assign.value
+            if isinstance(call, ir.Expr) and call.op == "call":
+                callee = state.typemap[call.func.name]
+                returned = state.calltypes[call].return_type
+                if isinstance(callee, types.Dispatcher) and models[returned].contains_nrt_meminfo():
+                    raise KernelNeedsNRT(f"kernel {name} takes {returned}, which holds arrays, from "
+                                         f"{callee.dispatcher.py_func.__qualname__}: declare it "
+                                         f"@kernel(nrt=True)")
+
+
 @register_pass(mutates_CFG=True, analysis_only=False)
 class LinkOnlyLowering(typed_passes.NativeLowering):
     """numba's lowering into a LinkOnlyLibrary."""
@@ -179,6 +214,8 @@ class LinkOnlyLowering(typed_passes.NativeLowering):
     always_inline = False
 
     def run_pass(self, state):
+        if not state.flags.nrt:
+            _refuse_handed_arrays(state)
         state.library = LinkOnlyLibrary(state.targetctx.codegen(), state.func_id.func_qualname)
         state.library.always_inline = self.always_inline
         return super().run_pass(state)
@@ -217,12 +254,13 @@ class Kernel:
     """A solver function compiled by numba: the link dispatcher for callers in other kernels,
     the call dispatcher (cached, made on first use) for callers in Python."""
 
-    def __init__(self, py_func, options, always_inline=False):
+    def __init__(self, py_func, options, always_inline=False, nrt=False):
         functools.update_wrapper(self, py_func)
         self.py_func = py_func
         self._options = options
         pipeline = InlineLinkOnlyCompiler if always_inline else LinkOnlyCompiler
-        self.link_dispatcher = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True,
+        # called from a kernel it borrows its arrays: no reference counting unless nrt (module docstring)
+        self.link_dispatcher = njit(no_cpython_wrapper=True, no_cfunc_wrapper=True, _nrt=nrt,
                                     pipeline_class=pipeline, **options)(py_func)
         # a constant argument at a call site is typed Literal[int](0), and numba compiles a copy
         # of the callee for each constant: the link dispatcher compiles for the plain types
@@ -285,15 +323,21 @@ def kernel(py_func=None, **options):
     * ``"always"``: numba's own inlining, which types and lowers the helper again at every call
       site. Kept for the small helpers of the forcing's innermost loop (model/layer.py,
       model/basis.py), where it measured 2 % faster than ``"llvm"``.
+
+    ``nrt=True`` for a kernel that makes arrays or hands them to its caller (the module
+    docstring): numba counts its references. Without it a kernel called from another borrows its
+    arrays and counts none. (Python's calls, and numba's ``inline="always"`` helpers, which
+    become their callers' code, count as numba always does.)
     """
     options = {**OPTIONS, **options}
     if py_func is None:
         return lambda f: kernel(f, **options)
     inline = options.pop("inline", "never")
+    nrt = options.pop("nrt", False)
     if inline not in INLINE:
         raise ValueError(f"kernel {py_func.__qualname__}: inline={inline!r}, not one of {INLINE}")
     if inline == "always":
         return njit(cache=True, inline="always", **options)(py_func)
     if not LINK_ONLY:
         return njit(cache=True, **options)(py_func)
-    return Kernel(py_func, options, always_inline=inline == "llvm")
+    return Kernel(py_func, options, always_inline=inline == "llvm", nrt=bool(nrt))

@@ -172,7 +172,7 @@ def modal_projection(f, cosq, P, jmax):
         n += 1
 
 
-@kernel
+@kernel(nrt=True)
 def strain_nodes(a, strain_coef, cosq, eps):
     """eps_j = sum_n (hi/2) lambda_n^2 a_n cos(lambda_n x_j) at every node (eps: (J,) scratch):
     modal_sum of the products strain_coef_n a_n (the same arithmetic as modal_sum_strain)."""
@@ -366,7 +366,7 @@ def field_sum(lam1, floe, field, c, x):
     return floe_sums(floe, c, x, code)[0]
 
 
-@kernel
+@kernel(nrt=True)
 def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
     """The position of the peak of sign * a modal field (field_sums) near x: safeguarded Newton,
     kept in [xlo, xhi], stopping at NEWTON_STOP of the bracket (at most 8 steps). On a floe the

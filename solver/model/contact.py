@@ -95,7 +95,7 @@ def count_contacts(delta, jmax, mirror):
     return count
 
 
-@kernel
+@kernel(nrt=True)
 def reach_in_step(body, basis, jm, a0, a1, s0, s1, drift, work):
     """jm' >= jm such that no node j >= jm' can be in contact at any time of a step.
 

@@ -203,20 +203,20 @@ def wet_modes(p, count: int, antisymmetric: bool = True):
     return 1.0 / np.sqrt(mu), Q, kinds, betas, norms
 
 
-@kernel
+@kernel(nrt=True)
 def floe_plane(floe, N, J, k):
     """Table k (TABLE_*) of a floe's packed array, (N, J) (a view)."""
     return floe[k * N * J:(k + 1) * N * J].reshape((N, J))
 
 
-@kernel
+@kernel(nrt=True)
 def floe_shapes(floe, N):
     """The shapes table (SHAPE_ROWS + 2N, N) of a floe's packed array (a view)."""
     end = floe.shape[0] - HEADER
     return floe[end - (SHAPE_ROWS + 2 * N) * N:end].reshape((SHAPE_ROWS + 2 * N, N))
 
 
-@kernel
+@kernel(nrt=True)
 def floe_header(floe):
     """The HEADER numbers of a floe's packed array (a view)."""
     return floe[floe.shape[0] - HEADER:]
@@ -227,7 +227,7 @@ def pack_floe(tables, shapes, header):
     return np.ascontiguousarray(np.concatenate([tables.ravel(), shapes.ravel(), header]))
 
 
-@kernel
+@kernel(nrt=True)
 def floe_dry(floe, c, d):
     """The wet amplitudes c (N,) as the raw dry modes' coefficients d_m = norm_m sum_k Q_mk c_k
     (O(N^2), once per state; then each point is O(N): floe_dry_sums, dry_table). The sums run
@@ -245,7 +245,7 @@ def floe_dry(floe, c, d):
         d[m] *= shapes[NORMS, m]
 
 
-@kernel
+@kernel(nrt=True)
 def floe_wet(floe, p, P):
     """P_k = sum_m Q_mk norm_m p_m: integrals against the raw dry modes p (N,) as integrals
     against the wet modes P (N,) (the transpose of floe_dry)."""
@@ -311,7 +311,7 @@ def _elastic3(shapes, m, c, s, L, x, order):
             b2 * (_turn(s, -c, order + 2) * trig + (even if order % 2 == 0 else odd)))
 
 
-@kernel
+@kernel(nrt=True)
 def floe_dry_sums(floe, d, x, field):
     """floe_sums from the dry coefficients d (floe_dry): O(N) per point; from the header's
     FIRST_EVEN on, exp(i beta_m x) by rotation (as dry_table)."""
@@ -342,7 +342,7 @@ def floe_dry_sums(floe, d, x, field):
     return factor * v0, factor * v1, factor * v2
 
 
-@kernel
+@kernel(nrt=True)
 def dry_table(floe, xk, table):
     """table[m, k] = psi_m(x_k) (N, K): the raw dry modes at the points xk (kernel coordinates),
     whose sums against floe_dry's coefficients are the wet modes' (modal_sum_range) and whose
@@ -407,7 +407,7 @@ def _dry_row(shapes, m, L, origin, xk, row):
                 row[k] = math.sin(beta * x) * trig + (ep - em) * hyp
 
 
-@kernel
+@kernel(nrt=True)
 def floe_sums(floe, c, x, field):
     """sum_k c_k F_k(x) and its first two x-derivatives, F_k the wet mode k's deflection (field
     0) or upper-surface strain -hi/2 Psi_k'' (field 1), at x in kernel coordinates: the dry
@@ -431,7 +431,7 @@ def _quintic(t):
             -4.0 * t3 + 7.0 * t4 - 3.0 * t5, 0.5 * (t3 - 2.0 * t4 + t5))
 
 
-@kernel
+@kernel(nrt=True)
 def floe_segment(P, cosq, floe, dx, j, segment, sign):
     """P_n += sign * int_alpha^beta g(x) Psi_n(x) dx for g linear from ga to gb over the Segment
     inside the subinterval [x_j, x_j+1]: Psi_n there is the quintic Hermite of its

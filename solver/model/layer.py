@@ -160,7 +160,7 @@ def node_reaction(layer, body, basis, s, U, adot, jmax, delta, fvals):
     return 0, total, jc, power
 
 
-@kernel
+@kernel(nrt=True)
 def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
     """The viscoelastic layer (tau_l = layer.tau > 0): at each compressed node f becomes
     f max(1 + tau_l delta', 0), delta' = (w' + U) / he, w' = sum_n adot_n cos(lambda_n x_j) (one
@@ -198,7 +198,7 @@ def layer_damping(layer, basis, U, adot, jmax, jc, delta, fvals):
     return force, basis.mirror * layer.K * basis.dx * power
 
 
-@kernel
+@kernel(nrt=True)
 def layer_reaction(layer, body, basis, s, U, modes, jmax, delta, out, energy):
     """The rest of layer_forcing_at, given the deflection sum_n a_n cos(lambda_n x_j) in delta
     (j < jmax) and the Modes, into the ReactionOut: P / (K coef_n) and int f dx by the basis's

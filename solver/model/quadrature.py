@@ -216,7 +216,7 @@ def _pieces(body, xa, xb, cuts):
     return m + 1
 
 
-@kernel
+@kernel(nrt=True)
 def first_panels(body, basis, edges, count):
     """The panels of the contact intervals: each cut at the body's corners, each piece into equal
     panels no wider than basis.panel. Returns the panels' ends [m], rows LO and HI."""
@@ -357,7 +357,7 @@ def _deltas(body, s, he, a, lam1, floe, nodes, table):
         dk[k] = (dk[k] + s - body_profile(xk[k], body)) / he
 
 
-@kernel
+@kernel(nrt=True)
 def _split(panels, pieces):
     """The panels of the next round: panel i cut into pieces[i] equal parts where pieces[i] > 1
     (a panel with pieces[i] == 1 is resolved and not carried)."""
@@ -380,7 +380,7 @@ def _split(panels, pieces):
     return cut
 
 
-@kernel
+@kernel(nrt=True)
 def _round(layer, body, basis, s, U, modes, panels, out, flags):
     """One round of the rule on the panels [lo_i, hi_i] (rows LO, HI): the panels resolved (for
     the paper's law, not near its pole, near_pole; in the last round, or at NARROWEST, all) add
@@ -430,7 +430,7 @@ def _round(layer, body, basis, s, U, modes, panels, out, flags):
     return 0, pieces
 
 
-@kernel
+@kernel(nrt=True)
 def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     """The rule over the contact intervals found from delta at the nodes j < jmax, the Modes:
     (status, int f dx, the viscoelastic layer's power, he int G dx) without their factors
@@ -455,7 +455,7 @@ def gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     return st, force, power, stored
 
 
-@kernel
+@kernel(nrt=True)
 def _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     """gauss_sums on the basis's own table (the cosines; a floe's raw dry modes). Rounds of
     panels: the first panels, then the pieces of those near the paper law's pole."""
@@ -488,7 +488,7 @@ def gauss_reaction(layer, body, basis, s, U, modes, jmax, delta, P, energy):
     return gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, Wanted(np.bool_(True), energy))
 
 
-@kernel
+@kernel(nrt=True)
 def gauss_energy(layer, body, basis, s, a, delta, jmax):
     """he int G(delta) dx over the contact intervals on the rule's nodes (the caller's factor
     mirror K), delta at the nodes j < jmax."""

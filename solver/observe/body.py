@@ -16,7 +16,7 @@ from ..layout import D_MAX_PENETRATION, D_SEPARATION_SPEED, D_SEPARATION_T, D_ST
 from ..model.body import body_accel, body_position, body_speed
 
 
-@kernel
+@kernel(nrt=True)
 def observe_body(body, t, h, yb0, yb1, F0, F1, contacts, record, diag):
     """A free body's ends within the step [t, t + h] (the body at yb0, yb1, the force F0, F1 at
     its ends): its stops, the deepest penetration taken there, and its separation: no contact at

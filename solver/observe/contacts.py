@@ -36,13 +36,13 @@ ContactWork = namedtuple("ContactWork", "sgn ev_th ev_j near")
 Snapshot = namedtuple("Snapshot", "a adot delta yb")
 
 
-@kernel
+@kernel(nrt=True)
 def contact_work(J):
     """A ContactWork for J nodes (allocated once per run)."""
     return ContactWork(np.empty(J), np.empty(4 * J + 16), np.empty(4 * J + 16), np.empty((4, J)))
 
 
-@kernel
+@kernel(nrt=True)
 def _extremum(near, rates, he, h, j, th):
     """The extremum over x of the parabola through delta at nodes j - 1, j, j + 1 at th
     (basis.refine; each node's delta the cubic Hermite of its ends near[0:2] and rates near[2:4]
@@ -65,7 +65,7 @@ def _extremum(near, rates, he, h, j, th):
     return sign * value, rate, True
 
 
-@kernel
+@kernel(nrt=True)
 def _between_nodes(model, near, t0, h, end0, end1, j, th):
     """The time at which the count changes on the continuous plate, for a change found at node j
     at th (fraction of the step [t0, t0 + h]): where the extremum of delta between j's neighbours
@@ -101,7 +101,7 @@ def _between_nodes(model, near, t0, h, end0, end1, j, th):
     return t0 + s * h
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     """The nodes whose delta may change sign in the step (the others cannot reach 0 at |delta'|
     <= speed), tested also beyond both ends' computed ranges jm0, jm1 (reach_in_step; the ends'
@@ -131,7 +131,7 @@ def _candidates(model, t0, h, end0, jm0, end1, jm1, speed, sgn):
     return cand, nc, jm
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     """The candidates' sign changes inside the step, sorted by time into cw.ev_th (fraction of the
     step) and cw.ev_j (node): their end rates from passes over the table rows on runs of
@@ -177,7 +177,7 @@ def _sign_changes(model, cw, h, end0, end1, cand, nc, jm):
     return n_ev
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def observe_contacts(model, cw, t0, h, end0, jm0, end1, jm1, contacts, record):
     """Changes of the number of contact intervals inside the step [t0, t0 + h], between its two
     states, each a Snapshot, their nodes computed up to jm0, jm1; record: the Rows (t, count after

@@ -52,7 +52,7 @@ GOLDEN = 0.5 * (5.0 ** 0.5 - 1.0)
 DenseMaxima = namedtuple("DenseMaxima", "z0 forcing scalars a adot dry values")
 
 
-@kernel
+@kernel(nrt=True)
 def dense_maxima_work(N):
     """A DenseMaxima for N modes with no candidates."""
     scalars = np.full((QUANTITIES, SLOTS, SCALARS), np.nan)

@@ -21,7 +21,7 @@ from ..step import substep
 SCAN = 8
 
 
-@kernel
+@kernel(nrt=True)
 def event_value(model, kind, t, jm, state, out):
     """The quantity an event is defined on, at a state: kind 0, the largest delta on the plate
     (gap_peak); kind +1 / -1, the peak of +eps / -eps over x. out[:] = (value, rate, x). (kind

@@ -63,7 +63,7 @@ Bracket = namedtuple("Bracket", "a b c fa fb fc")
 LayerEnds = namedtuple("LayerEnds", "force1 delta1 delta0")
 
 
-@kernel
+@kernel(nrt=True)
 def maxima_work(N):
     """A MaximaWork for N modes, before the first step."""
     return MaximaWork(np.empty((5, N), np.complex128), np.empty((5, N)), np.zeros((5, 2)), np.zeros((5, 7)),
@@ -95,7 +95,7 @@ def _copy_row(mw, source, target):
     copy_into(mw.scalars[target], mw.scalars[source], mw.scalars.shape[1])
 
 
-@kernel
+@kernel(nrt=True)
 def _kept(mw, row):
     """The Kept start of a row."""
     sc = mw.scalars[row]
@@ -181,7 +181,7 @@ def _bound(a, b, c, fa, fb, fc):
     return fb + 2.0 * (_lagrange(a, b, c, fa, fb, fc, u) - fb)
 
 
-@kernel
+@kernel(nrt=True)
 def _search_waiting(stepper, mw, kind, out, gap, diag):
     """Search the quantity's waiting candidate, the running maximum into diag; none waits after."""
     w = mw.waiting[kind]

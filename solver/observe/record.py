@@ -13,7 +13,7 @@ Rows = namedtuple("Rows", "rows n")
 SurfaceRows = namedtuple("SurfaceRows", "upper n_upper lower n_lower")
 
 
-@kernel
+@kernel(nrt=True)
 def append_row(buf, n, row0, row1, row2, row3, row4):
     """Append a row (the first columns of it) to a growable record; returns (buf, n)."""
     if n == buf.shape[0]:

@@ -69,7 +69,7 @@ StepStrains = namedtuple("StepStrains", "eps0 eps1 a1 adot1")
 DenseStates = namedtuple("DenseStates", "A AD eps dense marks")
 
 
-@kernel
+@kernel(nrt=True)
 def tension_work(N, J):
     """A TensionWork for N modes and J nodes (allocated once per run)."""
     # (-inf: the step's bests STEP_BEST before the observer's first step; a run without it leaves
@@ -123,7 +123,7 @@ def ensure_dense(model, h, dz, A, AD, marks):
         marks[DENSE] = 1.0
 
 
-@kernel
+@kernel(nrt=True)
 def append_chain(t0, h, samples, rec, n, joinable):
     """The samples (rows (value, rate, x, ...) at t0 + k h / K, k = 0..K) as consecutive record
     rows (t, value, rate, x, join): the first only where the previous step's last row is not
@@ -137,7 +137,7 @@ def append_chain(t0, h, samples, rec, n, joinable):
     return rec, n
 
 
-@kernel
+@kernel(nrt=True)
 def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
     receives the (max, time, x) of the Hermite pieces between samples; the samples are stored
@@ -157,7 +157,7 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     return rec, n, True
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     """The peak of surface s over the step: from track P0 (t0) to P1 (t0 + h), each (value, rate,
     x), through the dense-output states inside the step (computed from dz unless marks DENSE says
@@ -205,7 +205,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
-@kernel
+@kernel(nrt=True)
 def _global_piece(model, tw, s, t0, h, dz, rec, n):
     """The global peak over a step in which it passes from one local peak to another (a new
     peak may emerge inside the step, where no track can follow it): at SWITCH_SAMPLES - 1
@@ -236,7 +236,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
 
 
-@kernel(inline="llvm")
+@kernel(inline="llvm", nrt=True)
 def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     """Running-maximum record of the tension of surface s (sign = 1 - 2 s) over the step
     [t0, t0 + h], between its two states: ends, a StepStrains.
@@ -272,7 +272,7 @@ def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     return rec, n
 
 
-@kernel
+@kernel(nrt=True)
 def observe_tensions(model, tw, t, h, ends, dz, records, diag):
     """The tension records of both surfaces over the accepted step (observe_tension; ends, a
     StepStrains), records a SurfaceRows; the largest tensions into diag. Returns the records."""

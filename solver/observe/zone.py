@@ -75,7 +75,7 @@ ZoneTrack = namedtuple("ZoneTrack", "model t0 h reach yb0 yb1 inside track")
 ZoneMotion = namedtuple("ZoneMotion", "lo0 hi0 lo1 hi1")
 
 
-@kernel
+@kernel(nrt=True)
 def zone_work(margin, N):
     """A ZoneWork for N modes before the first contact (c = 0) and before the first peak."""
     peaks = np.zeros((2, 5))
@@ -132,7 +132,7 @@ def edge_speed(node, zone, h):
     return 0.0
 
 
-@kernel
+@kernel(nrt=True)
 def _sample_peak(model, sign, a, adot, x, mode, zone, dry, eps):
     """The zone's peak at one state (a, a') inside a step: (value, rate, x, node, slope), slope =
     sign * eps_x at x (for the rate of a moving end). mode 0: at the zone's end x; 1: the peak
@@ -219,7 +219,7 @@ def _samples_best(t0, h, dx, samples, best):
     return Best(bv, bt, bx, bedge, bspeed)
 
 
-@kernel
+@kernel(nrt=True)
 def _store_chain(t0, h, chain, rec, n, marks, s):
     """The zone's running-maximum record of surface s over the step: the chain of peaks (rows
     (value, rate, x, node) at t0 + k h / K, k = 0..K) is stored as consecutive record rows
@@ -307,7 +307,7 @@ def _shift(p0, p1, fixed_rate):
     p0[1] = fixed_rate
 
 
-@kernel
+@kernel(nrt=True)
 def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     """The zone's peaks of both surfaces at the end of the accepted step [t0, t0 + h], their
     largest values over it and their running-maximum records (module docstring); ends: the step
