@@ -326,7 +326,7 @@ def finish_maxima(model, ws, asked, diag):
         finish_dense_maxima(model, ws.dense, diag)
 
 
-@kernel
+@kernel(nrt=True)
 def integrate(method, model, control, t_out, a0, adot0, levels, out):
     """Integrate the mode equations (and a free body's motion) from control.t_start to t_end,
     landing on every t_out (sorted, in [t_start, t_end]); a0, adot0: a_n [m] and a_n' [m s-1] at
