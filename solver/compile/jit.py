@@ -38,12 +38,12 @@ module constant, not from an argument.
 A kernel called from another kernel *borrows* its arrays: its caller holds them for the length of
 the call, so numba's reference counting (NRT incref and decref at each binding of an array, and
 of every array a tuple holds) is compiled out of it (numba's ``_nrt=False``): 15 % of a run's
-time went there (docs/performance.md, "Reference counting"). A kernel that makes arrays
+samples were there (docs/performance.md, "Reference counting"). A kernel that makes arrays
 (``np.empty``) or hands them to its caller (returns them, or a tuple of them; or calls a kernel
 that does) is ``@kernel(nrt=True)``: its references are counted as numba always counts them. A
 kernel left borrowing that does either is refused by name when it compiles (numba's typing
 refuses an allocation; :class:`LinkOnlyLowering` refuses an array handed on), so a wrong mark is
-a compile error, never a freed array. Machine code is bit for bit the same arithmetic.
+a compile error, never a freed array. The arithmetic is unchanged: the results are bit for bit.
 """
 from __future__ import annotations
 
