@@ -211,9 +211,9 @@ BORROWING_PROBE = textwrap.dedent("""
 def test_a_borrowing_kernel_counts_no_references_and_one_that_hands_arrays_on_is_refused_by_name(tmp_path):
     """A kernel called from another borrows its arrays: it is compiled without numba's reference
     counting, where the same function as @kernel(nrt=True) is compiled with it; both compute what
-    Python does. A borrowing kernel that returns an array, takes one from a kernel,
-    or makes one is refused when it compiles, by its name (a wrong mark is a compile error, not a
-    freed array)."""
+    Python does. A borrowing kernel that returns an array, or takes one from a kernel, is refused
+    by its name when it compiles, and numba's typing refuses one that makes an array (a wrong mark
+    is a compile error, not a freed array)."""
     import json
     (tmp_path / "borrowing_tree.py").write_text(BORROWING)
     env = dict(os.environ, PYTHONPATH=str(ROOT), NUMBA_CACHE_DIR=str(tmp_path / "numba-cache"))
