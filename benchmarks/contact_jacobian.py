@@ -89,13 +89,18 @@ def phis(Z, k):
     return [E[:n, i * n:(i + 1) * n] for i in range(k + 1)]
 
 
+def etd4_coefficients(h, A):
+    """(e, phi_1..3) of h A and (e, phi_1, phi_2) of h A / 2: Krogstad's weights."""
+    return phis(h * A, 3), phis(0.5 * h * A, 2)
+
+
 def etd4_step(problem, y, h, coefficients=None):
     """Krogstad's ETD4 (the stages of solver/step.py) with the free modes as the linear part, or
     (coefficients None) with the free modes and the layer reaction's Jacobian at y (among the first
     ``block`` modes) as the linear part of this step: ETD4 is fourth order for any linear part."""
     A = problem.L if coefficients is not None else problem.jacobian(y)
     if coefficients is None:
-        coefficients = (phis(h * A, 3), phis(0.5 * h * A, 2)[:3])
+        coefficients = etd4_coefficients(h, A)
     (e, p1, p2, p3), (e2, q1, q2) = coefficients
 
     def rest(u):
@@ -145,7 +150,7 @@ def main() -> None:
     print("| steps | etd4 error | exprb43 error | etd4 with the Jacobian error |\n|---|---|---|---|")
     for steps in args.steps:
         h = (t1 - t0) / steps
-        coefficients = (phis(h * problem.L, 3), phis(0.5 * h * problem.L, 2)[:3])
+        coefficients = etd4_coefficients(h, problem.L)
         ends = []
         for scheme in ("etd4", "exprb43", "etd4 jacobian"):
             y = np.concatenate([a[1][:N], v[1][:N], [t0]])
