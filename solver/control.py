@@ -7,6 +7,21 @@ identity E_plate + E_layer + D - W - E(t_start) = 0 jumps by more than ``energy_
 Accepted steps grow by PI control (Gustafsson), at most by GROWTH (t - t_start) after the first,
 and land exactly on every output time. The run's :data:`Control` is built once per run.
 
+With ``error_control = "smoothness"`` a step is also judged by how smooth the forcing is in time
+(``smoothness_ratio``). The embedded estimate compares two solutions built on the same three
+samples of the forcing, at t, t + h/2 and t + h; a mode that oscillates once or more inside the
+step (omega_n h >~ 2) is driven by the part of P_n that those samples alias, and the embedded
+estimate does not see it. The forcing's fourth divided difference over the samples of this step
+and the one before (tau = -h', -h'/2, 0, h/2, h) estimates what a cubic in time misses:
+
+    r_n = P_n[tau_0, ..., tau_4] h^4 / 16,   e_n = min(h, 2 / omega_n) r_n,
+
+mode n integrating a misfit of the forcing over the step when it is slow, over about a period
+when it is fast; ||e|| in the energy norm against the tolerance, as the embedded estimate. Its
+local error falls as h^5 (exponent 1/5). Benchmark (tests/test_error_control.py): the run's
+error falls in proportion to the tolerance where the embedded estimate alone leaves it at a
+floor.
+
 Benchmark (tests/test_error_estimate.py, tests/test_energy_and_forcing.py): the run's error
 falls with the tolerance as its estimate says; the energy residual shrinks with the tolerance
 and as dx^2 with the quadrature.
@@ -18,7 +33,7 @@ from .compile.jit import kernel
 from .layout import B_D, B_U
 from .observe.asked import ALL
 from .model.basis import Field, field_sum
-from .model.plate import MASS, ONES, mode_a
+from .model.plate import MASS, OMEGA, ONES, mode_a
 
 #: default bottoming threshold (Settings.bottoming_gap): the layer has bottomed out when its
 #: gap he (1 - delta) closes to bottom_gap he anywhere on the plate; the pressure there is
@@ -59,18 +74,22 @@ ENERGY_BOUND = 1e-3
 #: until_separation (a free body's run ends when it separates); zone_margin [m] (the impact zone
 #: reaches this far beyond the contact, solver.observe.zone); observers (the bits of the observers
 #: that run) and answer (4 levels: the run ends when the tension records' crossings up to them
-#: are final; -inf a record not asked, +inf one asked to the end), solver.observe.asked
+#: are final; -inf a record not asked, +inf one asked to the end), solver.observe.asked;
+#: smoothness (1.0: adaptive steps are judged by smoothness_ratio too, 0.0: not)
 Control = namedtuple("Control", "t_start t_end tolerance fixed_step h_init h_min h_max max_steps bottom_gap "
-                                "until_separation zone_margin observers answer")
+                                "until_separation zone_margin observers answer smoothness")
+
+#: the smoothness estimate's exponent: its local error falls as h^5
+SMOOTH_EXPONENT = 0.2
 
 
 def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
-                 until_separation=False, zone_margin=1.0, observers=ALL, answer=(math.inf,) * 4):
+                 until_separation=False, zone_margin=1.0, observers=ALL, answer=(math.inf,) * 4, smoothness=False):
     """The :data:`Control` of a run (plain Python: built once per run); by default every observer
-    runs and the run goes to t_end."""
+    runs, the run goes to t_end and only the embedded estimate judges a step."""
     return Control(float(t_start), float(t_end), float(tolerance), float(fixed_step), float(h_init), float(h_min),
                    float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin),
-                   int(observers), tuple(float(level) for level in answer))
+                   int(observers), tuple(float(level) for level in answer), 1.0 if smoothness else 0.0)
 
 
 @kernel(inline="llvm")
@@ -107,6 +126,51 @@ def error_ratio(model, control, z, znew, err, errb, gap, scratch):
     if not math.isfinite(ratio):
         ratio = 1e10
     return ratio
+
+
+#: the forcing at the start and the middle of the last accepted step (rows of samples (2, N)) and
+#: [its length, 1.0 if it can be the smoothness estimate's first half] (last (2,))
+History = namedtuple("History", "samples last")
+#: the forcing P (N,) at a step's start, its middle (the stage N3) and its end
+Samples = namedtuple("Samples", "start middle end")
+
+
+@kernel
+def smoothness_ratio(model, control, history, forcing, h, z0, z1):
+    """The smoothness estimate over the tolerance (module docstring): the forcing's samples of the
+    last accepted step (History) and of this one (forcing: its Samples), the step's states z0 and
+    z1 for the norm; 0 where the last step cannot be its first half."""
+    if control.smoothness == 0.0 or history.last[1] == 0.0:
+        return 0.0
+    plate = model.plate
+    hp = history.last[0]
+    t0, t1, t3, t4 = -hp, -0.5 * hp, 0.5 * h, h          # (t2 = 0)
+    num = den_old = den_new = 0.0
+    for n in range(z0.shape[0]):
+        d01 = (history.samples[1, n] - history.samples[0, n]) / (t1 - t0)
+        d12 = (forcing.start[n] - history.samples[1, n]) / -t1
+        d23 = (forcing.middle[n] - forcing.start[n]) / t3
+        d34 = (forcing.end[n] - forcing.middle[n]) / (t4 - t3)
+        d012, d123, d234 = (d12 - d01) / -t0, (d23 - d12) / (t3 - t1), (d34 - d23) / t4
+        d4 = ((d234 - d123) / (t4 - t1) - (d123 - d012) / (t3 - t0)) / (t4 - t0)
+        w = plate.modes[OMEGA, n]
+        e = (h if w * h <= 2.0 else 2.0 / w) * d4 * h ** 4 / 16.0
+        num += plate.modes[MASS, n] * e * e
+        den_old += plate.modes[MASS, n] * (z0[n].real ** 2 + z0[n].imag ** 2)
+        den_new += plate.modes[MASS, n] * (z1[n].real ** 2 + z1[n].imag ** 2)
+    floor = model.body.V * math.sqrt(model.plate.lm_floor)
+    return math.sqrt(num) / (control.tolerance * max(math.sqrt(max(den_old, den_new)), floor))
+
+
+@kernel
+def remember_step(history, n1, nm, h, smooth):
+    """The accepted step's forcing at its start and middle, and its length, into the History;
+    smooth: it can be the first half of the next estimate (no change of contact, no bottoming)."""
+    for n in range(n1.shape[0]):
+        history.samples[0, n] = n1[n]
+        history.samples[1, n] = nm[n]
+    history.last[0] = h
+    history.last[1] = 1.0 if smooth else 0.0
 
 
 @kernel

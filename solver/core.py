@@ -353,7 +353,8 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     level_t = np.full((2, levels.size), np.nan)
     level_x = np.full((2, levels.size), np.nan)
     control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
-                           s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin, observers, answer)
+                           s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin, observers, answer,
+                           s.error_control == "smoothness")
     started = _time.perf_counter()
     code, n_out, rec, fail = integrator.run(tab, control, times, a0, v0, levels,
                                             Outputs(out_a, out_adot, series, diag, level_t, level_x))

@@ -64,7 +64,7 @@ def helper_jobs():
                      start, carried, f8, f8, f8, state)),
         (locate_event, (_field(ws, "stepper"), f8, f8, start, carried, f8, f8, a1, state, a1)),
         (judge_step, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
-                      types.NamedTuple((i8, f8, i8, f8, f8, f8), Trial), types.NamedUniTuple(f8, 3, Energies), diag)),
+                      types.NamedTuple((i8, f8, i8, f8, f8, f8, f8), Trial), types.NamedUniTuple(f8, 3, Energies), diag)),
     ]
 
 

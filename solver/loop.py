@@ -17,7 +17,8 @@ from collections import namedtuple
 import numpy as np
 
 from .arrays import copy_into
-from .control import energy_allowance, error_ratio, grown_step, next_step
+from .control import (SMOOTH_EXPONENT, History, Samples, energy_allowance, error_ratio, grown_step, next_step,
+                      remember_step, smoothness_ratio)
 from .cubic import cubic_max, hermite
 from .diagnostics import (Counts, Records, Residuals, bottomed_at, failed_at, finish_diagnostics, record_output,
                           running_maxima, start_diagnostics)
@@ -51,9 +52,10 @@ from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_co
 #: delta, its rate and place) at the step's two ends, an event's value (3,), the tension peaks at
 #: the step's start (2, 4), the fixed step's [target, step], the force's and compression's maxima
 #: (observe.layer_maxima), a floe's tension maxima's candidate steps (observe.dense_maxima) and the
-#: records' row counts when their running maxima passed the levels asked (observe.asked, 4)
+#: records' row counts when their running maxima passed the levels asked (observe.asked, 4), and
+#: the last accepted step's forcing (control.History)
 Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense "
-                                    "crossed")
+                                    "crossed history")
 
 #: the observers' work and which of them run: TensionWork, ContactWork, the tension peaks at the
 #: step's start, ZoneWork, DenseMaxima, and the observers asked (Control.observers, observe.asked)
@@ -61,8 +63,9 @@ Observers = namedtuple("Observers", "tension contact peaks0 zone dense asked")
 #: what the observers read of an accepted step besides its states: jmax at t, jmax and the force at
 #: t + h, the step's Dense
 StepEnds = namedtuple("StepEnds", "jmax jmax1 force1 dense")
-#: a trial step: its status, the work W(t + h), jmax at t + h, t, h, the error's exponent
-Trial = namedtuple("Trial", "status work1 jmax1 t h exponent")
+#: a trial step: its status, the work W(t + h), jmax at t + h, t, h, the error's exponent, the
+#: smoothness estimate over the tolerance (control.smoothness_ratio; 0 where it does not judge)
+Trial = namedtuple("Trial", "status work1 jmax1 t h exponent smooth")
 #: the energy identity's terms at t: E(t_start), the residual at t, W(t)
 Energies = namedtuple("Energies", "start residual work")
 
@@ -96,7 +99,8 @@ def new_workspace(method, model, N, J, margin):
                       _step_work(N, J))
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
                      zone_work(margin, N), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
-                     np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan))
+                     np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan),
+                     History(np.zeros((2, N)), np.zeros(2)))
 
 
 @kernel(nrt=True)
@@ -205,6 +209,8 @@ def judge_step(adaptive, model, control, z0, new, gap0, scratch, trial, energies
     ratio = 0.0
     if adaptive:
         ratio = error_ratio(model, control, z0, new.z, new.err, new.errb, gap0, scratch)
+        if trial.smooth > 0.0:           # in the embedded estimate's units (its exponent)
+            ratio = max(ratio, trial.smooth ** (SMOOTH_EXPONENT / expo))
         if ratio > 1.0:
             h = h_step * max(0.2, 0.9 * ratio ** -expo)
             if h < control.h_min:
@@ -341,7 +347,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1
     observers = Observers(ws.tension, ws.contact, ws.peaks0, ws.zone, ws.dense, control.observers)
-    fixed, maxima, crossed, asked = ws.fixed, ws.maxima, ws.crossed, control.observers
+    fixed, maxima, crossed, asked, history = ws.fixed, ws.maxima, ws.crossed, control.observers, ws.history
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
@@ -382,9 +388,13 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                                               new)
         rhs_count += 4
         expo = 1.0 / 3.0 if event else 0.25
+        smooth = 0.0
+        if adaptive and st == 0 and not event:
+            smooth = smoothness_ratio(model, control, history, Samples(cur.forcing, step_work.rows[2], new.forcing),
+                                      h_step, cur.z, new.z)
         verdict, h_try, ratio, resid_new, status, counted = judge_step(adaptive, model, control, cur.z, new, gap0,
                                                                    step_work.rows[0],
-                                                                   Trial(st, w_new, jm5, t, h_step, expo),
+                                                                   Trial(st, w_new, jm5, t, h_step, expo, smooth),
                                                                    Energies(e0, resid, work), diag)
         rejected += counted
         if verdict != ACCEPT:
@@ -425,6 +435,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         if not bottomed and asks(asked, LAYER_MAXIMA):     # the force and compression located (on sub-steps)
             observe_layer_maxima(stepper, maxima, start, carried, t, h_eff, LayerEnds(F5, gap1[0], gap0[0]), sub, value,
                                  diag)
+        remember_step(history, cur.forcing, reached[2], h_eff, not (event or bottomed))
         separated = left and control.until_separation
         done = answered(control.answer, ws.tension.marks, ws.zone.marks, records, crossed)
         cur, new = new, cur

@@ -36,12 +36,16 @@ SETTING_INFO = {
                        "tolerance, about +70% cost)", ""),
     "impact_zone_margin": ("how far the impact zone reaches beyond the farthest point the contact has reached "
                            "(docs/model.md, \"Maxima of the impact zone\")", "m"),
+    "error_control": ("what judges an adaptive etd34 step (embedded: its embedded 4(3) estimate; smoothness: "
+                      "that and the forcing's smoothness over the step and the one before, docs/model.md, "
+                      "\"Numerics\")", ""),
 }
 
 INTEGRATORS = ("etd34", "rk4", "dop853")
 QUADRATURES = ("paper", "gauss")
+ERROR_CONTROLS = ("embedded", "smoothness")
 #: the settings that take one of a few names (a study's [solver] and [grid] check them so)
-NAMED_SETTINGS = {"integrator": INTEGRATORS, "quadrature": QUADRATURES}
+NAMED_SETTINGS = {"integrator": INTEGRATORS, "quadrature": QUADRATURES, "error_control": ERROR_CONTROLS}
 #: the paper's rule at its 1000 subintervals and tolerance 1e-8, the defaults before issue 24:
 #: Settings(**PAPER_NUMERICS) reproduces those runs bit for bit, and their case ids
 PAPER_NUMERICS = {"quadrature": "paper", "subintervals": 1000, "tolerance": 1e-8}
@@ -89,6 +93,11 @@ class Settings:
         plate-wide ones, reaches this far beyond the farthest point from the body's centre that
         the contact has reached so far (docs/model.md, "Maxima of the impact zone") [m]. An
         observer's setting: the run's state does not depend on it.
+    error_control : what judges an adaptive etd34 step: "embedded" (default: its embedded
+        4(3) estimate alone) or "smoothness" (that and the forcing's smoothness over the step
+        and the one before, which sees the error of the modes that oscillate once or more inside
+        a step: the run's error then falls in proportion to the tolerance) (docs/model.md,
+        "Numerics"; docs/performance.md, "Error control").
     """
 
     integrator: str = "etd34"
@@ -102,6 +111,7 @@ class Settings:
     error_estimate: bool = True
     bottoming_gap: float = 1e-3
     impact_zone_margin: float = 1.0
+    error_control: str = "embedded"
 
     def __post_init__(self):
         if self.integrator not in INTEGRATORS:
@@ -115,6 +125,9 @@ class Settings:
             raise ParameterError(f"subintervals must be between 8 and {MAX_SUBINTERVALS}, got {self.subintervals!r}")
         if self.quadrature not in QUADRATURES:
             raise ParameterError(f"quadrature must be one of {', '.join(QUADRATURES)}, got {self.quadrature!r}")
+        if self.error_control not in ERROR_CONTROLS:
+            raise ParameterError(
+                f"error_control must be one of {', '.join(ERROR_CONTROLS)}, got {self.error_control!r}")
         check_positive("quadrature_density", self.quadrature_density)
         if not 1.0 <= float(self.quadrature_density) <= 1000.0:
             raise ParameterError(f"quadrature_density must be between 1 and 1000, got {self.quadrature_density!r}")

@@ -73,7 +73,7 @@ def resolve_sample(values: dict) -> dict:
 #: the settings each integrator reads; the others do not change its result
 RELEVANT_SETTINGS = {
     "etd34": ("integrator", "tolerance", "subintervals", "fixed_step", "max_steps", "error_estimate",
-              "bottoming_gap", "impact_zone_margin"),
+              "bottoming_gap", "impact_zone_margin", "error_control"),
     "rk4": ("integrator", "subintervals", "rk4_step_fraction", "max_steps", "error_estimate", "bottoming_gap",
             "impact_zone_margin"),
     "dop853": ("integrator", "tolerance", "subintervals", "max_steps", "error_estimate", "bottoming_gap",
@@ -97,8 +97,11 @@ def used_settings(settings: Settings) -> dict:
     quadrature enters only when it is not the paper's, so that the ids of the cases run before it
     was a setting stay what they were; with it the revision of its results. The paper rule's
     revision enters once it is above 0 (its ids carried none before); a DOP853 run's carries the
-    revision of the reference's own results too."""
+    revision of the reference's own results too. etd34's error_control enters where it is not
+    "embedded" (the default, and the control before it was a setting) and the step is adaptive."""
     used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
+    if used.get("error_control") == "embedded" or settings.fixed_step > 0.0:
+        used.pop("error_control", None)  # the default (ids from before it was a setting hold); none for a fixed step
     if settings.quadrature != "paper":
         used["quadrature"] = settings.quadrature
         used["quadrature_density"] = settings.quadrature_density
