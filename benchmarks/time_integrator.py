@@ -23,6 +23,8 @@ for it within 3x): its time part beside the error of the steps alone, its time a
 parts beside the error from the continuous model (its modes' part estimates the truncation at N,
 which no run here measures).
 
+Under the smoothness control, the runs at 1e-6 and 1e-7 with their error estimate too.
+
 Writes results/bench/time_integrator.md (per case: today's default; the cheapest run of each
 integrator that meets each error target 1e-4 .. 1e-7; each error control's time at each target,
 interpolated on its work-precision line, and their ratio) and results/bench/time_integrator.csv
@@ -55,6 +57,8 @@ CASES = {
     "6 m floe": ({"Nmod": 20, "edges": "free", "L": 3.0, "duration": 0.01}, 0.01),
 }
 TOLERANCES = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
+#: the smoothness control's runs whose error estimate (the companion run's) is set beside their error
+ESTIMATED_SMOOTHNESS = [1e-6, 1e-7]
 #: the error controls compared: integrator name in the rows -> Settings.error_control
 CONTROLS = {"etd34": "embedded", "etd34 smoothness": "smoothness"}
 FRACTIONS = [0.2, 0.1, 0.05]
@@ -128,6 +132,14 @@ def case_rows(name, kw, end, quick):
     estimated, _ = _strain(p, default, times, x, repeats=1)
     rows.append(dict(row, integrator="default", estimate_time=estimated.diagnostics["error_estimate_time"],
                      estimate_quadrature=estimated.diagnostics["error_estimate_quadrature"]))
+    # the same estimate of runs under the smoothness control
+    for tol in ESTIMATED_SMOOTHNESS:
+        row = next((r for r in rows if r["integrator"] == "etd34 smoothness" and r["knob"] == tol), None)
+        if row is not None:
+            estimated, _ = _strain(p, Settings(tolerance=tol, error_control="smoothness"), times, x, repeats=1)
+            rows.append(dict(row, integrator="estimated smoothness",
+                             estimate_time=estimated.diagnostics["error_estimate_time"],
+                             estimate_quadrature=estimated.diagnostics["error_estimate_quadrature"]))
     return note, rows
 
 
@@ -172,6 +184,17 @@ def report(notes, rows) -> str:
         whole = (d["estimate_time"] + d["estimate_quadrature"]) / d["error"]
         md.append(f"| {case} | {d['error']:.2e} | {d['time_error']:.2e} | {d['time']:.4f} | {d['steps']} "
                   f"({d['rejected']}) | {steps:.2f} | {whole:.2f} |")
+    md += ["", "The per-case estimate of the time integration's error (the companion run at 10x the tolerance) "
+           "over the error of the steps alone, under the smoothness control:", "",
+           "| case | " + " | ".join(f"smoothness {tol:g}: error | estimate / error" for tol in ESTIMATED_SMOOTHNESS)
+           + " |", "|---|" + "---|---|" * len(ESTIMATED_SMOOTHNESS)]
+    for case in cases:
+        cells = []
+        for tol in ESTIMATED_SMOOTHNESS:
+            r = next((r for r in rows if r["case"] == case and r["integrator"] == "estimated smoothness"
+                      and r["knob"] == tol), None)
+            cells += [f"{r['time_error']:.2e}", f"{r['estimate_time'] / r['time_error']:.2f}"] if r else ["-", "-"]
+        md.append(f"| {case} | " + " | ".join(cells) + " |")
     md += ["", "The cheapest run of each integrator that meets each target (against the continuous reference; "
            "'-': none of its runs does):", "",
            "| case | target | etd34: tolerance | time [s] | rk4: step fraction | time [s] |", "|---|---|---|---|---|---|"]

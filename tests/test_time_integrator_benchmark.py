@@ -27,3 +27,21 @@ def test_the_report_takes_the_cheapest_run_that_meets_each_target():
     assert "| c | 1e-06 | 1e-08 | 0.0300 | 0.05 | 4.0000 |" in text
     assert "| c | 1e-07 | 1e-10 | 0.0900 | 0.05 | 4.0000 |" in text
     assert "| c | 0.0001 | 1e-06 | 0.0100 | 0.2 | 1.0000 |" in text
+
+
+def test_each_control_is_timed_at_each_target_on_its_work_precision_line():
+    """time_at: the lower envelope of (error, time) (a run both worse and dearer is left out),
+    log-linear between the runs around the target; the report sets the controls side by side."""
+    rows = [_row("etd34", 1e-4, 1e-4, 1.0), _row("etd34", 1e-6, 1e-5, 2.0), _row("etd34", 1e-5, 2e-5, 3.0),
+            _row("etd34 smoothness", 1e-5, 1e-5, 1.0), _row("etd34 smoothness", 1e-7, 1e-7, 4.0),
+            dict(_row("default", 1e-9, 1e-5, 2.0), estimate_time=1e-5, estimate_quadrature=0.0),
+            dict(_row("estimated smoothness", 1e-7, 1e-7, 4.0), estimate_time=2e-7, estimate_quadrature=0.0)]
+    assert time_integrator.time_at(rows, "etd34", 1e-4) == 1.0
+    assert abs(time_integrator.time_at(rows, "etd34", 10 ** -4.5) - 2 ** 0.5) < 1e-12
+    assert time_integrator.time_at(rows, "etd34", 1e-6) is None
+    assert time_integrator.time_at(rows, "etd34", 1e-3) == 1.0
+    assert abs(time_integrator.time_at(rows, "etd34 smoothness", 1e-6) - 2.0) < 1e-12
+    text = time_integrator.report(["- c: a note"], rows)
+    assert "| c | 1e-05 | 2.0000 | 1.0000 | 0.50 |" in text
+    assert "| c | 1e-06 | - | 2.0000 | - |" in text
+    assert "| c | - | - | 1.00e-07 | 2.00 |" in text
