@@ -23,7 +23,9 @@ for it within 3x): its time part beside the error of the steps alone, its time a
 parts beside the error from the continuous model (its modes' part estimates the truncation at N,
 which no run here measures).
 
-Under the smoothness control, the runs at 1e-6 and 1e-7 with their error estimate too.
+Under the smoothness control, the runs at 1e-6 and 1e-7 with their error estimate too. Each run's
+crack onsets (upper surface, plate-wide, eps_Y 2e-5, 8e-5, 3e-4, 1e-3 where reached in the window)
+against the continuous reference's: the issue's events target.
 
 Writes results/bench/time_integrator.md (per case: today's default; the cheapest run of each
 integrator that meets each error target 1e-4 .. 1e-7; each error control's time at each target,
@@ -57,6 +59,10 @@ CASES = {
     "6 m floe": ({"Nmod": 20, "edges": "free", "L": 3.0, "duration": 0.01}, 0.01),
 }
 TOLERANCES = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
+#: the yield strains whose crack onset each run is compared on (the paper's is 8e-5), and the
+#: tolerances the report shows them at
+ONSET_EPS_Y = np.array([2e-5, 8e-5, 3e-4, 1e-3])
+ONSET_TOLERANCES = [1e-6, 1e-7, 1e-8, 1e-9]
 #: the smoothness control's runs whose error estimate (the companion run's) is set beside their error
 ESTIMATED_SMOOTHNESS = [1e-6, 1e-7]
 #: the error controls compared: integrator name in the rows -> Settings.error_control
@@ -85,6 +91,18 @@ def _strain(p, settings, times, x, repeats=2):
     return r, best
 
 
+def _onsets(r):
+    """Crack onset [s] on the upper surface, plate-wide, at each ONSET_EPS_Y (NaN: not within the run)."""
+    return r.crack_onset(ONSET_EPS_Y)[0]
+
+
+def _onset_error(r, ref):
+    """The largest relative error of a run's crack onsets against the reference's, over the
+    ONSET_EPS_Y both reach (NaN where they reach none)."""
+    both = np.isfinite(ref) & np.isfinite(_onsets(r))
+    return float(np.max(np.abs(_onsets(r)[both] - ref[both]) / ref[both])) if both.any() else np.nan
+
+
 def _error(r, ref, norm):
     return float(np.linalg.norm(r.fields["strain"] - ref) / norm) if r.valid.all() else np.inf
 
@@ -107,9 +125,12 @@ def case_rows(name, kw, end, quick):
                        repeats=1)
     own, _ = _strain(p, Settings(error_estimate=False, tolerance=1e-12), times, x, repeats=1)
     norm = np.linalg.norm(cont.fields["strain"])
+    onsets = _onsets(cont)
     note = (f"- {name}: compared over [0, {times[-1] * 1e3:.2f} ms]; the continuous reference's uncertainty "
-            f"(density 12 against 16) {_error(check, cont.fields['strain'], norm):.1e}; today's quadrature at "
-            f"tolerance 1e-12 is {_error(own, cont.fields['strain'], norm):.1e} from it (the quadrature's floor)")
+            f"(density 12 against 16) {_error(check, cont.fields['strain'], norm):.1e}, of its crack onsets "
+            f"{_onset_error(check, onsets):.1e}; today's quadrature at tolerance 1e-12 is "
+            f"{_error(own, cont.fields['strain'], norm):.1e} from it (the quadrature's floor), its crack onsets "
+            f"{_onset_error(own, onsets):.1e}")
     print(note, flush=True)
     rows = []
     for integrator, knob, settings in _runs(quick):
@@ -121,7 +142,7 @@ def case_rows(name, kw, end, quick):
         row = dict(case=name, integrator=integrator, knob=knob, time=wall, steps=r.steps,
                    rejected=r.rejected_steps, error=_error(r, cont.fields["strain"], norm),
                    time_error=_error(r, own.fields["strain"], norm), status=r.status, estimate_time="",
-                   estimate_quadrature="")
+                   estimate_quadrature="", onset_error=_onset_error(r, onsets))
         rows.append(row)
         print(f"  {integrator} {knob:g}: {row['error']:.2e} (steps alone {row['time_error']:.2e}) in {wall:.4f} s, "
               f"{r.steps} steps, {r.rejected_steps} rejected", flush=True)
@@ -195,6 +216,18 @@ def report(notes, rows) -> str:
                       and r["knob"] == tol), None)
             cells += [f"{r['time_error']:.2e}", f"{r['estimate_time'] / r['time_error']:.2f}"] if r else ["-", "-"]
         md.append(f"| {case} | " + " | ".join(cells) + " |")
+    md += ["", "Crack onset (upper surface, plate-wide, eps_Y = " + ", ".join(f"{e:g}" for e in ONSET_EPS_Y)
+           + " where reached in the window): the largest relative error against the continuous reference, by "
+           "error control and tolerance:", "",
+           "| case | control | " + " | ".join(f"{tol:g}" for tol in ONSET_TOLERANCES) + " |",
+           "|---|---|" + "---|" * len(ONSET_TOLERANCES)]
+    for case in cases:
+        for name, control in CONTROLS.items():
+            cells = []
+            for tol in ONSET_TOLERANCES:
+                r = next((r for r in rows if r["case"] == case and r["integrator"] == name and r["knob"] == tol), None)
+                cells.append(f"{r['onset_error']:.1e}" if r and np.isfinite(r["onset_error"]) else "-")
+            md.append(f"| {case} | {control} | " + " | ".join(cells) + " |")
     md += ["", "The cheapest run of each integrator that meets each target (against the continuous reference; "
            "'-': none of its runs does):", "",
            "| case | target | etd34: tolerance | time [s] | rk4: step fraction | time [s] |", "|---|---|---|---|---|---|"]

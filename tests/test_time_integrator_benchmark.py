@@ -11,8 +11,9 @@ spec.loader.exec_module(time_integrator)
 
 
 def _row(integrator, knob, error, time, **more):
-    return dict(case="c", integrator=integrator, knob=knob, time=time, steps=10, rejected=1, error=error,
-                time_error=error, status="ok", estimate_time="", estimate_quadrature="", **more)
+    return dict(dict(case="c", integrator=integrator, knob=knob, time=time, steps=10, rejected=1, error=error,
+                     time_error=error, status="ok", estimate_time="", estimate_quadrature="", onset_error=2e-6),
+                **more)
 
 
 def test_the_report_takes_the_cheapest_run_that_meets_each_target():
@@ -45,3 +46,4 @@ def test_each_control_is_timed_at_each_target_on_its_work_precision_line():
     assert "| c | 1e-05 | 2.0000 | 1.0000 | 0.50 |" in text
     assert "| c | 1e-06 | - | 2.0000 | - |" in text
     assert "| c | - | - | 1.00e-07 | 2.00 |" in text
+    assert "| c | smoothness | - | 2.0e-06 | - | - |" in text          # the onsets at 1e-6 .. 1e-9
