@@ -17,10 +17,11 @@ and the one before (tau = -h', -h'/2, 0, h/2, h) estimates what a cubic in time 
     r_n = P_n[tau_0, ..., tau_4] h^4 / 16,   e_n = min(h, 2 / omega_n) r_n,
 
 mode n integrating a misfit of the forcing over the step when it is slow, over about a period
-when it is fast; ||e|| in the energy norm against the tolerance, as the embedded estimate. Its
-local error falls as h^5 (exponent 1/5). Benchmark (tests/test_error_control.py): the run's
-error falls in proportion to the tolerance where the embedded estimate alone leaves it at a
-floor.
+when it is fast; ||e|| in the energy norm against the tolerance, as the embedded estimate (the
+plate's modes: a free body's velocity stays the embedded estimate's). Its local error falls as
+h^5 (exponent 1/5). Benchmarks (tests/test_error_control.py): zero for a forcing cubic in time
+and the closed form above for c_n t^4; the run's error falls in proportion to the tolerance where
+the embedded estimate alone leaves it at a floor.
 
 Benchmark (tests/test_error_estimate.py, tests/test_energy_and_forcing.py): the run's error
 falls with the tolerance as its estimate says; the energy residual shrinks with the tolerance
