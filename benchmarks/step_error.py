@@ -19,7 +19,6 @@ results/bench/step_error.md.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 
@@ -30,12 +29,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from solver import Parameters, Settings, solve  # noqa: E402
 from solver.control import History, Samples, error_ratio, make_control, smoothness_ratio  # noqa: E402
 from solver.layout import ETD34  # noqa: E402
-from solver.loop import state_at  # noqa: E402
+from solver.loop import new_state, state_at  # noqa: E402
 from solver.model.assemble import Tables  # noqa: E402
 from solver.model.body import body_coefficients  # noqa: E402
 from solver.model.contact import count_contacts  # noqa: E402
 from solver.model.plate import MASS, OMEGA  # noqa: E402
-from solver.step import Carried, Coefficients, Start, State, StepWork, etd_coefficients, take_step  # noqa: E402
+from solver.step import Carried, Coefficients, Start, StepWork, etd_coefficients, take_step  # noqa: E402
 
 #: name -> parameters (the reference case and thin ice hit fast, as benchmarks/time_integrator.py)
 CASES = {"reference": {"Nmod": 60}, "thin, fast, stiff layer": {"Nmod": 60, "hi": 0.3, "V": 10.0, "K": 8e7}}
@@ -52,28 +51,22 @@ class Stepper:
         self.N, self.J = self.model.plate.modes.shape[1], self.model.basis.cosq.shape[1]
         self.control = make_control(0.0, 1.0, TOLERANCE, 0.0, 1e-8, 0.0, 1.0, 10, 1e-3, smoothness=True)
 
-    def empty(self):
-        N, J = self.N, self.J
-        return State(np.empty(N, complex), np.empty(N), np.empty(N), np.empty(N), np.empty(J), np.empty(J),
-                     np.zeros(2), np.zeros(N, complex), np.zeros(2), np.zeros(3))
-
     def state(self, t, a, adot):
         """The State at t from a, a' (its forcing, delta, eps) and its Carried."""
-        J = self.J
-        s = self.empty()
+        s = new_state(self.N, self.J)
         st, force, jmax, power = state_at(self.model, t, np.ascontiguousarray(a), np.ascontiguousarray(adot),
-                                          np.empty(J), s)
+                                          np.empty(self.J), s)
         assert st == 0
         return s, Carried(force, 0.0, 0.0, power, count_contacts(s.delta, jmax, self.model.basis.mirror))
 
     def step(self, state, carried, t, h):
-        """(status, the State at t + h, event, the mid-stage forcing N3) of one etd34 step."""
+        """(status, the State at t + h, its Carried, event, the mid-stage forcing N3) of one etd34 step."""
         N, J = self.N, self.J
         coeffs = Coefficients(np.empty((9, N), complex), np.empty((9, 2)))
         etd_coefficients(self.model.plate, h, coeffs.C)
         body_coefficients(h, coeffs.Cb)
         work = StepWork(np.empty((2, N), complex), np.empty((5, N)), np.empty(J), np.zeros((6, 6)))
-        out = self.empty()
+        out = new_state(N, J)
         st, force, jmax, w_new, event = take_step(ETD34, self.model, coeffs, work,
                                                   Start(state.z, state.forcing, state.yb), carried, t, t + h, h, out)
         after = Carried(force, w_new, out.acc[0], out.acc[1], count_contacts(out.delta, jmax, self.model.basis.mirror))

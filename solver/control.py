@@ -94,6 +94,15 @@ def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, ma
 
 
 @kernel(inline="llvm")
+def error_scale(model, control, den_old, den_new):
+    """What an error in the energy norm is measured against: the tolerance times the plate's
+    energy norm at the step's start or end (den_old, den_new: sum L M_n |z_n|^2), the larger, or
+    the floor V sqrt(L M_1) while the plate's energy is below it."""
+    floor = model.body.V * math.sqrt(model.plate.lm_floor)
+    return control.tolerance * max(math.sqrt(max(den_old, den_new)), floor)
+
+
+@kernel(inline="llvm")
 def error_ratio(model, control, z, znew, err, errb, gap, scratch):
     """Local error (err, errb) over tolerance in the energy norm: the plate's error and a free
     body's velocity error M err_U^2, against the plate's energy at the step's start (z) or end
@@ -113,8 +122,7 @@ def error_ratio(model, control, z, znew, err, errb, gap, scratch):
         # not against the body's own kinetic energy M U^2 / 2: that grows with M and would
         # loosen the plate's control as M -> inf, where the paper's body is the limit
         num += errb[B_U] ** 2 / im
-    floor = model.body.V * math.sqrt(model.plate.lm_floor)
-    ratio = math.sqrt(num) / (control.tolerance * max(math.sqrt(max(den_old, den_new)), floor))
+    ratio = math.sqrt(num) / error_scale(model, control, den_old, den_new)
     he = model.layer.he
     if model.layer.K > 0.0 and gap[0] > 1.0 - max(GAP_WATCH, 10.0 * control.bottom_gap):
         # near bottoming the local error of delta at the gap must be small against the
@@ -159,8 +167,7 @@ def smoothness_ratio(model, control, history, forcing, h, z0, z1):
         num += plate.modes[MASS, n] * e * e
         den_old += plate.modes[MASS, n] * (z0[n].real ** 2 + z0[n].imag ** 2)
         den_new += plate.modes[MASS, n] * (z1[n].real ** 2 + z1[n].imag ** 2)
-    floor = model.body.V * math.sqrt(model.plate.lm_floor)
-    return math.sqrt(num) / (control.tolerance * max(math.sqrt(max(den_old, den_new)), floor))
+    return math.sqrt(num) / error_scale(model, control, den_old, den_new)
 
 
 @kernel
