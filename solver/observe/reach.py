@@ -9,7 +9,9 @@ neighbours, exact for a parabolic delta). Inside a step, at the dense output's s
 the nodes around the front are evaluated (reach_at), with the body's penetration from the cubic
 Hermite of its deficits; where the extent peaks at a sample (the contact stops spreading and
 recedes), the reach from then on is the vertex of the parabola through that sample and its
-neighbours (zone_track).
+neighbours (zone_track). Between the ends of steps that resolve the modes, where the zone is not
+sampled inside, a peak at a step's end is the vertex of the parabola through it and the ends
+around it (peak_at_end).
 
 Benchmark (tests/test_impact_zone.py): the extent on rigid ice is the body's geometry; against
 DOP853, whose samples resolve the front (a 6 m floe's reach, 0.5716 m, to 2e-9 m at tolerance
@@ -120,6 +122,39 @@ def reach_at(model, a, s, c, delta):
     if model.body.xc - c > model.basis.dx:        # the full plate: the other side too
         far = max(far, _side_reach(model, a, s, c, -1, delta))
     return far
+
+
+@kernel
+def peak_at_end(e_prev, e0, e1, h_prev, h, dx):
+    """The contact's farthest reach around a step end where its extent peaks there (e_prev < e0
+    >= e1, the extents at the ends of two steps of lengths h_prev and h that resolve the modes,
+    so not sampled inside): the vertex of the parabola through the three; -1 where it does not
+    peak there, or where the vertex lies a node spacing or more above e0 (a contact that appeared
+    or left beyond a gap: not one smooth front)."""
+    if not (e_prev > 0.0 and e1 > 0.0 and e_prev < e0 and e0 >= e1):
+        return -1.0
+    d_prev, d_next = (e0 - e_prev) / h_prev, (e1 - e0) / h
+    a = (d_next - d_prev) / (h + h_prev)
+    if not a < 0.0:
+        return -1.0
+    b = d_prev + a * h_prev
+    top = e0 - b * b / (4.0 * a)
+    return top if top - e0 < dx else -1.0
+
+
+@kernel
+def reach_after_step(reach, sampled, c, h, dx):
+    """The contact's reach so far (reach[0], ZoneWork.reach) after a step of length h whose end
+    has the extent c: with the largest of its samples inside the step (sampled; -1: the step was
+    not sampled), or with the peak at the last step's end where neither step was (peak_at_end);
+    and the extent and step length the next step's peak_at_end reads (reach[5], reach[6])."""
+    if sampled >= 0.0:
+        reach[0] = max(reach[0], sampled)
+    elif h > 0.0 and reach[6] > 0.0:
+        reach[0] = max(reach[0], peak_at_end(reach[5], reach[4], c, reach[6], h, dx))
+    if h > 0.0:
+        reach[5], reach[6] = reach[4], 0.0 if sampled >= 0.0 else h
+    reach[0] = max(reach[0], c)
 
 
 @kernel

@@ -46,14 +46,15 @@ from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_U
 from ..model.basis import Field, dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
 from ..model.floe import floe_dry, floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
-from .reach import Reach, Span, contact_extent, zone_ends, zone_track
+from .reach import Reach, Span, contact_extent, reach_after_step, zone_ends, zone_track
 from .record import SurfaceRows
 from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_dense
 
 #: the observer's state: peaks (2, 5) each surface's (value, rate, x, node, slope) of the zone's
 #: peak at the current time (node -1: the zone's upper end, -2 its lower end); reach (5,) the
-#: contact's largest extent c [m] so far, the margin m [m], the zone's ends [lo, hi] and the
-#: contact's extent at the last step's end; best (2, 5) each surface's (max, time, x, edge: 0 inside the zone, 1 its upper
+#: contact's largest extent c [m] so far, the margin m [m], the zone's ends [lo, hi], the
+#: contact's extent at the last step's end and at the end before it, and the last step's length
+#: where its extent was not sampled inside it (0: it was, or none); best (2, 5) each surface's (max, time, x, edge: 0 inside the zone, 1 its upper
 #: end, 2 its lower end; the end's speed) over the last step (the located maxima read them); dry
 #: (2, N) scratch for a floe's dry coefficients; pair (2, 5) a step's two ends and chain
 #: (TENSION_SAMPLES + 1, 5) the peaks sampled inside it, each row (value, rate, x, node, slope:
@@ -82,7 +83,7 @@ def zone_work(margin, N):
     peaks[:, 0] = -np.inf
     peaks[:, 3] = -1.0
     marks = np.array([-np.inf, -np.inf, 0.0, 0.0])
-    return ZoneWork(peaks, np.array([0.0, margin, -1.0, -1.0, -1.0]), np.full((2, 5), -np.inf),
+    return ZoneWork(peaks, np.array([0.0, margin, -1.0, -1.0, -1.0, -1.0, 0.0]), np.full((2, 5), -np.inf),
                     np.empty((2, N)), np.empty((2, 5)), np.empty((TENSION_SAMPLES + 1, 5)),
                     np.empty((TENSION_SAMPLES + 1, 6)), marks)
 
@@ -334,9 +335,7 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
     tracked = h > 0.0 and K > 1 and not resolved and max(c, zw.reach[4]) >= reach0 - 2.0 * basis.dx
     if tracked:
         _track(track, -basis.length, 2.0 * basis.length)        # (unbounded: the zone may grow)
-        zw.reach[0] = max(zw.reach[0], zw.track[K, 5])
-    if c > zw.reach[0]:
-        zw.reach[0] = c
+    reach_after_step(zw.reach, zw.track[K, 5] if tracked else -1.0, c, h, basis.dx)
     diag[D_CONTACT_EXTENT] = zw.reach[0]
     lo, hi = zone_ends(model, zw.reach[0], zw.reach[1])
     if not lo < hi:         # no zone (walls whose margins cover the plate): nothing in it, its values NaN
