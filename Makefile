@@ -81,8 +81,8 @@ variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests
 layout-slots: setup  ## rewrite solver/layout.py's D_*, R_*, S_* slots from the tables of solver/outputs.py
 	$(PY) -m solver.outputs
 
-bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? 25 cases (15 at the paper's rule, 8 Gauss, a floe under each), settings pinned, every output array
-	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD)
+bit-for-bit: setup  ## are the solver's results exactly those of BASE (default HEAD)? (RULE=embedded: the Gauss cases under the embedded control) 25 cases (15 at the paper's rule, 8 Gauss, a floe under each), settings pinned, every output array
+	$(PY) benchmarks/bit_for_bit.py --base $(or $(BASE),HEAD) --gauss-rule $(or $(RULE),gauss)
 
 bench-integrator: setup  ## the time integrators' error against wall time on seven cases against the continuous-x model (issue 56's measure, about 10 min) -> results/bench/time_integrator.{md,csv}
 	$(PY) benchmarks/time_integrator.py
@@ -90,7 +90,7 @@ bench-integrator: setup  ## the time integrators' error against wall time on sev
 bench-answered: setup  ## a crack-onset run (end = "answered") beside the full run, five cases at N = 60 -> results/bench/answered.md
 	$(PY) benchmarks/answered.py
 
-bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa ." RULE=paper|gauss, settings pinned) -> results/bench/revisions.md
+bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa ." RULE=paper|gauss|embedded, settings pinned) -> results/bench/revisions.md
 	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .) --rule $(or $(RULE),paper)
 
 bench-quadrature: setup  ## error against wall time of both forcing quadratures, N = 20, 60, 120, four cases (about 10 min) -> results/bench/quadrature.{md,csv,png}

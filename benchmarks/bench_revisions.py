@@ -38,7 +38,10 @@ import numpy as np
 from solver import Parameters, Settings, solve
 p = Parameters(Nmod=int(sys.argv[1]))
 rule = json.loads(sys.argv[3])
-if not set(rule) <= {f.name for f in dataclasses.fields(Settings)}:
+known = {f.name for f in dataclasses.fields(Settings)}
+if rule.get("error_control") == "embedded" and "error_control" not in known:
+    del rule["error_control"]                # the control of every run before it was a setting
+if not set(rule) <= known:
     rule = {k: v for k, v in rule.items() if k in ("subintervals", "tolerance")} if rule.get("quadrature") == "paper" else None
 if rule is None:
     print(json.dumps(None))
@@ -76,10 +79,13 @@ def checkout(rev: str, tmp: Path) -> Path:
 
 
 #: the settings timed, pinned by value so that a change of the defaults does not change the
-#: comparison: the paper's rule as every revision before issue 24 ran it by default, or the Gauss
-#: rule, today's default (a revision without it is left out)
+#: comparison: the paper's rule as every revision before issue 24 ran it by default; the Gauss
+#: rule, today's default (a revision without its error control is left out); or the Gauss rule
+#: under the embedded control at 1e-9, the default from issue 24 to 2026-11-28
+_GAUSS = ("quadrature", "subintervals", "quadrature_density", "tolerance", "error_control")
 RULES = {"paper": PAPER_NUMERICS,
-         "gauss": {k: getattr(Settings(), k) for k in ("quadrature", "subintervals", "quadrature_density", "tolerance")}}
+         "gauss": {k: getattr(Settings(), k) for k in _GAUSS},
+         "embedded": {k: getattr(Settings(error_control="embedded"), k) for k in _GAUSS}}
 
 
 def probe(tree: Path, nmod: int, solves: int, rule: str, asked=None) -> dict:

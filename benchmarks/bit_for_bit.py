@@ -43,6 +43,9 @@ def S(**kw):
 PAPER, GAUSS = (dict(rule, error_estimate=False) for rule in json.loads(sys.argv[2]))
 if "quadrature" not in KNOWN:
     PAPER.pop("quadrature")
+for rule in (PAPER, GAUSS):          # the embedded control: every run's before it was a setting
+    if rule.get("error_control") == "embedded" and "error_control" not in KNOWN:
+        rule.pop("error_control")
 quiet = S(**PAPER)
 gauss = S(**GAUSS)
 cases = {
@@ -101,8 +104,8 @@ pickle.dump(out, open(sys.argv[1], "wb"))
 """
 
 
-def run(tree: Path, path: Path) -> dict:
-    rules = json.dumps([RULES["paper"], RULES["gauss"]])
+def run(tree: Path, path: Path, gauss: str) -> dict:
+    rules = json.dumps([RULES["paper"], RULES[gauss]])
     proc = subprocess.run([sys.executable, "-c", PROBE, str(path), rules], cwd=tree,
                           env={"PYTHONPATH": str(tree), "PATH": "/usr/bin:/bin"}, capture_output=True,
                           text=True, timeout=1800)
@@ -135,15 +138,18 @@ def differences(base: dict, new: dict) -> list:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--base", default="HEAD", help="the revision to compare against (default HEAD)")
+    ap.add_argument("--gauss-rule", choices=("gauss", "embedded"), default="gauss",
+                    help="the Gauss cases' settings (bench_revisions.RULES): today's default, or the embedded "
+                         "control at 1e-9 (the default before 2026-11-28)")
     args = ap.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         tree = checkout(args.base, Path(tmp))
         try:
-            base = run(tree, Path(tmp) / "base.pkl")
+            base = run(tree, Path(tmp) / "base.pkl", args.gauss_rule)
         finally:
             if tree != ROOT:
                 subprocess.run(["git", "worktree", "remove", "--force", str(tree)], cwd=ROOT, capture_output=True)
-        new = run(ROOT, Path(tmp) / "new.pkl")
+        new = run(ROOT, Path(tmp) / "new.pkl", args.gauss_rule)
     lines = differences(base, new)
     for line in lines:
         print(line)

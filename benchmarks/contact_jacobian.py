@@ -155,7 +155,7 @@ def main() -> None:
     t0, t1 = args.window
     problem = Problem(p, args.block)
     N = problem.N
-    ref = solve(p, Settings(error_estimate=False, tolerance=1e-13), times=[0.0, t0, t1], fields=(), t_end=t1)
+    ref = solve(p, Settings(error_estimate=False, tolerance=1e-13, error_control="embedded"), times=[0.0, t0, t1], fields=(), t_end=t1)
     a, v = np.asarray(ref.amplitudes), np.asarray(ref.velocities)
     a_ref = a[-1][:N]
 

@@ -25,7 +25,8 @@ from solver import Parameters, Settings, solve  # noqa: E402
 
 RULES = {"default (gauss, 250)": Settings(error_estimate=False),
          "paper, 2000": Settings(quadrature="paper", subintervals=2000, error_estimate=False)}
-REFERENCE = Settings(quadrature_density=16, subintervals=1000, tolerance=1e-12, error_estimate=False)
+REFERENCE = Settings(quadrature_density=16, subintervals=1000, tolerance=1e-12, error_estimate=False,
+                     error_control="embedded")
 TIMES = np.linspace(0.0, 0.02, 21)
 
 

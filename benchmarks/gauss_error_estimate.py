@@ -48,7 +48,7 @@ def main() -> None:
         for N in args.nmod:
             p = Parameters(Nmod=N, **kw)
             times = np.linspace(0.05, end, 24) * p.stage_duration
-            ref = solve(p, Settings(quadrature_density=24, tolerance=1e-12, error_estimate=False), times=times,
+            ref = solve(p, Settings(quadrature_density=24, tolerance=1e-12, error_estimate=False, error_control="embedded"), times=times,
                         fields=(), t_end=times[-1])
             tables = Tables(p, Settings().subintervals, None, "gauss")
             for density in DENSITIES:

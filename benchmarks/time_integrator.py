@@ -13,11 +13,12 @@ references:
   subintervals) at etd34 tolerance 1e-12, so that the error of the steps is seen below the
   quadrature's floor.
 
-The runs: etd34 at tolerances 1e-3 .. 1e-11 (today's default is 1e-9) under both error controls
-(``error_control``: "embedded", the default, and "smoothness") and rk4 (the paper's integrator)
+The runs: etd34 at tolerances 1e-3 .. 1e-11 and each control's default under both error controls
+(``error_control``: "smoothness", the default at 3e-7, and "embedded", the default before it at 1e-9) and rk4 (the paper's integrator)
 at step fractions 0.2, 0.1, 0.05 of the last mode's period (the paper's), on today's default
 quadrature, error estimate off (each run's wall time the smaller of two; the machine is noisy:
-compare ratios within one run); and today's default (etd34's run at its tolerance) with
+compare ratios within one run); and today's default and the one before (each control's run at its
+default tolerance) with
 the estimate of a run with its error estimate on, set beside the measured error (the issue asks
 for it within 3x): its time part beside the error of the steps alone, its time and quadrature
 parts beside the error from the continuous model (its modes' part estimates the truncation at N,
@@ -27,7 +28,7 @@ Under the smoothness control, the runs at 1e-6 and 1e-7 with their error estimat
 crack onsets (upper surface, plate-wide, eps_Y 2e-5, 8e-5, 3e-4, 1e-3 where reached in the window)
 against the continuous reference's: the issue's events target.
 
-Writes results/bench/time_integrator.md (per case: today's default; the cheapest run of each
+Writes results/bench/time_integrator.md (per case: today's default beside the one before; the cheapest run of each
 integrator that meets each error target 1e-4 .. 1e-7; each error control's time at each target,
 interpolated on its work-precision line, and their ratio) and results/bench/time_integrator.csv
 (every run).
@@ -62,14 +63,17 @@ TOLERANCES = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9, 1e-10, 1e-11]
 #: the yield strains whose crack onset each run is compared on (the paper's is 8e-5), and the
 #: tolerances the report shows them at
 ONSET_EPS_Y = np.array([2e-5, 8e-5, 3e-4, 1e-3])
-ONSET_TOLERANCES = [1e-6, 1e-7, 1e-8, 1e-9]
+ONSET_TOLERANCES = [1e-6, 3e-7, 1e-7, 1e-8, 1e-9]
 #: the smoothness control's runs whose error estimate (the companion run's) is set beside their error
 ESTIMATED_SMOOTHNESS = [1e-6, 1e-7]
 #: the error controls compared: integrator name in the rows -> Settings.error_control
 CONTROLS = {"etd34": "embedded", "etd34 smoothness": "smoothness"}
+#: today's default and the default before it (to 2026-11-28: the embedded control at 1e-9)
+DEFAULTS = {"default": Settings(), "previous default": Settings(error_control="embedded")}
 FRACTIONS = [0.2, 0.1, 0.05]
 TARGETS = [1e-4, 1e-5, 1e-6, 1e-7]
-CONTINUOUS = dict(quadrature="gauss", quadrature_density=16, subintervals=1000, tolerance=1e-12)
+#: the references run under the embedded control, as before it was the default
+CONTINUOUS = dict(quadrature="gauss", quadrature_density=16, subintervals=1000, tolerance=1e-12, error_control="embedded")
 OUT = Path("results/bench")
 
 
@@ -108,9 +112,10 @@ def _error(r, ref, norm):
 
 
 def _runs(quick):
-    """(integrator, knob, settings) of each run; etd34's include today's default tolerance."""
+    """(integrator, knob, settings) of each run; etd34's include each control's default tolerance."""
     for name, control in CONTROLS.items():
-        for tol in sorted({*(TOLERANCES[::2] if quick else TOLERANCES), Settings().tolerance}, reverse=True):
+        default = Settings(error_control=control).tolerance
+        for tol in sorted({*(TOLERANCES[::2] if quick else TOLERANCES), default}, reverse=True):
             yield name, tol, dict(tolerance=tol, error_control=control)
     for fraction in (FRACTIONS[::2] if quick else FRACTIONS):
         yield "rk4", fraction, dict(integrator="rk4", rk4_step_fraction=fraction)
@@ -123,7 +128,8 @@ def case_rows(name, kw, end, quick):
     cont, _ = _strain(p, Settings(error_estimate=False, **CONTINUOUS), times, x, repeats=1)
     check, _ = _strain(p, Settings(error_estimate=False, **dict(CONTINUOUS, quadrature_density=12)), times, x,
                        repeats=1)
-    own, _ = _strain(p, Settings(error_estimate=False, tolerance=1e-12), times, x, repeats=1)
+    own, _ = _strain(p, Settings(error_estimate=False, tolerance=1e-12, error_control="embedded"), times, x,
+                     repeats=1)
     norm = np.linalg.norm(cont.fields["strain"])
     onsets = _onsets(cont)
     note = (f"- {name}: compared over [0, {times[-1] * 1e3:.2f} ms]; the continuous reference's uncertainty "
@@ -146,13 +152,14 @@ def case_rows(name, kw, end, quick):
         rows.append(row)
         print(f"  {integrator} {knob:g}: {row['error']:.2e} (steps alone {row['time_error']:.2e}) in {wall:.4f} s, "
               f"{r.steps} steps, {r.rejected_steps} rejected", flush=True)
-    # today's default: etd34's run at its tolerance, and its estimate of the error of the steps and
-    # of the quadrature
-    default = Settings()
-    row = next(r for r in rows if r["integrator"] == "etd34" and r["knob"] == default.tolerance)
-    estimated, _ = _strain(p, default, times, x, repeats=1)
-    rows.append(dict(row, integrator="default", estimate_time=estimated.diagnostics["error_estimate_time"],
-                     estimate_quadrature=estimated.diagnostics["error_estimate_quadrature"]))
+    # today's default and the one before (the embedded control at its default tolerance): the run at
+    # its tolerance, and its estimate of the error of the steps and of the quadrature
+    for label, default in DEFAULTS.items():
+        name = next(n for n, control in CONTROLS.items() if control == default.error_control)
+        row = next(r for r in rows if r["integrator"] == name and r["knob"] == default.tolerance)
+        estimated, _ = _strain(p, default, times, x, repeats=1)
+        rows.append(dict(row, integrator=label, estimate_time=estimated.diagnostics["error_estimate_time"],
+                         estimate_quadrature=estimated.diagnostics["error_estimate_quadrature"]))
     # the same estimate of runs under the smoothness control
     for tol in ESTIMATED_SMOOTHNESS:
         row = next((r for r in rows if r["integrator"] == "etd34 smoothness" and r["knob"] == tol), None)
@@ -196,14 +203,19 @@ def _run(rows, case, integrator, knob):
 
 
 def _default_table(rows, cases):
-    md = ["| case | today's default: error | steps alone | time [s] | steps (rejected) | its estimate: time / "
-          "steps alone | time + quadrature / error |", "|---|---|---|---|---|---|---|"]
+    md = [f"Today's default ({DEFAULTS['default'].error_control}, tolerance {DEFAULTS['default'].tolerance:g}) "
+          f"and the default before it ({DEFAULTS['previous default'].error_control}, tolerance "
+          f"{DEFAULTS['previous default'].tolerance:g}):", "",
+          "| case | default | error | steps alone | time [s] | steps (rejected) | its estimate: time / "
+          "steps alone | time + quadrature / error | time / previous default's |", "|---|---|---|---|---|---|---|---|---|"]
     for case in cases:
-        d = next(r for r in rows if r["case"] == case and r["integrator"] == "default")
-        steps = d["estimate_time"] / d["time_error"]
-        whole = (d["estimate_time"] + d["estimate_quadrature"]) / d["error"]
-        md.append(f"| {case} | {d['error']:.2e} | {d['time_error']:.2e} | {d['time']:.4f} | {d['steps']} "
-                  f"({d['rejected']}) | {steps:.2f} | {whole:.2f} |")
+        before = next(r for r in rows if r["case"] == case and r["integrator"] == "previous default")
+        for label in DEFAULTS:
+            d = next(r for r in rows if r["case"] == case and r["integrator"] == label)
+            steps = d["estimate_time"] / d["time_error"]
+            whole = (d["estimate_time"] + d["estimate_quadrature"]) / d["error"]
+            md.append(f"| {case} | {label} | {d['error']:.2e} | {d['time_error']:.2e} | {d['time']:.4f} | {d['steps']} "
+                      f"({d['rejected']}) | {steps:.2f} | {whole:.2f} | {d['time'] / before['time']:.2f} |")
     return md
 
 

@@ -19,7 +19,7 @@ from .compile import kernel_cache, parallel_compile
 from . import layout as kn
 from .control import make_control
 from .diagnostics import Outputs, Records, Run
-from .error_estimate import error_estimates
+from .error_estimate import TOLERANCE_EXPONENT, error_estimates
 from .layout import ETD34, RK4
 from .loop import integrate
 from .model.assemble import Tables
@@ -398,7 +398,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         extra["error_estimate_wall_time"] = other.wall_time
     if s.error_estimate:                  # without local estimates (dop853) its time part is NaN
         diagnostics.update(error_estimates(out_a[valid], tab.strain_coef, diagnostics["energy_residual"],
-                                           companion=companion,
+                                           companion=companion, exponent=TOLERANCE_EXPONENT[s.error_control],
                                            accumulated=out_err[valid] if integrator.local_errors else None))
     else:
         diagnostics.update({name: np.nan for name in ("error_estimate", "error_estimate_time",

@@ -44,7 +44,7 @@ from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, DenseStates, Ste
                               observe_tensions, tension_work)
 from .observe.reach import Span
 from .observe.zone import ZoneEnds, observe_zone, zone_work
-from .step import Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
+from .step import G_ROW, Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
 
 #: the loop's work space besides its two states: the step's scratch, the sub-steps' state and
 #: their stepper (its own coefficients and scratch: a search inside a step leaves the step's
@@ -100,7 +100,7 @@ def new_workspace(method, model, N, J, margin):
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
                      zone_work(margin, N), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
                      np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan),
-                     History(np.zeros((2, N)), np.zeros(2)))
+                     History(np.zeros((2, N)), np.zeros(2), np.zeros(2)))
 
 
 @kernel(nrt=True)
@@ -390,8 +390,8 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         expo = 1.0 / 3.0 if event else 0.25
         smooth = 0.0
         if adaptive and st == 0 and not event:
-            smooth = smoothness_ratio(model, control, history, Samples(cur.forcing, step_work.rows[2], new.forcing),
-                                      h_step, cur.z, new.z)
+            smooth = smoothness_ratio(model, control, history, Samples(cur.forcing, step_work.rows[2], new.forcing,
+                                                                       step_work.table[G_ROW, 1::2]), h_step, cur.z, new.z)
         verdict, h_try, ratio, resid_new, status, counted = judge_step(adaptive, model, control, cur.z, new, gap0,
                                                                    step_work.rows[0],
                                                                    Trial(st, w_new, jm5, t, h_step, expo, smooth),
@@ -435,7 +435,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         if not bottomed and asks(asked, LAYER_MAXIMA):     # the force and compression located (on sub-steps)
             observe_layer_maxima(stepper, maxima, start, carried, t, h_eff, LayerEnds(F5, gap1[0], gap0[0]), sub, value,
                                  diag)
-        remember_step(history, cur.forcing, reached[2], h_eff, not (event or bottomed))
+        remember_step(history, cur.forcing, reached[2], step_work.table[G_ROW, 1::2], h_eff, not (event or bottomed))
         separated = left and control.until_separation
         done = answered(control.answer, ws.tension.marks, ws.zone.marks, records, crossed)
         cur, new = new, cur

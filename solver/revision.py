@@ -30,9 +30,14 @@ its runs carry this revision beside their rule's, and no run of the kernels chan
 paper 3, gauss 5, floe 4 and dop853 2 (2026-11-28: the contact's reach peaks between the ends of
 steps that resolve the modes located, solver.observe.reach.peak_at_end: contact_extent and the
 impact zone's values that its ends move change; a floe's reach 1.9e-8 from DOP853's at a fixed
-step of 2.5e-4 t_sc, now 7.7e-11).
+step of 2.5e-4 t_sc, now 7.7e-11); smoothness 1 (2026-11-28: etd34's smoothness control, the
+default from then, with the error norm's floor at solver.control.SMOOTH_FLOOR = 0.01 of the
+embedded control's and a free body's velocity judged by it too; its runs carry this revision
+beside their rule's; the embedded control's runs unchanged, at its own default tolerance 1e-9,
+solver.settings.DEFAULT_TOLERANCE).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
-#: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 2}
+#: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
+#: "smoothness": of etd34's adaptive runs under the smoothness control (in addition)
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 2, "smoothness": 1}

@@ -48,7 +48,22 @@ ERROR_CONTROLS = ("embedded", "smoothness")
 NAMED_SETTINGS = {"integrator": INTEGRATORS, "quadrature": QUADRATURES, "error_control": ERROR_CONTROLS}
 #: the paper's rule at its 1000 subintervals and tolerance 1e-8, the defaults before issue 24:
 #: Settings(**PAPER_NUMERICS) reproduces those runs bit for bit, and their case ids
-PAPER_NUMERICS = {"quadrature": "paper", "subintervals": 1000, "tolerance": 1e-8}
+PAPER_NUMERICS = {"quadrature": "paper", "subintervals": 1000, "tolerance": 1e-8, "error_control": "embedded"}
+#: the default tolerance: under etd34's smoothness control (the default) a run's error is about
+#: its tolerance, and 3e-7 puts the reference case at N = 60 within 1e-6 of the continuous-x
+#: model (8.4e-7) in 1.03x the time the embedded control took at 1e-9 for 1.3e-6
+#: (docs/performance.md, "Error control"); the embedded control's estimate understates a step's
+#: error, and its default stays the 1e-9 of the runs before the smoothness control was the
+#: default (their case ids hold); DOP853's rtol stays 1e-9
+DEFAULT_TOLERANCE = {"smoothness": 3e-7, "embedded": 1e-9}
+
+
+def default_tolerance(integrator: str, error_control: str) -> float:
+    """The tolerance a run takes when none is given: DEFAULT_TOLERANCE of etd34's error control
+    (rk4 reads none), 1e-9 for DOP853."""
+    return DEFAULT_TOLERANCE[error_control] if integrator == "etd34" else 1e-9
+
+
 #: largest subintervals accepted (memory: the tables are Nmod x subintervals doubles; time: a
 #: case's cost grows as subintervals^1.5 beyond 25 000, measured at 8 modes over the reference
 #: stage: 2.2 s at 25 000, 11.9 s at 100 000, 68 s at 300 000; 10^6, the limit before, gave no
@@ -60,19 +75,23 @@ MAX_SUBINTERVALS = 100_000
 class Settings:
     """Numerical settings of one run.
 
-    The defaults (etd34 at tolerance 1e-9, the Gauss rule at 4 nodes a wavelength on a table of
-    250 subintervals) were chosen by measurement (docs/numerics.md, "The quadrature"): on the
-    reference case at N = 60 their strain error against the continuous-x model is 1.9e-6, in
-    less time than the paper's rule took for 1.2e-5 at its 1000 subintervals and tolerance
-    1e-8, the defaults before issue 24. ``Settings(**PAPER_NUMERICS)`` reproduces those runs bit
-    for bit, and their case ids.
+    The defaults (etd34 under its smoothness control at tolerance 3e-7, the Gauss rule at 4
+    nodes a wavelength on a table of 250 subintervals) were chosen by measurement
+    (docs/numerics.md, "The quadrature"; docs/performance.md, "Error control"): on the reference
+    case at N = 60 their strain error against the continuous-x model is 8.4e-7, in the time the
+    embedded control at 1e-9 (the default from issue 24 to 2026-11-28) took for 1.3e-6, and the
+    paper's rule for 1.2e-5 at its 1000 subintervals and tolerance 1e-8, the defaults before
+    issue 24. ``Settings(**PAPER_NUMERICS)`` reproduces those runs bit for bit, and their case
+    ids; ``Settings(error_control="embedded")`` those of the default before 2026-11-28.
 
     Parameters
     ----------
     integrator : "etd34" (default: adaptive exponential Runge-Kutta 4(3), Krogstad stages)
         or "rk4" (the paper's classical RK4 with a fixed step), or "dop853" (scipy's DOP853 on
         the same right-hand side, rtol = tolerance; no in-loop diagnostics).
-    tolerance : relative error per step of etd34, measured in the energy norm [1].
+    tolerance : relative error per step of etd34, measured in the energy norm, or DOP853's
+        rtol [1]. None (the default): 3e-7 under etd34's smoothness control, 1e-9 under its
+        embedded one and for DOP853 (``DEFAULT_TOLERANCE``).
     subintervals : subintervals of [0, L] between the nodes of the basis's table (the paper:
         1000): the paper's quadrature integrates over them, the contact-resolving one finds
         the contact intervals and the events on them, and strain observers run on them [1].
@@ -93,15 +112,16 @@ class Settings:
         plate-wide ones, reaches this far beyond the farthest point from the body's centre that
         the contact has reached so far (docs/model.md, "Maxima of the impact zone") [m]. An
         observer's setting: the run's state does not depend on it.
-    error_control : what judges an adaptive etd34 step: "embedded" (default: its embedded
-        4(3) estimate alone) or "smoothness" (that and the forcing's smoothness over the step
-        and the one before, which sees the error of the modes that oscillate once or more inside
-        a step: the run's error then falls in proportion to the tolerance) (docs/model.md,
-        "Numerics"; docs/performance.md, "Error control").
+    error_control : what judges an adaptive etd34 step: "smoothness" (default: its embedded
+        4(3) estimate and the forcing's smoothness over the step and the one before, which sees
+        the error of the modes that oscillate once or more inside a step: the run's error then
+        falls in proportion to the tolerance) or "embedded" (the embedded estimate alone, the
+        default until 2026-11-28) (docs/model.md, "Numerics"; docs/performance.md, "Error
+        control").
     """
 
     integrator: str = "etd34"
-    tolerance: float = 1e-9
+    tolerance: float | None = None
     subintervals: int = 250
     quadrature: str = "gauss"
     quadrature_density: float = 4.0
@@ -111,12 +131,17 @@ class Settings:
     error_estimate: bool = True
     bottoming_gap: float = 1e-3
     impact_zone_margin: float = 1.0
-    error_control: str = "embedded"
+    error_control: str = "smoothness"
 
     def __post_init__(self):
         if self.integrator not in INTEGRATORS:
             raise ParameterError(
                 f"integrator must be one of {', '.join(INTEGRATORS)}, got {self.integrator!r}")
+        if self.error_control not in ERROR_CONTROLS:
+            raise ParameterError(
+                f"error_control must be one of {', '.join(ERROR_CONTROLS)}, got {self.error_control!r}")
+        if self.tolerance is None:
+            object.__setattr__(self, "tolerance", default_tolerance(self.integrator, self.error_control))
         check_positive("tolerance", self.tolerance)
         if self.tolerance >= 1.0:
             raise ParameterError(f"tolerance must be < 1, got {self.tolerance!r}")
@@ -125,9 +150,6 @@ class Settings:
             raise ParameterError(f"subintervals must be between 8 and {MAX_SUBINTERVALS}, got {self.subintervals!r}")
         if self.quadrature not in QUADRATURES:
             raise ParameterError(f"quadrature must be one of {', '.join(QUADRATURES)}, got {self.quadrature!r}")
-        if self.error_control not in ERROR_CONTROLS:
-            raise ParameterError(
-                f"error_control must be one of {', '.join(ERROR_CONTROLS)}, got {self.error_control!r}")
         check_positive("quadrature_density", self.quadrature_density)
         if not 1.0 <= float(self.quadrature_density) <= 1000.0:
             raise ParameterError(f"quadrature_density must be between 1 and 1000, got {self.quadrature_density!r}")

@@ -51,7 +51,24 @@ def cases() -> dict:
                                       Settings(quadrature=rule, error_estimate=False), {})
     cases["gauss free floe off centre"] = (Parameters(edges="free", L=6.0, duration=0.01, Nmod=8, x0=0.7,
                                                       deadrise=10.0), Settings(error_estimate=False), {})
+    # the embedded control, the default before the smoothness control (its runs are unchanged)
+    embedded = dict(error_control="embedded", error_estimate=False)
+    for rule in ("paper", "gauss"):
+        cases[f"{rule} reference, embedded"] = (Parameters(Nmod=12), Settings(quadrature=rule, **embedded), {})
+    cases["gauss crack onsets, embedded"] = (Parameters(Nmod=12), Settings(**embedded), {"locate_eps_Y": [1e-5, 5e-5]})
+    cases["gauss free floe, embedded"] = (Parameters(edges="free", L=6.0, duration=0.03, Nmod=8), Settings(**embedded),
+                                          {})
     return cases
+
+
+def guards(p, s) -> str:
+    """The revisions that guard a case's results, "+"-joined (a bump of any of them gives it new
+    ids): its rule, or "floe" for a free floe, "dop853" for the DOP853 reference; and
+    "smoothness" for an adaptive etd34 run under the smoothness control."""
+    guard = "floe" if p.edges == "free" else "dop853" if s.integrator == "dop853" else s.quadrature
+    if s.integrator == "etd34" and s.fixed_step == 0.0 and s.error_control == "smoothness":
+        guard += "+smoothness"
+    return guard
 
 
 def _digest(result) -> str:
@@ -70,14 +87,12 @@ def _digest(result) -> str:
 
 
 def fingerprint() -> dict:
-    """case -> (the revision that guards it: its rule, "floe" for a free floe, "dop853" for the
-    DOP853 reference; the digest of its results)."""
+    """case -> (the revisions that guard it, :func:`guards`; the digest of its results)."""
     from solver import solve
     out = {}
     for name, (p, s, kw) in cases().items():
         r = solve(p, s, fields=("strain", "layer_pressure"), **kw)
-        guard = "floe" if p.edges == "free" else "dop853" if s.integrator == "dop853" else s.quadrature
-        out[name] = [guard, _digest(r)]
+        out[name] = [guards(p, s), _digest(r)]
     return out
 
 

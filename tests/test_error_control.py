@@ -10,16 +10,21 @@ fourth divided difference over this step and the one before as well. Checked her
 * thin ice hit fast, where the embedded estimate leaves the run's error at a floor: under
   "smoothness" the error falls with the tolerance (within 10x of it), 20x below the floor;
 * the control changes nothing where it does not judge (a fixed step) and enters the case id only
-  where it does.
+  where it does; the default ("smoothness" at 3e-7) and the embedded control pinned with the ids
+  of before.
 """
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from conftest import relative_l2
+from neutral_ids import study
+from pipeline.study.definition import load_study_text
 from pipeline.study.identity import used_settings
 from solver import Parameters, Settings, solve
+from solver.revision import RESULTS_REVISION
 from solver.control import History, Samples, make_control, smoothness_ratio
 from solver.model.assemble import Tables
 from solver.model.plate import MASS, OMEGA
@@ -33,7 +38,8 @@ def _samples(h_prev, h, coefficients, power):
     step's start and middle (History rows) and this step's start, middle and end."""
     at = [c * np.array([-h_prev, -0.5 * h_prev, 0.0, 0.5 * h, h]) ** power for c in coefficients]
     at = np.array(at)
-    return np.ascontiguousarray(at[:, :2].T), Samples(*(np.ascontiguousarray(at[:, k]) for k in (2, 3, 4)))
+    return np.ascontiguousarray(at[:, :2].T), Samples(*(np.ascontiguousarray(at[:, k]) for k in (2, 3, 4)),
+                                                      np.zeros(3))
 
 
 def test_the_smoothness_estimate_on_polynomials_in_time():
@@ -55,16 +61,38 @@ def test_the_smoothness_estimate_on_polynomials_in_time():
     reach = np.where(omega * h <= 2.0, h, 2.0 / omega)
     expected = math.sqrt(np.sum(model.plate.modes[MASS] * (reach * coefficients * h ** 4 / 16) ** 2)) / (tol * norm)
     last, forcing = _samples(h_prev, h, coefficients, 4)
-    history = History(last, np.array([h_prev, 1.0]))
+    history = History(last, np.array([h_prev, 1.0]), np.zeros(2))
     assert smoothness_ratio(model, control, history, forcing, h, z, z) == pytest.approx(expected, rel=1e-9)
     # a cubic: zero up to the rounding of the differences (against the quartic's estimate)
     last, forcing = _samples(h_prev, h, coefficients, 3)
-    assert abs(smoothness_ratio(model, control, History(last, history.last), forcing, h, z, z)) < 1e-9 * expected
+    assert abs(smoothness_ratio(model, control, History(last, history.last, history.body), forcing, h, z, z)) < 1e-9 * expected
     # no estimate across a change of contact (the History's flag) or with the control off
     last, forcing = _samples(h_prev, h, coefficients, 4)
-    assert smoothness_ratio(model, control, History(last, np.array([h_prev, 0.0])), forcing, h, z, z) == 0.0
+    assert smoothness_ratio(model, control, History(last, np.array([h_prev, 0.0]), history.body), forcing, h, z, z) == 0.0
     off = control._replace(smoothness=0.0)
     assert smoothness_ratio(model, off, history, forcing, h, z, z) == 0.0
+
+
+def test_the_smoothness_estimate_of_a_free_body():
+    """A free body's velocity is a mode of omega = 0 driven by its deceleration G: for G = c t^4
+    (the plate's forcing zero) the estimate is sqrt(M) h c h^4 / 16 / (tol |z|), in the energy
+    units of the embedded estimate's body term (M e_U^2); the paper's prescribed body has none."""
+    tol, h_prev, h, c = 1e-6, 3e-4, 5e-4, 2e9
+    for mass, expected_zero in ((500.0, False), (math.inf, True)):
+        model = Tables(Parameters(Nmod=12, body_mass=mass), 250, False, "gauss", 4.0).model
+        N = model.plate.modes.shape[1]
+        control = make_control(0.0, 1.0, tol, 0.0, 1e-8, 0.0, 1.0, 10, 1e-3, smoothness=True)
+        z = np.full(N, 1.0 + 0.0j)
+        norm = math.sqrt(np.sum(model.plate.modes[MASS]))
+        assert norm > 0.1 * model.body.V * math.sqrt(model.plate.lm_floor)       # above the floor
+        g = c * np.array([-h_prev, -0.5 * h_prev, 0.0, 0.5 * h, h]) ** 4
+        history = History(np.zeros((2, N)), np.array([h_prev, 1.0]), g[:2].copy())
+        forcing = Samples(np.zeros(N), np.zeros(N), np.zeros(N), g[2:].copy())
+        ratio = smoothness_ratio(model, control, history, forcing, h, z, z)
+        if expected_zero:
+            assert ratio == 0.0
+        else:
+            assert ratio == pytest.approx(math.sqrt(mass) * h * c * h ** 4 / 16 / (tol * norm), rel=1e-9)
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +101,8 @@ def thin_fast_errors():
     1e-12, by error control and tolerance."""
     p = Parameters(**THIN_FAST)
     times = np.linspace(WINDOW / 12, WINDOW, 12)
-    ref = solve(p, Settings(error_estimate=False, tolerance=1e-12), times=times, fields=("strain",), t_end=WINDOW)
+    ref = solve(p, Settings(error_estimate=False, tolerance=1e-12, error_control="embedded"), times=times,
+                fields=("strain",), t_end=WINDOW)
     errors = {}
     for control in ("embedded", "smoothness"):
         for tol in (1e-4, 1e-6):
@@ -110,15 +139,24 @@ def test_the_control_changes_no_fixed_step_run(integrator):
 
 
 def test_the_control_enters_the_case_id_only_where_it_judges():
-    """The default ("embedded", the control before it was a setting) leaves the ids of earlier
-    cases as they were; "smoothness" is in the id of an adaptive etd34 run only."""
-    assert used_settings(Settings()) == used_settings(Settings(error_control="embedded"))
-    assert "error_control" not in used_settings(Settings())
-    assert used_settings(Settings(error_control="smoothness"))["error_control"] == "smoothness"
-    for fixed in (Settings(fixed_step=0.02, error_control="smoothness"),
-                  Settings(integrator="rk4", error_control="smoothness"),
-                  Settings(integrator="dop853", error_control="smoothness")):
+    """The default is "smoothness" at 3e-7, in the id of an adaptive etd34 run with the revision
+    of its results; "embedded" (the control before it was a setting, and the default before it
+    was "smoothness") leaves the ids as they were, its tolerance 1e-9 when none is given."""
+    default = used_settings(Settings())
+    assert default["error_control"] == "smoothness" and default["tolerance"] == 3e-7
+    assert default["error_control_revision"] == RESULTS_REVISION["smoothness"]
+    assert Settings(error_control="embedded").tolerance == 1e-9
+    assert Settings(integrator="dop853").tolerance == 1e-9
+    assert "error_control" not in used_settings(Settings(error_control="embedded"))
+    for fixed in (Settings(fixed_step=0.02), Settings(integrator="rk4"), Settings(integrator="dop853")):
         assert "error_control" not in used_settings(fixed)
+        assert used_settings(fixed) == used_settings(replace(fixed, error_control="embedded"))
+    # a study pinned to the embedded control has the ids of the same study under the default
+    # before (computed at 469e03a, where it was the embedded control at 1e-9)
+    before = ["3e9abfbfaffcd8a2", "c61fef92b2b96ad2"]
+    pinned = study().replace("[output]", '[solver]\nerror_control = "embedded"\n[output]')
+    assert load_study_text(pinned, "s").case_ids == before
+    assert not set(load_study_text(study(), "s").case_ids) & set(before)
 
 
 def test_an_unknown_control_is_refused_by_name():
@@ -127,15 +165,18 @@ def test_an_unknown_control_is_refused_by_name():
         Settings(error_control="richardson")
 
 
-def test_crack_onsets_under_smoothness_control_meet_the_events_target():
+def test_crack_onsets_at_the_default_meet_the_events_target():
     """Crack onset (reference case, N = 60, eps_Y from 2e-5 to 1e-3, a run that ends at its
-    answer) within 2e-6 relative of etd34 at 1e-13 under "smoothness" at 1e-9. Measured
-    (2026-11-28): at most 3.3e-7, where "embedded" at 1e-9 is 2.6e-6 off at eps_Y = 2e-5
-    (docs/performance.md, "Error control": 2.2e-6 against the continuous reference)."""
+    answer) within 2e-6 relative of etd34 at 1e-13 at the default ("smoothness" at 3e-7, its error
+    norm's floor at 0.01 of the embedded control's). Measured (2026-11-28): at most 9.3e-7 (135
+    steps), where "embedded" at 1e-9 is 2.5e-6 off at eps_Y = 2e-5 (105 steps), the same at every
+    tolerance, its floor (docs/performance.md, "Error control": 2.2e-6 against the continuous
+    reference)."""
     eps_Y = [2e-5, 8e-5, 3e-4, 1e-3]
     p = Parameters(Nmod=60)
     ask = dict(fields=(), outputs=["crack_onset_time"], eps_Y=eps_Y, end="answered")
-    ref = solve(p, Settings(error_estimate=False, tolerance=1e-13), **ask).crack_onset(eps_Y)[0]
-    run = solve(p, Settings(error_estimate=False, error_control="smoothness"), **ask).crack_onset(eps_Y)[0]
+    ref = solve(p, Settings(error_estimate=False, tolerance=1e-13, error_control="embedded"),
+                **ask).crack_onset(eps_Y)[0]
+    run = solve(p, Settings(error_estimate=False), **ask).crack_onset(eps_Y)[0]
     assert np.all(np.isfinite(ref))
     np.testing.assert_allclose(run, ref, rtol=2e-6, atol=0.0)

@@ -98,10 +98,13 @@ def used_settings(settings: Settings) -> dict:
     was a setting stay what they were; with it the revision of its results. The paper rule's
     revision enters once it is above 0 (its ids carried none before); a DOP853 run's carries the
     revision of the reference's own results too. etd34's error_control enters where it is not
-    "embedded" (the default, and the control before it was a setting) and the step is adaptive."""
+    "embedded" (the control before it was a setting: its ids hold) and the step is adaptive, with
+    the revision of the smoothness control's own results."""
     used = {k: v for k, v in settings.as_dict().items() if k in RELEVANT_SETTINGS[settings.integrator]}
     if used.get("error_control") == "embedded" or settings.fixed_step > 0.0:
-        used.pop("error_control", None)  # the default (ids from before it was a setting hold); none for a fixed step
+        used.pop("error_control", None)  # ids from before it was a setting hold; none for a fixed step
+    elif "error_control" in used:
+        used["error_control_revision"] = RESULTS_REVISION["smoothness"]
     if settings.quadrature != "paper":
         used["quadrature"] = settings.quadrature
         used["quadrature_density"] = settings.quadrature_density
