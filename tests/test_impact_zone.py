@@ -25,13 +25,18 @@ def test_contact_extent_of_a_rigid_plate_is_the_bodys_geometry():
 
 def test_the_zone_keeps_the_plate_wide_maximum_when_it_is_an_inner_peak_of_the_zone():
     """On a free floe the largest tension is a peak inside the plate: with a margin covering the
-    floe the zone's maxima are the plate-wide ones, bit for bit; with the default margin the
-    zone's upper maximum is smaller and lies within the contact's reach plus the margin."""
+    floe the zone's maxima are the plate-wide ones; with the default margin the zone's upper
+    maximum is smaller and lies within the contact's reach plus the margin. The same peak is
+    located by two searches (solver.observe.dense_maxima): on this machine they agree bit for bit;
+    under numba's haswell target (2026-11-28, the default smoothness control) the value was 1 ulp
+    apart, the place 1.4e-10 and the time 9.4e-10 relative: a flat maximum's place and time are
+    known to about sqrt(eps)."""
     p = Parameters(Nmod=20, edges="free", duration=0.12)
     wide = solve(p, Settings(**FLOE, impact_zone_margin=100.0), fields=())
     for zone, plate in zip(ZONE, ("max_strain", "max_strain_lower")):
-        for end in ("", "_x", "_time"):
-            assert wide.diagnostics[zone + end] == wide.diagnostics[plate + end]
+        assert wide.diagnostics[zone] == pytest.approx(wide.diagnostics[plate], rel=1e-14, abs=0.0)
+        for end in ("_x", "_time"):
+            assert wide.diagnostics[zone + end] == pytest.approx(wide.diagnostics[plate + end], rel=1e-7, abs=1e-12)
         assert wide.diagnostics[zone + "_at_edge"] == 0.0
     near = solve(p, Settings(**FLOE), fields=())
     d = near.diagnostics
