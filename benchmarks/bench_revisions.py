@@ -31,16 +31,24 @@ from solver.settings import PAPER_NUMERICS
 
 ROOT = Path(__file__).resolve().parents[1]
 
+#: code that each revision's tree runs before its probe: a rule pinned to the embedded control
+#: loses the key in a tree from before error_control was a setting, where every run was under it
+IN_TREE = r"""
+def rule_in_tree(rule, known):
+    if rule.get("error_control") == "embedded" and "error_control" not in known:
+        rule = {k: v for k, v in rule.items() if k != "error_control"}
+    return rule
+"""
+
 #: run inside each revision's tree; prints one JSON line
-PROBE = r"""
+PROBE = IN_TREE + r"""
 import dataclasses, json, statistics, sys
 import numpy as np
 from solver import Parameters, Settings, solve
 p = Parameters(Nmod=int(sys.argv[1]))
 rule = json.loads(sys.argv[3])
 known = {f.name for f in dataclasses.fields(Settings)}
-if rule.get("error_control") == "embedded" and "error_control" not in known:
-    del rule["error_control"]                # the control of every run before it was a setting
+rule = rule_in_tree(rule, known)
 if not set(rule) <= known:
     rule = {k: v for k, v in rule.items() if k in ("subintervals", "tolerance")} if rule.get("quadrature") == "paper" else None
 if rule is None:

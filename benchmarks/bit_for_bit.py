@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_revisions import ROOT, RULES, checkout  # noqa: E402
+from bench_revisions import IN_TREE, ROOT, RULES, checkout  # noqa: E402
 
 #: run inside each tree: pickles {case: {name: value}} to argv[1]; argv[2]: [paper rule, Gauss rule] as JSON
-PROBE = r"""
+PROBE = IN_TREE + r"""
 import dataclasses, json, pickle, sys
 import numpy as np
 from solver import Parameters, Settings, solve
@@ -40,12 +40,9 @@ def S(**kw):
     return Settings(**kw) if set(kw) <= KNOWN else None
 # the rules as the working tree pins them (bench_revisions.RULES); the paper's without the key
 # "quadrature" in a tree from before it, where that rule was the only one
-PAPER, GAUSS = (dict(rule, error_estimate=False) for rule in json.loads(sys.argv[2]))
+PAPER, GAUSS = (dict(rule_in_tree(rule, KNOWN), error_estimate=False) for rule in json.loads(sys.argv[2]))
 if "quadrature" not in KNOWN:
     PAPER.pop("quadrature")
-for rule in (PAPER, GAUSS):          # the embedded control: every run's before it was a setting
-    if rule.get("error_control") == "embedded" and "error_control" not in KNOWN:
-        rule.pop("error_control")
 quiet = S(**PAPER)
 gauss = S(**GAUSS)
 cases = {

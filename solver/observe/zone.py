@@ -51,7 +51,7 @@ from .record import SurfaceRows
 from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_dense
 
 #: the observer's state: peaks (2, 5) each surface's (value, rate, x, node, slope) of the zone's
-#: peak at the current time (node -1: the zone's upper end, -2 its lower end); reach (5,) the
+#: peak at the current time (node -1: the zone's upper end, -2 its lower end); reach (7,) the
 #: contact's largest extent c [m] so far, the margin m [m], the zone's ends [lo, hi], the
 #: contact's extent at the last step's end and at the end before it, and the last step's length
 #: where its extent was not sampled inside it (0: it was, or none); best (2, 5) each surface's (max, time, x, edge: 0 inside the zone, 1 its upper
