@@ -1,0 +1,285 @@
+r"""A walled plate broken into parts: their dry modes, the water they share, their wet modes, and
+the state carried across a break (docs/model.md, "Breaking into parts").
+
+**Parts.** On the kernel's domain 0 <= x <= Lambda (the half plate of a centred impact, Lambda = L,
+whose x = 0 is the symmetry plane; or the whole plate, Lambda = 2L) breaks at 0 < b_1 < ... cut the
+plate into parts. The domain's ends are sliding (w_x = w_xxx = 0: a wall, or the symmetry plane);
+a break is a free edge on both sides (w_xx = w_xxx = 0). Each part is an Euler beam with its own
+dry modes, each a free-free beam's mode of some half-length l about some centre c, kept on the
+part only (zero elsewhere):
+
+    sliding-free   heave and the symmetric modes of half-length l = the part's length, centred
+                   on its sliding end (a free-free beam's symmetric mode has w_x = w_xxx = 0 at
+                   its centre);
+    free-free      heave, pitch, the symmetric and antisymmetric modes about the part's middle;
+    sliding-sliding (an unbroken plate) heave and cos(n pi (x - lo) / l).
+
+Every mode psi obeys psi'''' = beta^4 psi on its part, and the modes of a part are orthogonal
+there in int psi psi dx and in int psi'' psi'' dx. Each is scaled to mean square 1 on its part,
+so int psi_m^2 dx is the part's length.
+
+**Water.** The channel between the walls, deep or of depth H, is the unbroken plate's: a normal
+velocity cos(mu_k x), mu_k = k pi / Lambda, has the added mass rho_w coth(mu_k H) / mu_k (as
+for the walled plate's modes), the water cannot be compressed (int w dx = 0 over the domain) and
+the cracks are too narrow to let it out. With c_mk = (2 / Lambda) int psi_m cos(mu_k x) dx,
+
+    A_mn = mirror (Lambda / 2) sum_k rho_w coth(mu_k H) / mu_k c_mk c_nk,
+
+(mirror 2 on the half plate, 1 on the whole). Because psi'''' = beta^4 psi on the part [a, b],
+integrating by parts four times gives each coefficient in closed form,
+
+    (beta^4 - mu^4) int_a^b psi cos(mu x) dx = [psi''' cos + mu psi'' sin - mu^2 psi' cos - mu^3 psi sin]_a^b,
+
+used away from resonance (Gauss-Legendre on the part where mu is near beta). A part's mode jumps to zero at a
+break, so c_mk falls only as 1 / k and A's series as k^-3: it is summed to K terms and the rest,
+sum_{k>K} of the jumps' products times sin^2(mu_k b) / mu_k^3, is added with sin^2 at its mean
+1/2 (Hurwitz zeta(3, K + 1)).
+
+**Wet modes.** With the dry amplitudes q (w = sum_m q_m psi_m), the part's mass and the added mass
+M = mirror m G + A, the stiffness K = mirror (D beta^4 + rho_w g) G (G = diag(int psi^2 dx)), and
+the constraint sum_m q_m int psi_m dx = 0 (q = Z r, Z an orthonormal basis of its null space):
+K_r V = M_r V diag(omega^2), V^T M_r V = I, Q = Z V; the wet mode Psi_k = sum_m Q_mk psi_m. The
+eigenvalues come from K_r^-1/2 M_r K_r^-1/2 (1 / omega^2, which keeps the slow modes to full
+relative accuracy, as on the floe).
+
+**The state across a break.** w and w_t are continuous at the instant of breaking. In a finite
+basis they are carried by Galerkin projection in the energies' own inner products: the
+displacement in the stiffness (b_k = <Psi_k, w>_K / omega_k^2), the velocity in the mass
+(b_k' = <Psi_k, w_t>_M, the water's kinetic energy included). Each energy after the break is then
+at most the one before (Bessel's inequality in each inner product), and what the projection
+leaves out, the energy the break removes, goes to zero as the parts' modes are refined.
+
+Benchmarks (tests/test_parts.py): the end conditions and orthogonality of the dry modes; the
+closed-form coefficients against quadrature; two rigid parts of a half plate broken at L/2, whose
+added mass is 2 mirror rho_w (h_1 - h_2)^2 (L / pi)^3 (7/8) zeta(3) / L, and a break
+elsewhere against a finite-difference solve of the channel's potential; the unbroken plate as
+one sliding part, whose wet modes are the walled plate's cosines to round-off.
+"""
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
+
+#: the end conditions of a part: a wall or the symmetry plane (w_x = w_xxx = 0), a break (w_xx =
+#: w_xxx = 0)
+SLIDING, FREE = 0, 1
+#: the dry modes' kinds beyond the floe's HEAVE, PITCH, SYMMETRIC, ANTISYMMETRIC: cos(beta (x - c))
+#: on a sliding-sliding part
+COSINE = 4
+#: cosine_integrals' closed form divides by beta^4 - mu^4: below RESONANCE mu^4 (|beta - mu| < 1.2 %
+#: of mu) it integrates by Gauss-Legendre instead (the closed form's rounding is then below
+#: eps mu / (4 |beta - mu|) of its terms, about 20 eps)
+RESONANCE = 0.05
+#: the dry modes of a broken plate, each (Nd,): kind, wavenumber beta [m-1], centre c and
+#: half-length l [m] of the free-free beam it is a mode of (the cosine's: c the part's low end),
+#: the part [low, high] it lives on [m], the factor that gives it mean square 1 there, and the
+#: index of its part
+PartModes = namedtuple("PartModes", "kinds betas centres halves lows highs norms parts")
+#: the wet modes of a broken plate: omega (Nw,) [rad s-1], Q (Nd, Nw) (Q^T M Q = I, Q^T K Q =
+#: diag(omega^2)), the dry modes, the domain Lambda [m] and the mirror (2 on the half plate)
+WetParts = namedtuple("WetParts", "omega Q modes domain mirror")
+
+
+def part_edges(domain: float, breaks) -> np.ndarray:
+    """The parts' ends [0, b_1, ..., Lambda]; refuses a break outside (0, Lambda) or two at one
+    place."""
+    b = np.sort(np.asarray(breaks, dtype=float).ravel())
+    if b.size and (b[0] <= 0.0 or b[-1] >= domain or np.any(np.diff(b) <= 0.0)):
+        raise ValueError(f"breaks {b.tolist()} must lie inside (0, {domain}) and apart")
+    return np.concatenate([[0.0], b, [float(domain)]])
+
+
+def _part(lo, hi, sliding_lo, sliding_hi, beta_max):
+    """[(kind, beta, centre, half, norm)] of one part's dry modes, wavenumbers up to beta_max."""
+    length = hi - lo
+    if sliding_lo and sliding_hi:
+        count = int(beta_max * length / math.pi * (1.0 + 1e-12))
+        return [(HEAVE, 0.0, lo, length, 1.0)] + [(COSINE, n * math.pi / length, lo, length, math.sqrt(2.0))
+                                                 for n in range(1, count + 1)]
+    if sliding_lo or sliding_hi:
+        centre = lo if sliding_lo else hi
+        roots = free_free_roots(int(beta_max * length / math.pi) + 1, True) / length
+        return [(HEAVE, 0.0, centre, length, 1.0)] + [(SYMMETRIC, b, centre, length, 1.0)
+                                                     for b in roots if b <= beta_max]
+    half, centre = 0.5 * length, 0.5 * (lo + hi)
+    count = int(beta_max * half / math.pi) + 1
+    modes = [(HEAVE, 0.0, centre, half, 1.0), (PITCH, 0.0, centre, half, math.sqrt(3.0))]
+    for b_sym, b_anti in zip(free_free_roots(count, True) / half, free_free_roots(count, False) / half):
+        modes += [(kind, b, centre, half, 1.0) for kind, b in ((SYMMETRIC, b_sym), (ANTISYMMETRIC, b_anti))
+                  if b <= beta_max]
+    return modes
+
+
+def part_modes(domain: float, breaks, beta_max: float) -> PartModes:
+    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide), each
+    part's with wavenumbers up to beta_max [m-1] (module docstring)."""
+    edges = part_edges(domain, breaks)
+    rows = []
+    for i, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, i == 0, i == edges.size - 2, beta_max)]
+    kinds, betas, centres, halves, norms, lows, highs, parts = (np.array(c, dtype=float) for c in zip(*rows))
+    return PartModes(kinds, betas, centres, halves, lows, highs, norms, parts.astype(int))
+
+
+def raw_mode(kind, beta, centre, half, x, order=0):
+    """A dry mode's shape (unscaled, not cut to its part) or its derivative of the given order."""
+    x = np.asarray(x, dtype=float)
+    if kind == COSINE:
+        return beta**order * np.cos(beta * (x - centre) + order * math.pi / 2.0)
+    return dry_mode(int(kind), beta, half, x - centre, order)
+
+
+def part_values(modes: PartModes, x, order=0) -> np.ndarray:
+    """(Nd, X): the scaled dry modes' derivatives of the given order at x [m], zero off their
+    parts (a break belongs to the part above it; the domain's end to the last part)."""
+    x = np.asarray(x, dtype=float)
+    out = np.zeros((modes.kinds.size, x.size))
+    last = np.max(modes.highs)
+    for m in range(modes.kinds.size):
+        on = (x >= modes.lows[m]) & ((x < modes.highs[m]) | (modes.highs[m] == last))
+        out[m, on] = modes.norms[m] * raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m],
+                                               x[on], order)
+    return out
+
+
+#: Gauss-Legendre rule of 32 nodes on [-1, 1] (_gauss's panels)
+GAUSS32_X, GAUSS32_W = np.polynomial.legendre.leggauss(32)
+
+
+def _gauss(modes, m, frequency):
+    """(x, w): Gauss-Legendre of 32 nodes on panels of mode m's part, each panel at most 8 / (beta
+    + frequency) long: exact to round-off for its shape times a cosine of wavenumber up to
+    ``frequency`` [m-1] (tests/test_parts.py)."""
+    lo, hi = modes.lows[m], modes.highs[m]
+    panels = int((frequency + modes.betas[m]) * (hi - lo) / 8.0) + 1
+    edges = np.linspace(lo, hi, panels + 1)
+    half = 0.5 * np.diff(edges)
+    x = (edges[:-1] + half)[:, None] + half[:, None] * GAUSS32_X[None, :]
+    return x.ravel(), (half[:, None] * GAUSS32_W[None, :]).ravel()
+
+
+def cosine_integrals(modes: PartModes, mu) -> np.ndarray:
+    """(Nd, K): int psi_m cos(mu_k x) dx over each mode's part, for wavenumbers mu (K,) [m-1] > 0:
+    the closed form of the module docstring, and Gauss-Legendre near resonance, |beta^4 - mu^4| <
+    RESONANCE mu^4, where the closed form would divide a difference by a small number."""
+    mu = np.asarray(mu, dtype=float)
+    out = np.empty((modes.kinds.size, mu.size))
+    for m in range(modes.kinds.size):
+        beta, shape = modes.betas[m], (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
+        near = np.abs(beta**4 - mu**4) < RESONANCE * mu**4
+        total = 0.0
+        for end, sign in ((modes.highs[m], 1.0), (modes.lows[m], -1.0)):
+            d = [modes.norms[m] * float(raw_mode(*shape, end, j)) for j in range(4)]
+            c, s = np.cos(mu * end), np.sin(mu * end)
+            total = total + sign * (d[3] * c + mu * d[2] * s - mu**2 * d[1] * c - mu**3 * d[0] * s)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[m] = total / (beta**4 - mu**4)
+        if np.any(near):
+            x, w = _gauss(modes, m, np.max(mu[near]))
+            out[m, near] = (w * modes.norms[m] * raw_mode(*shape, x)) @ np.cos(np.outer(x, mu[near]))
+    return out
+
+
+def _coth_over(mu, H):
+    """coth(mu H) / mu [m] (1 / mu in deep water)."""
+    return 1.0 / mu if not math.isfinite(H) else 1.0 / (mu * np.tanh(mu * H))
+
+
+def channel_added_mass(modes: PartModes, domain: float, mirror: float, rho_w: float, H: float = math.inf,
+                       terms: int = 0) -> np.ndarray:
+    """A_mn [kg m-1] of the dry modes in the walls' channel (module docstring): ``terms`` cosines
+    (0: enough for 1e-12 of the largest entry, tests/test_parts.py), then the jumps' tail."""
+    from scipy.special import zeta           # (here: only a broken plate's tables need it)
+    K = terms or max(16384, int(8 * np.max(modes.betas) * domain / math.pi))
+    mu = math.pi * np.arange(1, K + 1) / domain
+    c = (2.0 / domain) * cosine_integrals(modes, mu)
+    A = mirror * (domain / 2.0) * rho_w * (c * _coth_over(mu, H)) @ c.T
+    # the tail: c_mk -> (2 / Lambda) [psi sin(mu x) / mu]_a^b; sin^2(mu_k b) at its mean 1/2
+    tail = mirror * rho_w * (1.0 / domain) * (domain / math.pi) ** 3 * zeta(3.0, K + 1.0)
+    for b in np.unique(np.concatenate([modes.lows, modes.highs])):
+        if b <= 0.0 or b >= domain:
+            continue
+        jump = np.zeros(modes.kinds.size)
+        for m in range(modes.kinds.size):
+            for end, sign in ((modes.highs[m], 1.0), (modes.lows[m], -1.0)):
+                if end == b:
+                    jump[m] += sign * modes.norms[m] * float(raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m],
+                                                                      modes.halves[m], b))
+        A += tail * np.outer(jump, jump)
+    return A
+
+
+def part_lengths(modes: PartModes) -> np.ndarray:
+    """int psi_m^2 dx of the scaled dry modes: their parts' lengths [m]."""
+    return modes.highs - modes.lows
+
+
+def mode_means(modes: PartModes) -> np.ndarray:
+    """int psi_m dx over each mode's part [m] (Gauss-Legendre)."""
+    out = np.empty(modes.kinds.size)
+    for m in range(modes.kinds.size):
+        x, w = _gauss(modes, m, 0.0)
+        out[m] = w @ (modes.norms[m] * raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x))
+    return out
+
+
+def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetParts:
+    """The wet modes of the plate of parameters p (Parameters: hi, rho_i, rho_w, g, H, rigidity)
+    broken at ``breaks`` on the kernel's domain [0, domain] (module docstring)."""
+    from scipy.linalg import cholesky, eigh, null_space, solve_triangular      # (a broken plate's tables only)
+    modes = part_modes(domain, breaks, beta_max)
+    G = part_lengths(modes)
+    M = mirror * p.plate_mass * np.diag(G) + channel_added_mass(modes, domain, mirror, p.rho_w, p.H)
+    K = mirror * (p.rigidity * modes.betas**4 + p.rho_w * p.g) * G
+    Z = null_space(mode_means(modes)[None, :])             # q = Z r keeps int w dx = 0
+    Kr = Z.T @ (K[:, None] * Z)
+    Mr = Z.T @ M @ Z
+    R = cholesky(0.5 * (Kr + Kr.T))                       # Kr = R^T R
+    S = solve_triangular(R, solve_triangular(R, Mr, trans="T").T, trans="T")      # R^-T Mr R^-1
+    mu, V = eigh(0.5 * (S + S.T))                         # mu = 1 / omega^2
+    order = np.argsort(-mu)
+    mu, V = mu[order], V[:, order]
+    Q = Z @ solve_triangular(R, V) / np.sqrt(mu)[None, :]     # Q^T M Q = I, Q^T K Q = diag(1 / mu)
+    return WetParts(1.0 / np.sqrt(mu), Q, modes, float(domain), float(mirror))
+
+
+def cosine_state_energy(p, domain: float, mirror: float, a, adot) -> tuple[float, float]:
+    """(kinetic, potential) energy [J m-1] of the unbroken plate's state a, a' on the cosines
+    cos(n pi x / domain), n = 1..N: sum_n mirror (domain / 2) M_n (a_n'^2, omega_n^2 a_n^2) / 2."""
+    lam = math.pi * np.arange(1, np.size(a) + 1) / domain
+    M, omega, _ = p.mode_constants(lam)
+    weight = mirror * 0.5 * domain * M
+    return 0.5 * float(np.sum(weight * np.asarray(adot) ** 2)), 0.5 * float(np.sum(weight * omega**2 * np.asarray(a) ** 2))
+
+
+def carry_state(p, wet: WetParts, a, adot):
+    """The wet amplitudes (b, b') of the broken plate that carry the unbroken plate's state a, a'
+    (on the cosines cos(n pi x / domain), n = 1..N) across the break: the displacement projected
+    in the stiffness, the velocity in the mass (module docstring)."""
+    lam = math.pi * np.arange(1, np.size(a) + 1) / wet.domain
+    M, omega, _ = p.mode_constants(lam)
+    X = wet.mirror * cosine_integrals(wet.modes, lam)                 # <psi_m, cos_n>
+    bending = np.zeros_like(X)                                         # <psi_m'', cos_n''>
+    for m in range(X.shape[0]):
+        x, w = _gauss(wet.modes, m, np.max(lam))
+        modes = wet.modes
+        curvature = modes.norms[m] * raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x, 2)
+        bending[m] = -wet.mirror * lam**2 * ((w * curvature) @ np.cos(np.outer(x, lam)))
+    stiffness = p.rigidity * bending + p.rho_w * p.g * X
+    b = (wet.Q.T @ (stiffness @ np.asarray(a))) / wet.omega**2
+    bdot = wet.Q.T @ ((X * M[None, :]) @ np.asarray(adot))
+    return b, bdot
+
+
+def wet_energy(wet: WetParts, b, bdot) -> tuple[float, float]:
+    """(kinetic, potential) energy [J m-1] of the broken plate's wet amplitudes."""
+    return 0.5 * float(np.sum(np.asarray(bdot) ** 2)), 0.5 * float(np.sum(wet.omega**2 * np.asarray(b) ** 2))
+
+
+def wet_values(wet: WetParts, x, order=0) -> np.ndarray:
+    """(Nw, X): the wet modes Psi_k (or a derivative) at x [m]."""
+    return wet.Q.T @ part_values(wet.modes, x, order)

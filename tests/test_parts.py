@@ -1,0 +1,198 @@
+"""A walled plate broken into parts (solver/model/parts.py; docs/model.md, "Breaking into parts"):
+the parts' dry modes, the water they share, their wet modes, and the state carried across a
+break."""
+import math
+
+import numpy as np
+import pytest
+from scipy.special import zeta
+
+from solver import Parameters, Settings, solve
+from solver.model import parts
+
+L = 6.0
+
+
+def _quadrature(lo, hi, panels=400):
+    """Composite Gauss-Legendre of 16 nodes on ``panels`` panels of [lo, hi] (independent of
+    parts._gauss)."""
+    g, w = np.polynomial.legendre.leggauss(16)
+    edges = np.linspace(lo, hi, panels + 1)
+    half = 0.5 * np.diff(edges)
+    x = (edges[:-1] + half)[:, None] + half[:, None] * g
+    return x.ravel(), (half[:, None] * w).ravel()
+
+
+def _shape(modes, m, x, order=0):
+    return modes.norms[m] * parts.raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x, order)
+
+
+def test_the_parts_dry_modes_meet_their_ends_and_are_orthogonal():
+    """Three parts of a half plate (breaks at 1.7 and 3.9 m): sliding-free, free-free,
+    free-sliding. At a sliding end w' = w''' = 0, at a break w'' = w''' = 0 (below 1e-9 of
+    beta^k); on each part int psi_m psi_n dx = length delta_mn and int psi_m'' psi_n'' dx =
+    beta^4 length delta_mn (1e-11 of the largest)."""
+    modes = parts.part_modes(L, [1.7, 3.9], 12.0)
+    assert sorted(set(modes.parts)) == [0, 1, 2]
+    assert np.max(modes.betas) <= 12.0
+    for m in range(modes.kinds.size):
+        beta = max(modes.betas[m], 1.0)
+        for end in (modes.lows[m], modes.highs[m]):
+            orders = (1, 3) if end in (0.0, L) else (2, 3)
+            for k in orders:
+                assert abs(float(_shape(modes, m, end, k))) < 1e-9 * beta**k, (m, end, k)
+    for part in range(3):
+        ms = np.flatnonzero(modes.parts == part)
+        x, w = _quadrature(modes.lows[ms[0]], modes.highs[ms[0]])
+        values = np.array([_shape(modes, m, x) for m in ms])
+        curvatures = np.array([_shape(modes, m, x, 2) for m in ms])
+        length = modes.highs[ms[0]] - modes.lows[ms[0]]
+        gram = (values * w) @ values.T
+        assert np.max(np.abs(gram - length * np.eye(ms.size))) < 1e-11 * length
+        bending = (curvatures * w) @ curvatures.T
+        expected = np.diag(modes.betas[ms] ** 4 * length)
+        assert np.max(np.abs(bending - expected)) < 1e-11 * np.max(expected)
+        assert np.allclose(parts.part_lengths(modes)[ms], length)
+        assert parts.mode_means(modes)[ms] == pytest.approx(w @ values.T, abs=1e-12 * length)
+
+
+def test_the_closed_form_cosine_integrals_are_quadratures():
+    """int psi_m cos(mu_k x) dx by the closed form (beta^4 - mu^4) I = [boundary terms] and near
+    resonance by parts._gauss, against a fine composite Gauss-Legendre rule: within 2e-12 for
+    k = 1..400 and at k = 5000, 16000 (a break at 2 m, wavenumbers up to 40 m-1; every third
+    mode)."""
+    modes = parts.part_modes(L, [2.0], 40.0)
+    for k, panels in ((np.arange(1, 401), 300), (np.array([5000, 16000]), 6000)):
+        mu = math.pi * k / L
+        ours = parts.cosine_integrals(modes, mu)
+        for m in range(0, modes.kinds.size, 3):
+            x, w = _quadrature(modes.lows[m], modes.highs[m], panels)
+            brute = (w * _shape(modes, m, x)) @ np.cos(np.outer(x, mu))
+            assert np.max(np.abs(ours[m] - brute)) < 2e-12, m
+
+
+def test_two_rigid_parts_added_mass_in_closed_form():
+    """A half plate broken at L/2, its parts heaving h_1, h_2: the velocity's cosine coefficients
+    are (2/L) 2 (h_1 - h_2) sin(mu_k L / 2) / mu_k, so the added mass is 2 mirror rho (h_1 - h_2)^2
+    (L / pi)^3 (7/8) zeta(3) / L: the series with its tail to 1e-12 (1.1e-13 measured), without
+    the tail at 4096 terms 7e-12 off."""
+    rho = 1000.0
+    modes = parts.part_modes(L, [L / 2], 0.1)
+    assert list(modes.kinds) == [0.0, 0.0]
+    v = np.array([1.0, -1.0])
+    exact = 2 * 2.0 * rho * 4.0 * (L / math.pi) ** 3 * 7.0 / 8.0 * zeta(3.0) / L
+    assert v @ parts.channel_added_mass(modes, L, 2.0, rho) @ v == pytest.approx(exact, rel=1e-12)
+    assert v @ parts.channel_added_mass(modes, L, 2.0, rho, terms=4096) @ v == pytest.approx(exact, rel=2e-11)
+
+
+def _finite_difference_added_mass(Lam, H, b, n):
+    """rho_w = 1: int phi v dx for the rigid parts' velocity v = Lambda - b on [0, b), -b on (b,
+    Lambda] (mean 0), phi from the 5-point Laplacian on [0, Lambda] x [-H, 0], cells H / n:
+    phi_x = 0 at the walls, phi_y = v on top and 0 on the bottom (ghost nodes), one node pinned.
+    Independent of the series."""
+    import scipy.sparse as sp
+    import scipy.sparse.linalg as spl
+    h = H / n
+    nx, ny = int(round(Lam / h)) + 1, n + 1
+    x = np.linspace(0.0, Lam, nx)
+    v = np.where(x < b, Lam - b, -b)
+    v[np.isclose(x, b)] = 0.5 * (Lam - 2.0 * b)                   # the jump's node: its mean
+    i, j = (a.ravel() for a in np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij"))
+    r = i * ny + j
+    rows, cols, vals = [r], [r], [np.full(r.size, -4.0 / h**2)]
+    for di, dj in ((-1, 0), (1, 0), (0, -1), (0, 1)):
+        ii, jj = np.abs(i + di), np.abs(j + dj)                     # mirror at x = 0 and above the top
+        ii = np.where(ii > nx - 1, 2 * (nx - 1) - ii, ii)           # at x = Lambda
+        jj = np.where(jj > ny - 1, 2 * (ny - 1) - jj, jj)           # below the bottom
+        rows.append(r), cols.append(ii * ny + jj), vals.append(np.full(r.size, 1.0 / h**2))
+    rhs = np.where(j == 0, -2.0 * v[i] / h, 0.0)                  # the ghost above: phi(h) = phi(-h) + 2 h v
+    A = sp.lil_matrix(sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                    shape=(r.size,) * 2))
+    A[r.size - 1] = 0.0
+    A[r.size - 1, r.size - 1] = 1.0
+    rhs[r.size - 1] = 0.0
+    phi = spl.spsolve(A.tocsc(), rhs)
+    weights = np.full(nx, h)
+    weights[[0, -1]] = 0.5 * h
+    return float(np.sum(weights * phi[i[j == 0] * ny] * v))
+
+
+def test_the_channel_added_mass_against_finite_differences():
+    """A break at 3/8 of a 1 m channel of depth 0.5 m, the two parts heaving with int w dx = 0: the
+    series on finite depth (coth(mu H) / mu) against the potential solved by finite differences,
+    which converge to it (error 3.5e-3, 9.9e-4, 2.8e-4 at cells H/20, H/40, H/80: order 1.8,
+    the jump's singularity)."""
+    Lam, H, b = 1.0, 0.5, 0.375
+    modes = parts.part_modes(Lam, [b], 0.1)
+    v = np.array([Lam - b, -b])
+    series = v @ parts.channel_added_mass(modes, Lam, 1.0, 1.0, H=H) @ v
+    errors = [abs(_finite_difference_added_mass(Lam, H, b, n) / series - 1.0) for n in (20, 40, 80)]
+    assert errors[2] < 4e-4
+    assert errors[0] / errors[1] > 3.0 and errors[1] / errors[2] > 3.0
+
+
+def test_the_unbroken_plate_is_the_walled_plates_cosines():
+    """No break: one sliding part, whose dry modes are heave and the cosines; the constraint int w
+    dx = 0 removes heave, and the wet modes are the walled plate's, omega_n to 1e-13 (N = 60). A
+    state carried across 'no break' keeps both energies to 1e-12 and the deflection to 1e-12."""
+    p = Parameters(Nmod=60)
+    wet = parts.wet_parts(p, L, 2.0, [], p.wavenumbers[-1])
+    assert wet.omega.size == 60
+    assert np.max(np.abs(wet.omega / p.frequencies - 1.0)) < 1e-13
+    rng = np.random.default_rng(1)
+    a, adot = rng.standard_normal(60) * 1e-3 / np.arange(1, 61) ** 2, rng.standard_normal(60) * 1e-2 / np.arange(1, 61)
+    b, bdot = parts.carry_state(p, wet, a, adot)
+    before, after = parts.cosine_state_energy(p, L, 2.0, a, adot), parts.wet_energy(wet, b, bdot)
+    assert after == pytest.approx(before, rel=1e-12)
+    x = np.linspace(0.0, L, 301)
+    w = a @ np.cos(np.outer(p.wavenumbers, x))
+    assert np.max(np.abs(b @ parts.wet_values(wet, x) - w)) < 1e-12 * np.max(np.abs(w))
+
+
+def test_the_state_carried_across_a_break_converges():
+    """The reference case's state at 0.5 ms (N = 60) carried across a break at 0.3 m, where the
+    plate bends hard: each energy after the break is at most the one before (Bessel's inequality
+    in the mass and in the stiffness). What the projection leaves out is the bending energy near
+    the new free edge, where every part mode has w'' = 0: it falls as 1 / beta_max (8.1e-3,
+    3.5e-3, 1.7e-3 of the potential energy with the parts' wavenumbers up to 1, 2, 4 times the
+    plate's), the kinetic energy's as beta_max^-5 (5.9e-8, 1.5e-9, 4.5e-11), the deflection's
+    largest error 2.3e-3, 4.9e-4, 1.1e-4 of its largest value. Breaks at 2 and 4 m, where the
+    plate bends less, leave out 4.6e-6 of the potential energy."""
+    p = Parameters(Nmod=60)
+    r = solve(p, Settings(), times=np.array([0.0, 0.5e-3]))
+    a, adot = r.amplitudes[-1], r.velocities[-1]
+    kinetic, potential = parts.cosine_state_energy(p, L, 2.0, a, adot)
+    x = np.linspace(0.0, L, 1201)
+    w = a @ np.cos(np.outer(p.wavenumbers, x))
+    lost, errors = [], []
+    for factor in (1, 2, 4):
+        wet = parts.wet_parts(p, L, 2.0, [0.3], factor * p.wavenumbers[-1])
+        b, bdot = parts.carry_state(p, wet, a, adot)
+        k_after, p_after = parts.wet_energy(wet, b, bdot)
+        assert k_after <= kinetic * (1 + 1e-12) and p_after <= potential * (1 + 1e-12)
+        lost.append((1 - k_after / kinetic, 1 - p_after / potential))
+        errors.append(np.max(np.abs(b @ parts.wet_values(wet, x) - w)) / np.max(np.abs(w)))
+    kinetic_lost, potential_lost = np.array(lost).T
+    assert 5e-3 < potential_lost[0] < 1.2e-2 and kinetic_lost[0] < 1e-7
+    assert 1.8 < potential_lost[0] / potential_lost[1] < 2.6 and 1.8 < potential_lost[1] / potential_lost[2] < 2.6
+    assert kinetic_lost[1] / kinetic_lost[2] > 10
+    assert errors[0] / errors[1] > 3 and errors[1] / errors[2] > 3
+    wet = parts.wet_parts(p, L, 2.0, [2.0, 4.0], p.wavenumbers[-1])        # where the plate bends less
+    b, bdot = parts.carry_state(p, wet, a, adot)
+    assert 1 - parts.wet_energy(wet, b, bdot)[1] / potential < 1e-5              # 4.6e-6 measured
+
+
+def test_a_break_lowers_the_frequencies_within_two():
+    """Cutting the plate frees w and w' at the break: two constraints fewer, so by the min-max
+    principle the broken plate's k-th frequency lies between the unbroken plate's (k - 2)-th and
+    k-th (the slowest 20, a break at 0.3 m; the parts' wavenumbers up to 4 lambda_N, where the
+    slowest 20 have converged to 3.7e-9, and to 4.1e-8 at lambda_N). The slowest is the small
+    part heaving against the rest: 3.14 rad/s against the unbroken plate's 39.5."""
+    p = Parameters(Nmod=60)
+    broken = parts.wet_parts(p, L, 2.0, [0.3], 4 * p.wavenumbers[-1]).omega[:20]
+    coarse = parts.wet_parts(p, L, 2.0, [0.3], p.wavenumbers[-1]).omega[:20]
+    unbroken = p.frequencies[:20]
+    assert np.all(broken <= unbroken * (1 + 1e-12))
+    assert np.all(unbroken[:18] <= broken[2:] * (1 + 1e-12))
+    assert np.max(np.abs(coarse / broken - 1)) < 1e-7
+    assert broken[0] == pytest.approx(3.14, rel=1e-2)
