@@ -22,6 +22,7 @@ from .diagnostics import Outputs, Records, Run
 from .error_estimate import TOLERANCE_EXPONENT, error_estimates
 from .layout import ETD34, RK4
 from .loop import integrate
+from .model import parts
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import plan as plan_outputs
@@ -161,6 +162,40 @@ def _layer_pressure(p, tables, a, s, x, adot=None, U=None):
     return pressure_at(tables.model, delta, rate, ax / tables.dx - j, j)
 
 
+def _checked_breaks(p, s, breaks, full_plate):
+    """The breaks in kernel coordinates (None: unbroken), or ParameterError naming what a broken
+    plate cannot be (docs/model.md, "Breaking into parts")."""
+    if breaks is None:
+        return None
+    if p.edges == "free":
+        raise ParameterError("breaks: a floe's parts are not built yet (its water is the half-plane's)")
+    if s.quadrature != "gauss":
+        raise ParameterError("breaks need quadrature = 'gauss': the paper's rule interpolates the modes "
+                             "between nodes, across a break")
+    full = p.off_centre if full_plate is None else bool(full_plate)
+    b = np.sort(np.atleast_1d(np.asarray(breaks, dtype=float)))
+    inside = (b > -p.L) & (b < p.L) if full else (b >= 0.0) & (b < p.L)
+    if b.size == 0 or not np.all(inside) or np.any(np.diff(b) <= 0.0):
+        raise ParameterError(f"breaks must be distinct places on the plate ({'-L <' if full else '0 <='} x < L; "
+                             f"on the half plate x = 0 is its centre), got {np.asarray(breaks).tolist()}")
+    return b + p.L if full else b
+
+
+def _across_break(p, tab, a0, v0):
+    """The kernel's initial wet amplitudes and rates of the broken plate from the unbroken
+    plate's state (a_n, a_n' of the symmetric cosines; solver.model.parts.carry_state), and the
+    plate's energy before and after [J m-1]."""
+    unbroken = Tables(p, 2, tab.full_plate, "gauss")     # the cosines' kernel order (a small table)
+    a, adot = unbroken.to_kernel(a0), unbroken.to_kernel(v0)
+    domain, mirror = (2.0 if tab.full_plate else 1.0) * p.L, 1.0 if tab.full_plate else 2.0
+    wet = tab.floe["wet"]
+    b, bdot = parts.carry_state(p, wet, a, adot)
+    before = sum(parts.cosine_state_energy(p, domain, mirror, a, adot))
+    after = sum(parts.wet_energy(wet, b, bdot))
+    scale = tab.floe["scale"]                             # (the last wet mode is the null one)
+    return np.append(b, 0.0) * scale, np.append(bdot, 0.0) * scale, {"before": before, "after": after}
+
+
 def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, until_separation, full_plate):
     """solve's inputs validated (ParameterError, one line, on the first that is wrong) and with
     their defaults: (parameters, settings, times, x, t_end, a0, v0)."""
@@ -275,7 +310,7 @@ INTEGRATORS = {"etd34": Integrator(_kernel_loop(ETD34), False, True, True),
 def solve(parameters: Parameters | None = None, settings: Settings | None = None, times=None,
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
-          until_separation=False, full_plate=None, outputs=None, eps_Y=None, end="stage") -> Result:
+          until_separation=False, full_plate=None, outputs=None, eps_Y=None, end="stage", breaks=None) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -307,6 +342,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     end : "stage" (default): the run goes to t_end; "answered": with only crack onsets asked, it
         ends once they are final for every eps_Y up to the largest (``end_reason`` "answered",
         ``time_reached`` then; ``Result.crack_onset`` refuses a larger eps_Y).
+    breaks : places x [m] where the walled plate is broken through its thickness (docs/model.md,
+        "Breaking into parts"; x > 0 on the half plate of a centred impact, and the break at -x
+        with it): the run is on the parts' wet modes (amplitudes as a floe's), and initial
+        amplitudes and velocities, the unbroken plate's state at t_start, are carried across
+        the break (``extra["break_energy"]``: the plate's energy before and after [J m-1]).
 
     Returns
     -------
@@ -329,11 +369,16 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
-    observers, answer, asked = plan_outputs(outputs, eps_Y, end, floe=p.edges == "free")
-    tab = Tables(p, s.subintervals, full_plate, s.quadrature, s.quadrature_density)
+    kernel_breaks = _checked_breaks(p, s, breaks, full_plate)
+    observers, answer, asked = plan_outputs(outputs, eps_Y, end, floe=p.edges == "free" or breaks is not None)
+    tab = Tables(p, s.subintervals, full_plate, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
     a0_sym, v0_sym = a0, v0                          # a restart gives the symmetric modes' state
-    a0 = tab.to_kernel(a0)
-    v0 = tab.to_kernel(v0)
+    extra = {}
+    if kernel_breaks is not None:                    # the unbroken plate's state across the break
+        a0, v0, extra["break_energy"] = _across_break(p, tab, a0, v0)
+    else:
+        a0 = tab.to_kernel(a0)
+        v0 = tab.to_kernel(v0)
     N = tab.lam.size                                 # the kernel's modes: 2 Nmod on the full plate
     integrator = INTEGRATORS[s.integrator]
     if integrator.paper_step:
@@ -387,12 +432,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     if asked is not None:                           # what no output asked reads: not reported
         records, contact_record = _only_asked(asked, diagnostics, records, contact_record)
     companion = None
-    extra = {}
     if s.error_estimate and integrator.companion and s.fixed_step == 0 and n_out > 0:
         looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
         other = solve(p, looser, times=times[valid], fields=(), t_end=t_reached if answered else t_end,
                       t_start=t_start, initial_amplitudes=a0_sym, initial_velocities=v0_sym,
-                      until_separation=until_separation, full_plate=tab.full_plate, outputs=outputs)
+                      until_separation=until_separation, full_plate=tab.full_plate, outputs=outputs,
+                      breaks=breaks)
         companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
                      else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
         extra["error_estimate_wall_time"] = other.wall_time

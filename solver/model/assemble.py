@@ -18,6 +18,7 @@ import numpy as np
 from .basis import QUADRATURE_CODES, Basis
 from .body import Body
 from .floe import dry_values, floe_tables
+from .parts import part_values, parts_tables
 from .layer import LAW_CODES, Layer
 from .plate import COEF, MASS, STRAIN, Plate, make_plate
 from .quadrature import PANEL_POINTS, legendre_rule
@@ -35,12 +36,15 @@ class Tables:
     maps between the kernel's modal order and the symmetric and antisymmetric amplitudes."""
 
     def __init__(self, p, subintervals: int, full_plate: bool | None = None, quadrature: str = "paper",
-                 quadrature_density: float = 8.0):
+                 quadrature_density: float = 8.0, breaks=None):
         self.floe = None
         self.hi = float(p.hi)
         full = p.off_centre if full_plate is None else bool(full_plate)
         if p.edges == "free":
             self._free_floe(p, subintervals, full, quadrature, quadrature_density)
+            return
+        if breaks is not None:
+            self._broken(p, subintervals, full, quadrature, quadrature_density, breaks)
             return
         self.full_plate = full
         if full:
@@ -73,13 +77,34 @@ class Tables:
         node table; the full floe -L..L in kernel coordinates xi = x + L, or for a centred impact
         the half floe 0..L and the symmetric wet modes (mirror = 2). The contact-resolving rule's
         panels are sized by the largest dry wavenumber, as the cosines' by lambda_N."""
+        self._nodes(p, subintervals, full)
+        self.floe_length = float(p.L)
+        self._wet_basis(p, full, quadrature, quadrature_density, floe_tables(p, self.xq, full))
+        fl = self.floe
+        self._dry_values = lambda x, order: dry_values(fl["kinds"], fl["betas"], fl["norms"], self.floe_length,
+                                                        x + self.origin, order)
+
+    def _broken(self, p, subintervals, full, quadrature, quadrature_density, breaks):
+        """A walled plate broken into parts at ``breaks`` [m, kernel coordinates] (docs/model.md,
+        "Breaking into parts"): its wet modes (solver.model.parts) in a floe's form, the parts'
+        wavenumbers up to the cosines' lambda_N."""
+        self._nodes(p, subintervals, full)
+        lam_N = np.pi * p.Nmod / p.L
+        fl = parts_tables(p, self.xq, breaks, full, lam_N)
+        self._wet_basis(p, full, quadrature, quadrature_density, fl)
+        self._dry_values = lambda x, order: part_values(fl["wet"].modes, x, order)
+
+    def _nodes(self, p, subintervals, full):
+        """The nodes: xq in kernel coordinates, x_nodes on the plate."""
         self.full_plate = full
         self.origin = -p.L if full else 0.0
         self.dx = p.L / subintervals
         self.xq = self.dx * np.arange((2 if full else 1) * subintervals + 1)
         self.x_nodes = self.xq + self.origin
-        fl = self.floe = floe_tables(p, self.xq, full)
-        self.floe_length = float(p.L)
+
+    def _wet_basis(self, p, full, quadrature, quadrature_density, fl):
+        """The Model of wet modes (a floe's, or a broken plate's) from their tables fl."""
+        self.floe = fl
         N = fl["omega"].size
         self.omega, self.damping = fl["omega"], fl["damping"]
         self.lam = np.full(N, np.nan)                 # no wavenumbers: the wet modes are not cosines
@@ -90,7 +115,8 @@ class Tables:
                            mass[0])
         self.coef, self.LM, self.strain_coef = plate.modes[COEF], plate.modes[MASS], plate.modes[STRAIN]
         gauss_x, gauss_w = legendre_rule(PANEL_POINTS)
-        panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]))
+        panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]) if "betas" in fl
+                                                                              else np.max(fl["wet"].modes.betas))
         basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
                       1.0, fl["packed"])
@@ -105,10 +131,8 @@ class Tables:
         if self.floe is None:
             cos = np.cos(np.outer(ax, self.lam))
             return cos if field == "deflection" else cos * self.strain_coef
-        fl = self.floe
         order = 0 if field == "deflection" else 2
-        values = (fl["Q"].T @ dry_values(fl["kinds"], fl["betas"], fl["norms"], self.floe_length,
-                                          ax + self.origin, order)).T
+        values = (self.floe["Q"].T @ self._dry_values(ax, order)).T
         return values if field == "deflection" else -0.5 * self.hi * values
 
     def _damped(self):

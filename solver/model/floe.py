@@ -55,16 +55,22 @@ Segment = namedtuple("Segment", "alpha beta ga gb")
 #: floe_header view them). On the cosines it is empty. Rows of the shapes table: KINDS per dry
 #: mode (0 heave, 1 pitch, 2 symmetric, 3 antisymmetric), BETAS (beta [m-1]), NORMS (factor of
 #: the raw shape), TRIG and HYP the elastic modes' 1 / cos(beta L) (symmetric) or 1 / sin(beta L)
-#: and 1 / (1 +- exp(-2 beta L)) (_raw3, dry_table); rows SHAPE_ROWS.. the scaled wet-mode matrix Q
-#: (row m: dry mode m), then its transpose (row k: wet mode k; floe_dry's sums run along rows)
-KINDS, BETAS, NORMS, TRIG, HYP = range(5)
-SHAPE_ROWS = 5
+#: and 1 / (1 +- exp(-2 beta L)) (_raw3, dry_table), CENTRES and HALVES the centre c and
+#: half-length l of the free-free beam the mode belongs to (a floe's: 0 and L), LOWS and HIGHS
+#: the part of the plate it lives on, zero elsewhere (a floe's: -inf, inf; a broken plate's,
+#: solver.model.parts, the parts' ends); rows SHAPE_ROWS.. the scaled wet-mode matrix Q (row m:
+#: dry mode m), then its transpose (row k: wet mode k; floe_dry's sums run along rows)
+KINDS, BETAS, NORMS, TRIG, HYP, CENTRES, HALVES, LOWS, HIGHS = range(9)
+SHAPE_ROWS = 9
 #: the header: the strain factor -hi/2, L, x at the kernel's 0 (-L on the full floe, 0 on the
 #: half floe of a centred impact), the first dry mode m0 from which the wavenumbers are evenly
 #: spaced (to round-off: beta L > ASYMPTOTIC) and that spacing (pi / L on the half floe, pi / 2L
 #: on the full: dry_table)
 STRAIN_FACTOR, HALF_LENGTH, ORIGIN, FIRST_EVEN, SPACING = range(5)
-HEADER = 8
+#: then the number of breaks and their places (kernel coordinates, ascending; a broken plate's,
+#: solver.model.parts: the contact-resolving rule cuts its panels there), at most MAX_BREAKS
+BREAK_COUNT, FIRST_BREAK, MAX_BREAKS = 5, 6, 16
+HEADER = FIRST_BREAK + MAX_BREAKS
 #: exp(-HYP_NEGLIGIBLE) = 4e-18: a hyperbolic part that small is below the rounding of the
 #: trigonometric part (of order 1) and is not computed (_raw3, dry_table)
 HYP_NEGLIGIBLE = 40.0
@@ -276,11 +282,15 @@ def _hyperbolic_parts(beta, L, x):
 
 
 @kernel
-def _raw3(shapes, m, L, x, order):
-    """Dry mode m's raw derivatives of orders order, order + 1 and order + 2 at one x in -L..L,
-    from one cosine, one sine and the exponentials that are not negligible (dry_mode's values to
-    round-off; the factors 1 / cos(beta L) and 1 / cosh(beta L) from the shapes table)."""
-    kind = shapes[KINDS, m]
+def _raw3(shapes, m, x, order):
+    """Dry mode m's raw derivatives of orders order, order + 1 and order + 2 at one x (the floe's
+    coordinate), from one cosine, one sine and the exponentials that are not negligible
+    (dry_mode's values to round-off; the factors 1 / cos(beta l) and 1 / cosh(beta l) from the
+    shapes table), about the mode's centre, and 0 off its part."""
+    if not shapes[LOWS, m] <= x < shapes[HIGHS, m]:
+        return 0.0, 0.0, 0.0
+    kind, L = shapes[KINDS, m], shapes[HALVES, m]
+    x = x - shapes[CENTRES, m]
     if kind == 0.0:
         return (1.0 if order == 0 else 0.0), 0.0, 0.0
     if kind == 1.0:
@@ -314,7 +324,8 @@ def _elastic3(shapes, m, c, s, L, x, order):
 @kernel(nrt=True)
 def floe_dry_sums(floe, d, x, field):
     """floe_sums from the dry coefficients d (floe_dry): O(N) per point; from the header's
-    FIRST_EVEN on, exp(i beta_m x) by rotation (as dry_table)."""
+    FIRST_EVEN on (modes of the whole floe: a broken plate's FIRST_EVEN is N), exp(i beta_m x)
+    by rotation (as dry_table)."""
     N = d.shape[0]
     shapes = floe_shapes(floe, N)
     header = floe_header(floe)
@@ -325,7 +336,7 @@ def floe_dry_sums(floe, d, x, field):
     m0 = min(int(header[FIRST_EVEN]), N)
     v0 = v1 = v2 = 0.0
     for m in range(m0):
-        r0, r1, r2 = _raw3(shapes, m, L, xp, order)
+        r0, r1, r2 = _raw3(shapes, m, xp, order)
         v0 += d[m] * r0
         v1 += d[m] * r1
         v2 += d[m] * r2
@@ -356,7 +367,7 @@ def dry_table(floe, xk, table):
     origin = header[ORIGIN]
     m0 = int(header[FIRST_EVEN])
     for m in range(m0):
-        _dry_row(shapes, m, L, origin, xk, table[m])
+        _dry_row(shapes, m, origin, xk, table[m])
     if m0 >= N:
         return
     spacing = header[SPACING]
@@ -386,25 +397,30 @@ def dry_table(floe, xk, table):
 
 
 @kernel
-def _dry_row(shapes, m, L, origin, xk, row):
-    """Dry mode m's raw values at the points xk into row (dry_table, directly)."""
+def _dry_row(shapes, m, origin, xk, row):
+    """Dry mode m's raw values at the points xk into row (dry_table, directly), about the mode's
+    centre, 0 off its part."""
     kind, beta = shapes[KINDS, m], shapes[BETAS, m]
     trig, hyp = shapes[TRIG, m], shapes[HYP, m]
+    L, centre, low, high = shapes[HALVES, m], shapes[CENTRES, m], shapes[LOWS, m], shapes[HIGHS, m]
     K = xk.shape[0]
     if kind == 0.0:
         row[:] = 1.0
     elif kind == 1.0:
         for k in range(K):
-            row[k] = (xk[k] + origin) / L
+            row[k] = (xk[k] + origin - centre) / L
     else:
         sym = kind == 2.0
         for k in range(K):
-            x = xk[k] + origin
+            x = xk[k] + origin - centre
             ep, em = _hyperbolic_parts(beta, L, x)
             if sym:
                 row[k] = math.cos(beta * x) * trig + (ep + em) * hyp
             else:
                 row[k] = math.sin(beta * x) * trig + (ep - em) * hyp
+    for k in range(K):
+        if not low <= xk[k] + origin < high:
+            row[k] = 0.0
 
 
 @kernel(nrt=True)
@@ -490,6 +506,7 @@ def floe_tables(p, xq, full: bool):
     N = kinds.size
     shapes = np.zeros((SHAPE_ROWS + 2 * N, N))
     shapes[KINDS], shapes[BETAS], shapes[NORMS] = kinds, betas, norms
+    shapes[HALVES], shapes[LOWS], shapes[HIGHS] = L, -np.inf, np.inf
     header = np.zeros(HEADER)
     header[STRAIN_FACTOR], header[HALF_LENGTH], header[ORIGIN] = -0.5 * p.hi, L, origin
     late = np.flatnonzero((kinds >= SYMMETRIC) & (betas * L > ASYMPTOTIC))

@@ -1,5 +1,6 @@
-r"""A walled plate broken into parts: their dry modes, the water they share, their wet modes, and
-the state carried across a break (docs/model.md, "Breaking into parts").
+r"""A walled plate broken into parts: their dry modes, the water they share, their wet modes, the
+state carried across a break, and their tables in a floe's form for the kernels (parts_tables;
+docs/model.md, "Breaking into parts").
 
 **Parts.** On the kernel's domain 0 <= x <= Lambda (the half plate of a centred impact, Lambda = L,
 whose x = 0 is the symmetry plane; or the whole plate, Lambda = 2L) breaks at 0 < b_1 < ... cut the
@@ -62,6 +63,7 @@ from collections import namedtuple
 
 import numpy as np
 
+from . import floe as fl
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
 
 #: the end conditions of a part: a wall or the symmetry plane (w_x = w_xxx = 0), a break (w_xx =
@@ -85,12 +87,18 @@ WetParts = namedtuple("WetParts", "omega Q modes domain mirror")
 
 
 def part_edges(domain: float, breaks) -> np.ndarray:
-    """The parts' ends [0, b_1, ..., Lambda]; refuses a break outside (0, Lambda) or two at one
-    place."""
+    """The parts' ends [0, b_1, ..., Lambda] (a break at 0: the half plate's symmetry plane
+    broken, not an end of its own); refuses a break outside [0, Lambda) or two at one place."""
     b = np.sort(np.asarray(breaks, dtype=float).ravel())
-    if b.size and (b[0] <= 0.0 or b[-1] >= domain or np.any(np.diff(b) <= 0.0)):
-        raise ValueError(f"breaks {b.tolist()} must lie inside (0, {domain}) and apart")
-    return np.concatenate([[0.0], b, [float(domain)]])
+    if b.size and (b[0] < 0.0 or b[-1] >= domain or np.any(np.diff(b) <= 0.0)):
+        raise ValueError(f"breaks {b.tolist()} must lie in [0, {domain}) and apart")
+    return np.concatenate([[0.0], b[b > 0.0], [float(domain)]])
+
+
+def centre_broken(breaks) -> bool:
+    """Whether the breaks include x = 0, the half plate's symmetry plane (its end there is then
+    free)."""
+    return bool(np.any(np.asarray(breaks, dtype=float) == 0.0))
 
 
 def _part(lo, hi, sliding_lo, sliding_hi, beta_max):
@@ -115,12 +123,14 @@ def _part(lo, hi, sliding_lo, sliding_hi, beta_max):
 
 
 def part_modes(domain: float, breaks, beta_max: float) -> PartModes:
-    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide), each
-    part's with wavenumbers up to beta_max [m-1] (module docstring)."""
+    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide, but x = 0
+    where it is a break: the symmetry plane of a half plate broken at its centre), each part's
+    with wavenumbers up to beta_max [m-1] (module docstring)."""
     edges = part_edges(domain, breaks)
     rows = []
     for i, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
-        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, i == 0, i == edges.size - 2, beta_max)]
+        sliding_lo = i == 0 and not centre_broken(breaks)
+        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, sliding_lo, i == edges.size - 2, beta_max)]
     kinds, betas, centres, halves, norms, lows, highs, parts = (np.array(c, dtype=float) for c in zip(*rows))
     return PartModes(kinds, betas, centres, halves, lows, highs, norms, parts.astype(int))
 
@@ -283,3 +293,77 @@ def wet_energy(wet: WetParts, b, bdot) -> tuple[float, float]:
 def wet_values(wet: WetParts, x, order=0) -> np.ndarray:
     """(Nw, X): the wet modes Psi_k (or a derivative) at x [m]."""
     return wet.Q.T @ part_values(wet.modes, x, order)
+
+
+def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
+    """Everything the kernels need of the plate of parameters p broken at ``breaks`` (kernel
+    coordinates: 0..L on the half plate of a centred impact, 0..2L on the whole), in the form of
+    a floe's tables (solver.model.floe.floe_tables, whose kernels read each dry mode's centre,
+    half-length and part from the shapes table): omega, mass (the generalised masses 1 / s_k^2
+    [kg m-1]), damping and damping_matrix (Kelvin-Voigt), cosq (N, J) the wet modes at the nodes
+    xq, packed, strain_scale, scale (max |Psi_k|: the kernel's amplitude of wet mode k is b_k
+    scale_k), Q (the scaled wet modes, Nd x Nd: the last a null mode, as the kernels pair wet and
+    dry modes one to one), and the WetParts. The parts' wavenumbers go up to beta_max [m-1]."""
+    domain, mirror = (2.0 if full else 1.0) * p.L, 1.0 if full else 2.0
+    wet = wet_parts(p, domain, mirror, breaks, beta_max)
+    modes, x = wet.modes, np.asarray(xq, dtype=float)
+    fine = np.linspace(0.0, domain, 8 * (x.size - 1) + 1)
+    scale = np.max(np.abs(wet.Q.T @ part_values(modes, fine)), axis=1)
+    Qs = wet.Q / scale
+    values = [Qs.T @ part_values(modes, x, order) for order in range(3)]
+    # the kernels pair wet and dry modes one to one, and int w dx = 0 leaves one wet mode fewer:
+    # the last wet mode is a null one (no shape, never forced, at rest)
+    N = modes.kinds.size
+    Qs = np.hstack([Qs, np.zeros((N, 1))])
+    values = [np.vstack([v, np.zeros((1, v.shape[1]))]) for v in values]
+    omega, scale = np.append(wet.omega, wet.omega[-1]), np.append(scale, 1.0)
+    Q = np.hstack([wet.Q, np.zeros((N, 1))])
+    tables = np.empty((4,) + values[0].shape)
+    tables[fl.TABLE_STRAIN] = -0.5 * p.hi * values[2]
+    tables[fl.TABLE_SLOPE], tables[fl.TABLE_CURVATURE] = values[1], values[2]
+    tables[fl.TABLE_HAT] = _hat_weights(Qs, modes, x)
+    shapes = np.zeros((fl.SHAPE_ROWS + 2 * N, N))
+    elastic = modes.kinds >= SYMMETRIC
+    bl = np.where(elastic, modes.betas * modes.halves, 1.0)
+    shapes[fl.KINDS], shapes[fl.BETAS], shapes[fl.NORMS] = modes.kinds, modes.betas, modes.norms
+    shapes[fl.TRIG] = np.where(modes.kinds == SYMMETRIC, 1.0 / np.cos(bl), np.where(elastic, 1.0 / np.sin(bl), 0.0))
+    shapes[fl.HYP] = np.where(modes.kinds == SYMMETRIC, 1.0 / (1.0 + np.exp(-2.0 * bl)),
+                              np.where(elastic, 1.0 / -np.expm1(-2.0 * bl), 0.0))
+    shapes[fl.CENTRES], shapes[fl.HALVES] = modes.centres, modes.halves
+    shapes[fl.LOWS] = np.where(modes.lows <= 0.0, -np.inf, modes.lows)
+    shapes[fl.HIGHS] = np.where(modes.highs >= domain, np.inf, modes.highs)
+    shapes[fl.SHAPE_ROWS:fl.SHAPE_ROWS + N] = Qs
+    shapes[fl.SHAPE_ROWS + N:] = Qs.T
+    header = np.zeros(fl.HEADER)
+    header[fl.STRAIN_FACTOR], header[fl.HALF_LENGTH], header[fl.FIRST_EVEN] = -0.5 * p.hi, p.L, N
+    cuts = part_edges(domain, breaks)[1:-1]
+    if cuts.size > fl.MAX_BREAKS:
+        raise ValueError(f"at most {fl.MAX_BREAKS} breaks, got {cuts.size}")
+    header[fl.BREAK_COUNT] = cuts.size
+    header[fl.FIRST_BREAK:fl.FIRST_BREAK + cuts.size] = cuts
+    bending = Q.T @ (Q * (mirror * p.rigidity * modes.betas**4 * part_lengths(modes))[:, None])
+    return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
+            "damping": p.tau * np.diag(bending).copy(),
+            "damping_matrix": p.tau * bending * scale[:, None] / scale[None, :],
+            "packed": fl.pack_floe(tables, shapes, header),
+            "strain_scale": np.max(np.abs(tables[fl.TABLE_STRAIN]), axis=1), "wet": wet, "scale": scale, "Q": Qs}
+
+
+def _hat_weights(Qs, modes: PartModes, x):
+    """int hat_j Psi_k dx [m] (N, J) on the evenly spaced nodes x: 8 Gauss-Legendre nodes on each
+    piece of a subinterval between the breaks (the modes are smooth there)."""
+    gx, gw = np.polynomial.legendre.leggauss(8)
+    dx = x[1] - x[0]
+    cuts = np.unique(np.concatenate([modes.lows, modes.highs]))
+    cuts = cuts[(cuts > x[0]) & (cuts < x[-1]) & (np.abs(cuts / dx - np.round(cuts / dx)) > 1e-12)]
+    ends = np.sort(np.concatenate([x, cuts]))
+    lo, hi = ends[:-1], ends[1:]
+    j = np.minimum(np.searchsorted(x, lo, side="right") - 1, x.size - 2)      # the subinterval of each piece
+    pts = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * gx[None, :]
+    vals = (Qs.T @ part_values(modes, pts.ravel())).reshape(Qs.shape[1], lo.size, gx.size)
+    t = (pts - x[j][:, None]) / dx
+    w = 0.5 * (hi - lo)[:, None] * gw[None, :]
+    hat = np.zeros((Qs.shape[1], x.size))
+    np.add.at(hat.T, j, np.einsum("kpg,pg->pk", vals, w * (1.0 - t)))
+    np.add.at(hat.T, j + 1, np.einsum("kpg,pg->pk", vals, w * t))
+    return hat

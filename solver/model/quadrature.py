@@ -46,7 +46,7 @@ import numpy as np
 
 from .basis import modal_projection, modal_sum_range
 from .body import body_corners, body_profile, body_slope_curvature
-from .floe import dry_table, floe_dry, floe_dry_sums, floe_wet
+from .floe import BREAK_COUNT, FIRST_BREAK, MAX_BREAKS, dry_table, floe_dry, floe_dry_sums, floe_header, floe_wet
 from ..compile.jit import kernel
 from .law import law_energy, law_pressure
 from .plate import Modes
@@ -133,7 +133,11 @@ def contact_edge(a, lam1, floe, s, body, x0, g0, x1, g1, stop):
 @kernel
 def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
     """The contact intervals from delta at the nodes j < jmax (delta < 0 beyond): their ends
-    into edges (2 per interval, kernel coordinates [m]); returns their number."""
+    into edges (2 per interval, kernel coordinates [m]); returns their number. A broken plate's
+    part by part (broken_intervals)."""
+    if break_count(basis) > 0:
+        count = broken_intervals(body, basis, s, a, he, delta, jmax, edges)
+        return count + corner_contacts(body, basis, s, a, he, delta, jmax, edges[2 * count:])
     J = delta.shape[0]
     dx = basis.dx
     lam1 = basis.lam1
@@ -165,6 +169,60 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
         count += 1
         j = k + 1
     return count + corner_contacts(body, basis, s, a, he, delta, jmax, edges[2 * count:])
+
+
+@kernel(nrt=True)
+def break_count(basis):
+    """The number of the plate's breaks (0 on the cosines and on a floe)."""
+    return 0 if basis.kind == 0.0 else int(floe_header(basis.floe)[BREAK_COUNT])
+
+
+@kernel(nrt=True)
+def broken_intervals(body, basis, s, a, he, delta, jmax, edges):
+    """contact_intervals on a broken plate, part by part: a part's nodes and its two ends, where
+    the gap is taken on the part's own modes (it jumps at a break), so that no interval crosses a
+    break and a part's edge pressed into the layer between two nodes is seen. Parts beyond the
+    node jmax (the bound: delta < 0 there) have none."""
+    header = floe_header(basis.floe)
+    breaks = int(header[BREAK_COUNT])
+    dx, floe = basis.dx, basis.floe
+    stop = EDGE_STOP * dx
+    count = 0
+    for part in range(breaks + 1):
+        lo = 0.0 if part == 0 else header[FIRST_BREAK + part - 1]
+        hi = basis.length if part == breaks else header[FIRST_BREAK + part]
+        if lo >= jmax * dx:
+            break
+        x0 = lo
+        g0 = _gap_and_slope(a, 0.0, floe, lo, s, body)[0]
+        start = lo
+        j = int(math.ceil(lo / dx))
+        if j * dx <= lo:
+            j += 1
+        while True:
+            if j * dx < hi:
+                x1 = j * dx
+                g1 = he * delta[j] if j < jmax else _gap_and_slope(a, 0.0, floe, x1, s, body)[0]
+            else:
+                x1 = hi
+                g1 = _gap_and_slope(a, 0.0, floe, hi - 1e-12 * dx, s, body)[0]
+            if g0 > 0.0 and not g1 > 0.0:
+                edges[2 * count] = start
+                edges[2 * count + 1] = contact_edge(a, 0.0, floe, s, body, x0, g0, x1, g1, stop)
+                count += 1
+            elif g1 > 0.0 and not g0 > 0.0:
+                start = contact_edge(a, 0.0, floe, s, body, x0, g0, x1, g1, stop)
+            if x1 >= hi:
+                if g1 > 0.0:
+                    edges[2 * count] = start
+                    edges[2 * count + 1] = hi
+                    count += 1
+                break
+            if j >= jmax and not g1 > 0.0:       # beyond the bound, out of contact
+                break
+            x0, g0 = x1, g1
+            j += 1
+    return count
 
 
 @kernel
@@ -201,36 +259,54 @@ def corner_contacts(body, basis, s, a, he, delta, jmax, edges):
     return count
 
 
-@kernel
-def _pieces(body, xa, xb, cuts):
-    """The breakpoints of [xa, xb] at the body's corners inside it: cuts[0..m] ascending;
-    returns m + 1."""
+@kernel(nrt=True)
+def _pieces(body, basis, xa, xb, cuts):
+    """The breakpoints of [xa, xb] at the body's corners and the plate's breaks inside it (a
+    broken plate's, in its floe header): cuts[0..m] ascending, each once; returns m + 1."""
     m = 0
     cuts[0] = xa
     for c in body_corners(body):
-        if xa < c < xb and c > cuts[m]:
+        if xa < c < xb:
             m += 1
             cuts[m] = c
-    m += 1
-    cuts[m] = xb
-    return m + 1
+    if basis.kind != 0.0:
+        header = floe_header(basis.floe)
+        for i in range(int(header[BREAK_COUNT])):
+            c = header[FIRST_BREAK + i]
+            if xa < c < xb:
+                m += 1
+                cuts[m] = c
+    for i in range(2, m + 1):                       # in order (insertion: a few points)
+        c = cuts[i]
+        k = i - 1
+        while k > 0 and cuts[k] > c:
+            cuts[k + 1] = cuts[k]
+            k -= 1
+        cuts[k + 1] = c
+    kept = 0
+    for i in range(1, m + 1):                       # each once
+        if cuts[i] > cuts[kept]:
+            kept += 1
+            cuts[kept] = cuts[i]
+    cuts[kept + 1] = xb
+    return kept + 2
 
 
 @kernel(nrt=True)
 def first_panels(body, basis, edges, count):
     """The panels of the contact intervals: each cut at the body's corners, each piece into equal
     panels no wider than basis.panel. Returns the panels' ends [m], rows LO and HI."""
-    cuts = np.empty(5)
+    cuts = np.empty(5 + MAX_BREAKS)
     total = 0
     for i in range(count):
-        p = _pieces(body, edges[2 * i], edges[2 * i + 1], cuts)
+        p = _pieces(body, basis, edges[2 * i], edges[2 * i + 1], cuts)
         for q in range(p - 1):
             total += max(1, int(math.ceil((cuts[q + 1] - cuts[q]) / basis.panel)))
     panels = np.empty((2, total))
     lo, hi = panels[LO], panels[HI]
     k = 0
     for i in range(count):
-        p = _pieces(body, edges[2 * i], edges[2 * i + 1], cuts)
+        p = _pieces(body, basis, edges[2 * i], edges[2 * i + 1], cuts)
         for q in range(p - 1):
             npan = max(1, int(math.ceil((cuts[q + 1] - cuts[q]) / basis.panel)))
             h = (cuts[q + 1] - cuts[q]) / npan
@@ -461,7 +537,7 @@ def _gauss_sums(layer, body, basis, s, U, modes, jmax, delta, P, wanted):
     panels: the first panels, then the pieces of those near the paper law's pole."""
     project, energy = wanted.project, wanted.energy
     a = modes.a
-    edges = np.empty(jmax + 8)
+    edges = np.empty(jmax + 8 + 4 * MAX_BREAKS)
     count = contact_intervals(body, basis, s, a, layer.he, delta, jmax, edges)
     panels = first_panels(body, basis, edges, count)
     for n in range(P.shape[0]):
