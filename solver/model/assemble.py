@@ -115,8 +115,7 @@ class Tables:
                            mass[0])
         self.coef, self.LM, self.strain_coef = plate.modes[COEF], plate.modes[MASS], plate.modes[STRAIN]
         gauss_x, gauss_w = legendre_rule(PANEL_POINTS)
-        panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]) if "betas" in fl
-                                                                              else np.max(fl["wet"].modes.betas))
+        panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]))
         basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
                       1.0, fl["packed"])

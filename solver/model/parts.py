@@ -303,7 +303,8 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     [kg m-1]), damping and damping_matrix (Kelvin-Voigt), cosq (N, J) the wet modes at the nodes
     xq, packed, strain_scale, scale (max |Psi_k|: the kernel's amplitude of wet mode k is b_k
     scale_k), Q (the scaled wet modes, Nd x Nd: the last a null mode, as the kernels pair wet and
-    dry modes one to one), and the WetParts. The parts' wavenumbers go up to beta_max [m-1]."""
+    dry modes one to one), the dry modes' betas, and the WetParts. The parts' wavenumbers go up to
+    beta_max [m-1]."""
     domain, mirror = (2.0 if full else 1.0) * p.L, 1.0 if full else 2.0
     wet = wet_parts(p, domain, mirror, breaks, beta_max)
     modes, x = wet.modes, np.asarray(xq, dtype=float)
@@ -346,7 +347,8 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
             "damping": p.tau * np.diag(bending).copy(),
             "damping_matrix": p.tau * bending * scale[:, None] / scale[None, :],
             "packed": fl.pack_floe(tables, shapes, header),
-            "strain_scale": np.max(np.abs(tables[fl.TABLE_STRAIN]), axis=1), "wet": wet, "scale": scale, "Q": Qs}
+            "strain_scale": np.max(np.abs(tables[fl.TABLE_STRAIN]), axis=1), "betas": modes.betas, "wet": wet,
+            "scale": scale, "Q": Qs}
 
 
 def _hat_weights(Qs, modes: PartModes, x):
