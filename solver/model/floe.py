@@ -512,11 +512,7 @@ def floe_tables(p, xq, full: bool):
     late = np.flatnonzero((kinds >= SYMMETRIC) & (betas * L > ASYMPTOTIC))
     header[FIRST_EVEN] = late[0] if late.size else kinds.size
     header[SPACING] = math.pi / (2.0 * L) if full else math.pi / L
-    elastic = kinds >= SYMMETRIC
-    bl = betas * L
-    shapes[TRIG] = np.where(kinds == SYMMETRIC, 1.0 / np.cos(bl), np.where(elastic, 1.0 / np.sin(np.where(elastic, bl, 1.0)), 0.0))
-    shapes[HYP] = np.where(kinds == SYMMETRIC, 1.0 / (1.0 + np.exp(-2.0 * bl)),
-                           np.where(elastic, 1.0 / -np.expm1(-2.0 * np.where(elastic, bl, 1.0)), 0.0))
+    shapes[TRIG], shapes[HYP] = edge_factors(kinds, betas * L)
     shapes[SHAPE_ROWS:SHAPE_ROWS + N] = Qs
     shapes[SHAPE_ROWS + N:] = Qs.T
     # Kelvin-Voigt ice, D -> D (1 + tau d/dt): the damping tau Q^T K_b Q of the bending stiffness
@@ -529,6 +525,17 @@ def floe_tables(p, xq, full: bool):
             "packed": pack_floe(tables, shapes, header),
             "strain_scale": np.max(np.abs(tables[TABLE_STRAIN]), axis=1), "kinds": kinds, "betas": betas,
             "norms": norms, "Q": Qs}
+
+
+def edge_factors(kinds, bl):
+    """The shapes table's TRIG and HYP rows of dry modes of these kinds with beta l = bl: 1 / cos(bl)
+    (symmetric) or 1 / sin(bl) (antisymmetric), and 1 / (1 +- exp(-2 bl)); 0 for heave and pitch
+    (their TRIG is 1 / cos(0) on the symmetric branch's formula, unused)."""
+    elastic = kinds >= SYMMETRIC
+    trig = np.where(kinds == SYMMETRIC, 1.0 / np.cos(bl), np.where(elastic, 1.0 / np.sin(np.where(elastic, bl, 1.0)), 0.0))
+    hyp = np.where(kinds == SYMMETRIC, 1.0 / (1.0 + np.exp(-2.0 * bl)),
+                   np.where(elastic, 1.0 / -np.expm1(-2.0 * np.where(elastic, bl, 1.0)), 0.0))
+    return trig, hyp
 
 
 def _hat_weights(Qs, kinds, betas, norms, L, x):

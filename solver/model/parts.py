@@ -324,12 +324,8 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     tables[fl.TABLE_SLOPE], tables[fl.TABLE_CURVATURE] = values[1], values[2]
     tables[fl.TABLE_HAT] = _hat_weights(Qs, modes, x)
     shapes = np.zeros((fl.SHAPE_ROWS + 2 * N, N))
-    elastic = modes.kinds >= SYMMETRIC
-    bl = np.where(elastic, modes.betas * modes.halves, 1.0)
     shapes[fl.KINDS], shapes[fl.BETAS], shapes[fl.NORMS] = modes.kinds, modes.betas, modes.norms
-    shapes[fl.TRIG] = np.where(modes.kinds == SYMMETRIC, 1.0 / np.cos(bl), np.where(elastic, 1.0 / np.sin(bl), 0.0))
-    shapes[fl.HYP] = np.where(modes.kinds == SYMMETRIC, 1.0 / (1.0 + np.exp(-2.0 * bl)),
-                              np.where(elastic, 1.0 / -np.expm1(-2.0 * bl), 0.0))
+    shapes[fl.TRIG], shapes[fl.HYP] = fl.edge_factors(modes.kinds, modes.betas * modes.halves)
     shapes[fl.CENTRES], shapes[fl.HALVES] = modes.centres, modes.halves
     shapes[fl.LOWS] = np.where(modes.lows <= 0.0, -np.inf, modes.lows)
     shapes[fl.HIGHS] = np.where(modes.highs >= domain, np.inf, modes.highs)
