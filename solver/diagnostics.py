@@ -26,8 +26,9 @@ from .model.plate import plus_plate_energy
 
 #: what a run fills (arrays made by the caller): a, adot (T, N) and series (T, N_SERIES) at the
 #: output times reached; diag (N_DIAG,); level_t, level_x (2, levels) NaN on entry, the located
-#: time and place at which the upper (row 0) and lower (row 1) tension first reaches each level
-Outputs = namedtuple("Outputs", "a adot series diag level_t level_x")
+#: time and place at which the upper (row 0) and lower (row 1) tension first reaches each level;
+#: final (2, N): a and adot at the time reached (the state a restart, or a break, starts from)
+Outputs = namedtuple("Outputs", "a adot series diag level_t level_x final")
 #: the records of a run: the tension records of both surfaces, plate-wide and in the impact zone
 #: (rows R_T..R_JOIN), and the contact record (rows (t, count)), each with its count of valid rows
 Records = namedtuple("Records", "upper n_upper lower n_lower contacts n_contacts zone_upper n_zone_upper "

@@ -12,9 +12,8 @@ from .compile.parallel_compile import claiming
 from .control import make_control
 from .diagnostics import Outputs, Records
 from .fracture import compile_crack_onset
-from .loop import Energies, Observers, StepEnds, Trial, judge_step, new_state, new_workspace, observe_step
+from .loop import Energies, Observers, StepEnds, Trial, ending_event, judge_step, new_state, new_workspace, observe_step
 from .model.assemble import Tables
-from .observe.events import locate_event
 from .observe.tension import Dense
 from .parameters import Parameters
 from .settings import Settings
@@ -47,7 +46,7 @@ def helper_jobs():
     model = typeof(Tables(p, s.subintervals, False, s.quadrature, s.quadrature_density).model)
     f8, i8, a1 = types.float64, types.int64, typeof(np.empty(1))
     control = typeof(make_control(0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 1.0, 1, 0.0))
-    diag = _field(typeof(Outputs(*(np.empty((1, 1)),) * 3, np.empty(1), *(np.empty((1, 1)),) * 2)), "diag")
+    diag = _field(typeof(Outputs(*(np.empty((1, 1)),) * 3, np.empty(1), *(np.empty((1, 1)),) * 3)), "diag")
     ws = _returns(new_workspace, i8, model, i8, i8, f8)
     state = _returns(new_state, i8, i8)
     work = _field(ws, "work")
@@ -62,7 +61,7 @@ def helper_jobs():
         (observe_step, (model, observers, state, state, carried, f8, f8, ends, records, diag)),
         (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
                      start, carried, f8, f8, f8, state)),
-        (locate_event, (_field(ws, "stepper"), f8, f8, start, carried, f8, f8, a1, state, a1)),
+        (ending_event, (model, ws, control, start, carried, f8, f8, state, types.boolean, diag)),
         (judge_step, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
                       types.NamedTuple((i8, f8, i8, f8, f8, f8, f8), Trial), types.NamedUniTuple(f8, 3, Energies), diag)),
     ]

@@ -2,7 +2,8 @@ r"""The integration loop: step, judge, locate, observe, shift (docs/model.md, "N
 
 Each pass of :func:`integrate` records the outputs due at the current time, tries one step
 (solver.step) of the size the step policy chooses (solver.control), judges it (finite, its local
-error, the energy identity), locates bottoming inside it on true sub-steps, and then calls the
+error, the energy identity), locates an event that ends the run inside it on true sub-steps
+(bottoming; a break, where the run breaks the plate: solver.breaking), and then calls the
 observers at one fixed point, on the step's two end states and its dense output: the tension
 records, the impact zone's maxima, levels of tension located for verification, the contact
 intervals, a free body's stop and separation (solver.observe). The two states swap roles at the
@@ -23,12 +24,13 @@ from .cubic import cubic_max, hermite
 from .diagnostics import (Counts, Records, Residuals, bottomed_at, failed_at, finish_diagnostics, record_output,
                           running_maxima, start_diagnostics)
 from .compile.jit import kernel
-from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
+from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_BREAK_SURFACE, D_BREAK_T, D_BREAK_X, D_DISSIPATED,
+                     D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
                      D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T,
                      D_T_REACHED, ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP,
                      FAIL_MAX_STEPS, FAIL_NONFINITE, FAIL_STEP_UNDERFLOW, LAYER_BOTTOMED_OUT, N_REC, NONFINITE,
                      OK, SEPARATED, STEP_LIMIT, STOPPED)
-from .model.basis import node_strain
+from .model.basis import global_peak, node_strain
 from .model.body import body_coefficients, body_position, body_residual, body_speed
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
@@ -37,7 +39,7 @@ from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, a
 from .observe.body import observe_body
 from .observe.contacts import Snapshot, contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
-from .observe.events import locate_event
+from .observe.events import event_value, locate_event, value_after
 from .observe.layer_maxima import LayerEnds, finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import Rows, SurfaceRows, append_row
 from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, DenseStates, StepStrains, dense_due, global_state,
@@ -55,7 +57,11 @@ from .step import G_ROW, Carried, Coefficients, Start, State, StepWork, Stepper,
 #: records' row counts when their running maxima passed the levels asked (observe.asked, 4), and
 #: the last accepted step's forcing (control.History)
 Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense "
-                                    "crossed history")
+                                    "crossed history armed")
+#: an event that ends the run inside an accepted step (ending_event): its kind (NO_EVENT,
+#: BOTTOMING, BREAK), and the cut step s with the force F, jmax and the work W at its end
+EventCut = namedtuple("EventCut", "kind s F jmax W")
+NO_EVENT, BOTTOMING, BREAK = 0, 1, 2
 
 #: the observers' work and which of them run: TensionWork, ContactWork, the tension peaks at the
 #: step's start, ZoneWork, DenseMaxima, and the observers asked (Control.observers, observe.asked)
@@ -100,7 +106,7 @@ def new_workspace(method, model, N, J, margin):
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
                      zone_work(margin, N), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
                      np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan),
-                     History(np.zeros((2, N)), np.zeros(2), np.zeros(2)))
+                     History(np.zeros((2, N)), np.zeros(2), np.zeros(2)), np.zeros(2))
 
 
 @kernel(nrt=True)
@@ -284,6 +290,88 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
 
 
 @kernel(inline="llvm", nrt=True)
+def _locate_break(ws, level, start, carried, t, h, upper, lower):
+    """The first time in the accepted step [t, t + h] at which the tension of a surface that may
+    reach the break level in it (upper, lower) does, located on true sub-steps as the levels are
+    (from each surface's peak at t, ws.peaks0): (s, F, jmax, W, place, surface), surface -1
+    where neither did; ws.sub then holds the state at t + s (the last sub-step below the level)."""
+    first, surface = h, -1
+    for s in range(2):
+        if upper if s == 0 else lower:
+            lo, hi, F, jm, w, found = locate_event(ws.stepper, 1.0 - 2.0 * s, level, start, carried, t, h,
+                                                   ws.peaks0[s], ws.sub, ws.value)
+            if found and (surface < 0 or lo < first):
+                first, surface = lo, s
+    F, jm, w = 0.0, 0, 0.0
+    if surface >= 0:             # the earlier surface's state, again (the other's search may have run last)
+        _, F, jm, w = value_after(ws.stepper, 1.0 - 2.0 * surface, level, start, carried, t, first, ws.sub, ws.value)
+    return first, F, jm, w, ws.value[2], surface
+
+
+@kernel(inline="llvm")
+def _peak_reaches(model, eps, a, sign, level):
+    """Whether the tension sign * eps, at its peak over the continuous plate, reaches level."""
+    return global_peak(eps, sign, model.basis, model.plate.modes[STRAIN], a)[0] >= level
+
+
+@kernel(nrt=True)
+def ending_event(model, ws, control, start, carried, t, h, new, after, diag):
+    """An event that ends the run inside the accepted step [t, t + h], located on true sub-steps:
+    before the observers (after False) the layer bottoming out, else a break where an armed
+    surface's peak tension reaches control.break_level at the step's end; after them (after True)
+    a break only the peak inside the step reached (the adapter then drops the tension records'
+    rows past it), and the surfaces armed once below the level. Where one is, new holds the state
+    at the cut step's end, its strain, and ws.gap1 its gap. Returns an EventCut."""
+    level, tw, armed = control.break_level, ws.tension, ws.armed
+    if not after and _may_bottom(model, control, ws.gap0, ws.gap1, h):
+        s_b, _, F, jm, w, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, start, carried, t, h,
+                                               ws.gap0, ws.sub, ws.value)
+        if found:                    # (where the interpolant's crossing was not real, the step stays)
+            copy_into(ws.gap1, ws.value, 3)
+            _copy_state(ws.sub, new)
+            node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
+            return EventCut(BOTTOMING, s_b, F, jm, w)
+    if level == math.inf:
+        return EventCut(NO_EVENT, h, 0.0, 0, 0.0)
+    if after:
+        upper = armed[0] > 0.0 and tw.track[STEP_BEST, 0] >= level
+        lower = armed[1] > 0.0 and tw.track[STEP_BEST + 1, 0] >= level
+    else:
+        upper = armed[0] > 0.0 and _peak_reaches(model, new.eps, new.a, 1.0, level)
+        lower = armed[1] > 0.0 and _peak_reaches(model, new.eps, new.a, -1.0, level)
+        for s in range(2):
+            copy_into(ws.peaks0[s], tw.track[PEAKS + s], 4)
+    s_b, F, jm, w, x_b, surface = _locate_break(ws, level, start, carried, t, h, upper, lower)
+    if surface < 0:
+        if after:
+            arm_breaks(model, armed, new.eps, new.a, level)
+        return EventCut(NO_EVENT, h, 0.0, 0, 0.0)
+    _copy_state(ws.sub, new)
+    node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
+    _gap_at(model, t + s_b, new.z, new.a, new.adot, new.yb, new.delta, jm, ws.gap1)
+    diag[D_BREAK_T], diag[D_BREAK_X], diag[D_BREAK_SURFACE] = t + s_b, x_b, float(surface)
+    return EventCut(BREAK, s_b, F, jm, w)
+
+
+@kernel(nrt=True)
+def break_value(model, sign, t, state, out):
+    """A break's event value at a state: the peak of sign * eps over the continuous plate, out[:]
+    = (value, rate, x) (observe.events.event_value: what _locate_break locates, for the DOP853
+    reference's own search on its dense output)."""
+    return event_value(model, sign, t, 0, state, out)
+
+
+@kernel(inline="llvm")
+def arm_breaks(model, armed, eps, a, level):
+    """A surface is armed to break (armed[s] 1, from 0 in a new workspace) once its peak tension
+    is below the break level: the state carried across a break overshoots next to the new free
+    edge (solver.breaking)."""
+    for s in range(2):
+        if not _peak_reaches(model, eps, a, 1.0 - 2.0 * s, level):
+            armed[s] = 1.0
+
+
+@kernel(inline="llvm", nrt=True)
 def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag):
     """The Observers on the accepted step [t, t + h] from cur to new, at one fixed point, with the
     step's StepEnds. The step's dense states are computed on demand from its Dense
@@ -358,6 +446,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         failed_at(diag, t, float(FAIL_BOTTOMED))
         return LAYER_BOTTOMED_OUT, 0, records
     e0 = _residual(model, cur.z, cur.delta, cur.acc, jmax, 0.0, 0.0)[0]
+    arm_breaks(model, ws.armed, cur.eps, cur.a, control.break_level)
     work = diss = err_sum = resid = max_residual = max_body_residual = peak_work = 0.0
     free_body = model.body.inv_mass > 0.0
     body_resid0 = body_residual(model.body, t, cur.yb, work)
@@ -365,7 +454,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         diag[D_BODY_RESIDUAL] = 0.0
     k, status, steps, rejected, rhs_count = 0, OK, 0, 0, 1
     h, h_coeffs, prev_ratio = min(control.h_init, control.h_max), -1.0, 1.0
-    bottomed = separated = done = False
+    bottomed = separated = done = broke = False
     adaptive = method == ETD34 and control.fixed_step <= 0.0
     while True:
         carried = Carried(force, work, diss, lp, contacts)
@@ -373,7 +462,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         while k < T and t_out[k] <= t:                       # outputs due at the current time
             record_output(model, out, k, t, cur, jmax, carried, err_sum)
             k += 1
-        if bottomed or separated or done or t >= control.t_end:
+        if bottomed or separated or done or broke or t >= control.t_end:
             break
         if steps + rejected >= control.max_steps:
             status = STEP_LIMIT
@@ -402,32 +491,29 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             if verdict == STOP:
                 break
             continue
-        # ----- bottoming: the gap closes to bottom_gap inside the step
+        # ----- an event ends the run inside the step: the layer bottoming out, or a break
         _gap_at(model, t_new, new.z, new.a, new.adot, new.yb, new.delta, jm5, gap1)
         h_eff, reached = h_step, step_work.rows
-        if _may_bottom(model, control, gap0, gap1, h_step):
-            # on sub-steps into the stepper's own buffers: where the interpolant's crossing was
-            # not real, the accepted step is left as it was
-            s_lo, s_hi, F_b, jm_b, w_b, found = locate_event(stepper, 0.0, 1.0 - control.bottom_gap, start,
-                                                             carried, t, h_step, gap0, sub, value)
-            if found:                        # the state is the search's last sub-step
-                bottomed, h_eff, t_new, F5, jm5, w_new = True, s_lo, t + s_lo, F_b, jm_b, w_b
-                _copy_state(sub, new)
-                copy_into(gap1, value, 3)
-                reached = stepper.work.rows
-                resid_new = _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)[1]
+        cut = ending_event(model, ws, control, start, carried, t, h_step, new, False, diag)
+        if cut.kind != NO_EVENT:              # the state is the search's last sub-step
+            bottomed, broke, h_eff, t_new, F5, jm5, w_new = cut.kind == BOTTOMING, cut.kind == BREAK, cut.s, \
+                t + cut.s, cut.F, cut.jmax, cut.W
+            reached, resid_new = stepper.work.rows, _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)[1]
         # ----- accepted: observers on [t, t + h_eff], then the states swap
         steps += 1
         if not bottomed:
             err_sum += _strain_error(model, new.err)
             diag[D_H_MIN] = min(diag[D_H_MIN], h_step)
             diag[D_H_MAX] = max(diag[D_H_MAX], h_step)
-        else:
-            node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
         dense_due(observers.tension.marks, h_eff)
         contacts, records, left = observe_step(model, observers, cur, new, carried, t, h_eff,
                                                StepEnds(jmax, jm5, F5, Dense(cur.z, cur.forcing, reached[2], new.forcing)),
                                                records, diag)
+        if not (bottomed or broke):           # a break the peak reached only inside the step
+            cut = ending_event(model, ws, control, start, carried, t, h_eff, new, True, diag)
+            if cut.kind == BREAK:
+                broke, h_eff, t_new, F5, jm5, w_new = True, cut.s, t + cut.s, cut.F, cut.jmax, cut.W
+                reached, resid_new = stepper.work.rows, _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)[1]
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)
         if asks_levels:
@@ -458,6 +544,9 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     if status == OK and not done and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
         status = STOPPED                     # stopped, and still on the ice at the window's end
     finish_maxima(model, ws, asked, diag)
+    for n in range(N):                       # the state reached: where a restart or a break starts
+        out.final[0, n] = cur.a[n]
+        out.final[1, n] = cur.adot[n]
     out.diag[D_DISSIPATED] = diss
     status = finish_diagnostics(diag, status, t, work, Residuals(peak_work, max_residual, max_body_residual), gap0,
                                 model.layer.he, Counts(steps, rejected, rhs_count))

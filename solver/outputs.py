@@ -103,6 +103,10 @@ DIAGNOSTICS = (
     Diagnostic("FAIL_KIND", None, "1", "why the run stopped early: one of solver.layout's FAIL_* codes"),
     Diagnostic("ANSWERED_T", None, "s", "time at which the crack onsets asked were final and the run ended "
                "(solver.observe.asked; NaN: it did not end by them)"),
+    Diagnostic("BREAK_T", None, "s", "time at which the tension first reached the break level and the run ended "
+               "there, to break the plate (solver.breaking; NaN: it did not)"),
+    Diagnostic("BREAK_X", None, "m", "place of that break", position=True),
+    Diagnostic("BREAK_SURFACE", None, "1", "surface whose tension reached the break level: 0 upper, 1 lower"),
 )
 
 #: the kernel's slots in order (D_<slot> = the index), and the slots that hold positions on the plate

@@ -23,12 +23,15 @@ own sub-steps (solver.observe.layer_maxima). scipy is imported here only.
 from __future__ import annotations
 
 
+from types import SimpleNamespace
+
 import numpy as np
 
 from . import layout as kn
 from .diagnostics import Run, largest_tension
 from .keys import ParameterError
-from .loop import Observers, StepEnds, initial_state, new_records, new_state, new_workspace, observe_step, state_at
+from .loop import (Observers, StepEnds, break_value, initial_state, new_records, new_state, new_workspace, observe_step,
+                   state_at)
 from .model.body import body_accel, body_residual
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
@@ -250,6 +253,45 @@ class _System:
         maxima.sample(t, F, dmax, y[2 * N], np.array([self.V * t - self.position(t, y), self.V - self.speed(y)]))
 
 
+def state_series(tab, t, a, adot) -> np.ndarray:
+    """The series row (solver.layout's S_*: contacts, force, the plate's and the layer's energy,
+    the body's position, ...) of the kernel's state a, adot of the plate of tab at t, the paper's
+    body's (the energies a break carries across, solver.core._across_break)."""
+    system = _System(tab)
+    N = system.N
+    row = SimpleNamespace(a=np.empty((1, N)), adot=np.empty((1, N)), series=np.full((1, kn.N_SERIES), np.nan))
+    system.record(row, 0, t, system.initial(t, np.asarray(a, float), np.asarray(adot, float)))
+    return row.series[0]
+
+
+def _break(system, armed, level, t_old, t_new, dense):
+    """The first time in the step at which an armed surface's peak tension over x reaches the
+    break level (brentq on the dense output, bracketed on 8 points), as (t, x, surface), or None;
+    a surface is armed once its peak is below the level at a step's end (solver.loop.arm_breaks)."""
+    from scipy.optimize import brentq
+    model, N, found = system.model, system.N, None
+    state, value = new_state(N, system.tab.xq.size), np.empty(3)
+
+    def peak(tt, sign):                      # the kernels' own event value: (peak, place)
+        state.a[:] = dense(tt)[:N]
+        return break_value(model, sign, tt, state, value), value[2]
+    for surface, sign in ((0, 1.0), (1, -1.0)):
+        if armed[surface] is None:                 # the run's first step: armed below the level at its start
+            armed[surface] = peak(t_old, sign)[0] < level
+        if not armed[surface]:
+            armed[surface] = peak(t_new, sign)[0] < level
+            continue
+        below = t_old
+        for tp in np.linspace(t_old, t_new, 9)[1:]:
+            if peak(tp, sign)[0] >= level:
+                tb = brentq(lambda tt: peak(tt, sign)[0] - level, below, tp, xtol=1e-16, rtol=1e-15)
+                if found is None or tb < found[0]:
+                    found = (tb, peak(tb, sign)[1], surface)
+                break
+            below = tp
+    return found
+
+
 def _bottoming(system, level, t_old, t_new, y_new, dense):
     """The first time in the step at which the largest delta reaches level (brentq on the dense
     output; the step's end, and 8 points inside where the gap is already small), or None."""
@@ -316,7 +358,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         k += 1
     solver = DOP853(system.rhs, t_start, y0, t_end, rtol=control.tolerance, atol=control.tolerance * 1e-3,
                     first_step=control.h_init)
-    t_reached, steps, dense = t_start, 0, None
+    t_reached, steps, dense, armed = t_start, 0, None, [None, None]
     while solver.status == "running":
         if steps >= control.max_steps:
             status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS
@@ -342,9 +384,15 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         maxima.value_at = value_at
         t_bottom = _bottoming(system, level, t_old, solver.t, solver.y, dense)
         t_stop = solver.t if t_bottom is None else t_bottom
+        left = observers.step(t_old, t_stop - t_old, dense)
+        broke = None
+        if control.break_level < np.inf and t_bottom is None:     # a break ends the run where it is
+            broke = _break(system, armed, control.break_level, t_old, t_stop, dense)
+            if broke is not None:
+                t_stop = broke[0]
+                diag[kn.D_BREAK_T], diag[kn.D_BREAK_X], diag[kn.D_BREAK_SURFACE] = broke[0], broke[1], broke[2]
         for tp in np.linspace(t_old, t_stop, SAMPLES + 1)[1:]:
             system.sample(maxima, tp, dense(tp))
-        left = observers.step(t_old, t_stop - t_old, dense)
         while k < T and t_out[k] <= t_stop:
             system.record(out, k, t_out[k], dense(t_out[k]))
             k += 1
@@ -360,9 +408,17 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         if left and control.until_separation:
             status, reason = kn.SEPARATED, kn.FAIL_NONE
             break
+        if broke is not None:
+            break
     if status == kn.OK and system.free and control.until_separation and not np.isnan(diag[kn.D_STOP_T]):
         status = kn.STOPPED                  # stopped, and still on the ice at the window's end
     records = observers.finish()
     maxima.finish(diag)
+    y_end = solver.y if dense is None or t_reached == solver.t else dense(t_reached)
+    if t_reached == t_start:
+        y_end = y0
+    out.final[0], out.final[1] = y_end[:system.N], y_end[system.N:2 * system.N]
     _summary(out, k, status, reason, t_reached, (system.nfev, steps))
+    diag[kn.D_WORK] = y_end[2 * system.N]               # at the time reached, as the kernels' (a break's)
+    diag[kn.D_DISSIPATED] = y_end[2 * system.N + system.n_extra] if system.damped else 0.0
     return Run(status, k, records, failure)

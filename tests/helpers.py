@@ -1,7 +1,7 @@
 """Helpers the test files share: the repository's root, the command line (in this process, or in
 a process of its own as a user runs it), a results directory's batch files, determinism of
 study.nc on one machine, a small grid study, a figure's axes drawn without writing it, and the
-sockets a process tree listens on."""
+sockets a process tree listens on, the composition matrix's options."""
 import os
 import signal
 import socket
@@ -16,6 +16,18 @@ import xarray as xr
 from pipeline.store.casefile import DamagedFile, read_batch
 
 ROOT = Path(__file__).resolve().parents[1]
+
+#: the composition matrix's physics options and numerics (tests/test_composition.py; a run that
+#: breaks meets each in tests/test_breaking.py), its base case, and the rules' subintervals
+OPTIONS = {"floe": dict(edges="free"), "off_centre": dict(x0=0.7), "finite_mass": dict(body_mass=800.0),
+           "wedge": dict(deadrise=10.0), "power_law": dict(body_p=4.0), "flat": dict(flat_width=0.3),
+           "viscoelastic_ice": dict(tau=1e-4), "viscoelastic_layer": dict(layer_tau=1e-3),
+           "linear_layer": dict(layer_law="linear"), "finite_depth": dict(H=2.0)}
+NUMERICS = {**{f"{i}/{q}": dict(integrator=i, quadrature=q) for i in ("etd34", "rk4", "dop853")
+               for q in ("gauss", "paper")},
+            **{f"etd34-smoothness/{q}": dict(quadrature=q, error_control="smoothness") for q in ("gauss", "paper")}}
+BASE = dict(Nmod=6, duration=0.004)
+SUBINTERVALS = {"gauss": 64, "paper": 1000}
 
 #: a 2 x 2 grid of 6 modes that runs in a second or two (integrity, command line, figures)
 SMALL_GRID_STUDY = """

@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 LOOP = ("loop.py", "integrate")
 #: the one import from the solver into the runner: Result.to_dataset hands the conversion to
 #: pipeline.store.dataset, inside the method (deferred), so the solver imports without xarray
-HANDOFF = ("solver.core", "pipeline.store.dataset", "to_dataset")
+HANDOFF = ("solver.run", "pipeline.store.dataset", "to_dataset")
 
 
 def _modules(package: str) -> dict:

@@ -90,7 +90,7 @@ def test_free_flight_is_exact():
     control = make_control(0.0, t_end, 1e-8, 0.0, 1e-6, 1e-15, 0.01, 10**6, BOTTOM_GAP)
     status, n_out, _ = integrate(kn.ETD34, model, control, times, np.zeros(6), np.zeros(6), np.empty(0),
                                  Outputs(out_a, out_v, series, np.full(kn.N_DIAG, np.nan), np.empty((2, 0)),
-                                         np.empty((2, 0))))
+                                         np.empty((2, 0)), np.empty((2, out_a.shape[1]))))
     assert status == kn.OK and n_out == times.size
     np.testing.assert_allclose(series[:, kn.S_BODY_POSITION], p.V * times + 0.5 * 9.81 * times**2, rtol=1e-13,
                                atol=1e-15)

@@ -12,17 +12,9 @@ import itertools
 
 import pytest
 
+from helpers import BASE, NUMERICS, OPTIONS, SUBINTERVALS
 from solver import Parameters, ParameterError, Settings, solve
 
-OPTIONS = {"floe": dict(edges="free"), "off_centre": dict(x0=0.7), "finite_mass": dict(body_mass=800.0),
-           "wedge": dict(deadrise=10.0), "power_law": dict(body_p=4.0), "flat": dict(flat_width=0.3),
-           "viscoelastic_ice": dict(tau=1e-4), "viscoelastic_layer": dict(layer_tau=1e-3),
-           "linear_layer": dict(layer_law="linear"), "finite_depth": dict(H=2.0)}
-NUMERICS = {**{f"{i}/{q}": dict(integrator=i, quadrature=q) for i in ("etd34", "rk4", "dop853")
-               for q in ("gauss", "paper")},
-            **{f"etd34-smoothness/{q}": dict(quadrature=q, error_control="smoothness") for q in ("gauss", "paper")}}
-BASE = dict(Nmod=6, duration=0.004)
-SUBINTERVALS = {"gauss": 64, "paper": 1000}
 MODEL_STATUSES = {"ok", "layer_bottomed_out", "separated", "stopped"}
 #: the energy identity's residual (of the work) allowed: the time integration's under the
 #: contact-resolving rule; under the paper's its dx^2 (measured up to 1.9e-4 here)

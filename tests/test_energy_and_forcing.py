@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from solver import Parameters, Settings, solve
-from solver.core import _layer_pressure
+from solver.run import layer_pressure
 from solver.model.assemble import Tables
 from solver.model.layer import layer_forcing
 
@@ -67,7 +67,7 @@ def test_forcing_matches_brute_force_integral(t_tilde):
     st, force, jmax = layer_forcing(tab.model, t, a, delta, fvals, P)
     assert st == 0
     x = np.linspace(0, p.L, 600_001)
-    pressure = _layer_pressure(p, tab, a, p.V * t, x)    # K f on the half plate, numpy
+    pressure = layer_pressure(p, tab, a, p.V * t, x)    # K f on the half plate, numpy
     brute = np.array([np.trapezoid(pressure * np.cos(lam * x), x) for lam in tab.lam])
     brute *= 2.0 / (p.L * p.added_masses) * -1.0
     np.testing.assert_allclose(P, brute, rtol=1e-6, atol=1e-9 * np.max(np.abs(brute)))

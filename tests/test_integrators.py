@@ -111,7 +111,8 @@ def _free_oscillation(method, fraction, times, t_end, p, tab, n):
     model = tab.model._replace(layer=tab.model.layer._replace(K=0.0))   # the layer switched off
     control = make_control(0.0, t_end, 1e-8, fixed, 1e-6, 1e-15, 1.0, 10**7, BOTTOM_GAP)
     status, n_out, _ = integrate(method, model, control, times, a0, np.zeros(p.Nmod), np.empty(0),
-                                 Outputs(out_a, out_v, series, diag, np.empty((2, 0)), np.empty((2, 0))))
+                                 Outputs(out_a, out_v, series, diag, np.empty((2, 0)), np.empty((2, 0)),
+                                         np.empty((2, out_a.shape[1]))))
     assert status == kn.OK and n_out == T
     return out_a, out_v, series[:, kn.S_E_PLATE:kn.S_WORK + 1], fixed
 

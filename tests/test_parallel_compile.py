@@ -34,8 +34,8 @@ def test_the_helpers_subtrees_are_those_integrate_calls(monkeypatch):
         seen.append(args)
         return integrate(*args)
 
-    integrate = solver.core.integrate
-    monkeypatch.setattr(solver.core, "integrate", recording)
+    integrate = solver.run.integrate
+    monkeypatch.setattr(solver.run, "integrate", recording)
     p, s, times = first_compile.tiny_case()
     solver.solve(p, s, times=times)
     argtypes = tuple(typeof(a) for a in seen[0])
@@ -44,7 +44,7 @@ def test_the_helpers_subtrees_are_those_integrate_calls(monkeypatch):
     monkeypatch.setattr(loop.integrate.link_dispatcher, "_cache", NullCache())
     loop.integrate.link_dispatcher.compile(argtypes)
     jobs = first_compile.helper_jobs()
-    assert [function.__name__ for function, _ in jobs] == ["observe_step", "take_step", "locate_event", "judge_step"]
+    assert [function.__name__ for function, _ in jobs] == ["observe_step", "take_step", "ending_event", "judge_step"]
     for function, job in jobs:
         assert job in function.link_dispatcher.overloads, function.__name__
 

@@ -45,7 +45,7 @@ def _free_plate(p, n, t_end, T=13):
     control = make_control(0.0, t_end, 1e-10, 0.0, 1e-6 * t_end, 1e-15, t_end / 50, 10**6, BOTTOM_GAP)
     status, n_out, _ = integrate(kn.ETD34, model, control, times, a0, np.zeros(N), np.empty(0),
                                  Outputs(out_a, out_v, series, np.full(kn.N_DIAG, np.nan), np.empty((2, 0)),
-                                         np.empty((2, 0))))
+                                         np.empty((2, 0)), np.empty((2, out_a.shape[1]))))
     assert status == kn.OK and n_out == T
     return tab, times, out_a, out_v, series
 

@@ -23,6 +23,10 @@ from .layer import LAW_CODES, Layer
 from .plate import COEF, MASS, STRAIN, Plate, make_plate
 from .quadrature import PANEL_POINTS, legendre_rule
 
+#: the broken plates' tables last built (read only), keyed by (Parameters, subintervals, full
+#: plate, breaks): at most PARTS_TABLES_KEPT, the oldest dropped first
+PARTS_TABLES_KEPT = 32
+_PARTS_TABLES = {}
 #: what the kernels take for one case: Plate, Basis, Body, Layer (each defined by its module)
 Model = namedtuple("Model", "plate basis body layer")
 
@@ -90,7 +94,12 @@ class Tables:
         wavenumbers up to the cosines' lambda_N."""
         self._nodes(p, subintervals, full)
         lam_N = np.pi * p.Nmod / p.L
-        fl = parts_tables(p, self.xq, breaks, full, lam_N)
+        key = (p, subintervals, full, tuple(float(b) for b in breaks))
+        fl = _PARTS_TABLES.get(key)
+        if fl is None:            # (a run that breaks builds each plate's once: its stages, companions, checks)
+            fl = _PARTS_TABLES[key] = parts_tables(p, self.xq, breaks, full, lam_N)
+            while len(_PARTS_TABLES) > PARTS_TABLES_KEPT:
+                _PARTS_TABLES.pop(next(iter(_PARTS_TABLES)))
         self._wet_basis(p, full, quadrature, quadrature_density, fl)
         self._dry_values = lambda x, order: part_values(fl["wet"].modes, x, order)
 

@@ -76,6 +76,10 @@ COSINE = 4
 #: of mu) it integrates by Gauss-Legendre instead (the closed form's rounding is then below
 #: eps mu / (4 |beta - mu|) of its terms, about 20 eps)
 RESONANCE = 0.05
+#: cosines of the added mass between the old and the new modes in carry_parts (the jumps' tail
+#: after them): the velocity carried then moves by < 1e-9 of itself (tests/test_parts.py), far
+#: below what the projection leaves out
+CARRY_TERMS = 2048
 #: the dry modes of a broken plate, each (Nd,): kind, wavenumber beta [m-1], centre c and
 #: half-length l [m] of the free-free beam it is a mode of (the cosine's: c the part's low end),
 #: the part [low, high] it lives on [m], the factor that gives it mean square 1 there, and the
@@ -177,20 +181,24 @@ def cosine_integrals(modes: PartModes, mu) -> np.ndarray:
     the closed form of the module docstring, and Gauss-Legendre near resonance, |beta^4 - mu^4| <
     RESONANCE mu^4, where the closed form would divide a difference by a small number."""
     mu = np.asarray(mu, dtype=float)
-    out = np.empty((modes.kinds.size, mu.size))
-    for m in range(modes.kinds.size):
-        beta, shape = modes.betas[m], (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
-        near = np.abs(beta**4 - mu**4) < RESONANCE * mu**4
-        total = 0.0
-        for end, sign in ((modes.highs[m], 1.0), (modes.lows[m], -1.0)):
-            d = [modes.norms[m] * float(raw_mode(*shape, end, j)) for j in range(4)]
-            c, s = np.cos(mu * end), np.sin(mu * end)
-            total = total + sign * (d[3] * c + mu * d[2] * s - mu**2 * d[1] * c - mu**3 * d[0] * s)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            out[m] = total / (beta**4 - mu**4)
-        if np.any(near):
-            x, w = _gauss(modes, m, np.max(mu[near]))
-            out[m, near] = (w * modes.norms[m] * raw_mode(*shape, x)) @ np.cos(np.outer(x, mu[near]))
+    Nd = modes.kinds.size
+    ends = np.unique(np.concatenate([modes.lows, modes.highs]))
+    cos_e, sin_e = np.cos(np.outer(ends, mu)), np.sin(np.outer(ends, mu))       # (E, K)
+    out = np.zeros((Nd, mu.size))
+    for end_of, sign in ((modes.highs, 1.0), (modes.lows, -1.0)):
+        e = np.searchsorted(ends, end_of)
+        d = np.array([[modes.norms[m] * float(raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m],
+                                                       modes.halves[m], end_of[m], j)) for j in range(4)]
+                      for m in range(Nd)])                                            # (Nd, 4)
+        c, sn = cos_e[e], sin_e[e]
+        out += sign * ((d[:, 3:4] - mu**2 * d[:, 1:2]) * c + (mu * d[:, 2:3] - mu**3 * d[:, 0:1]) * sn)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out /= modes.betas[:, None] ** 4 - mu[None, :] ** 4
+    near = np.abs(modes.betas[:, None] ** 4 - mu[None, :] ** 4) < RESONANCE * mu[None, :] ** 4
+    for m in np.flatnonzero(np.any(near, axis=1)):
+        shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
+        x, w = _gauss(modes, m, np.max(mu[near[m]]))
+        out[m, near[m]] = (w * modes.norms[m] * raw_mode(*shape, x)) @ np.cos(np.outer(x, mu[near[m]]))
     return out
 
 
@@ -200,27 +208,32 @@ def _coth_over(mu, H):
 
 
 def channel_added_mass(modes: PartModes, domain: float, mirror: float, rho_w: float, H: float = math.inf,
-                       terms: int = 0) -> np.ndarray:
+                       terms: int = 0, other: PartModes | None = None) -> np.ndarray:
     """A_mn [kg m-1] of the dry modes in the walls' channel (module docstring): ``terms`` cosines
-    (0: enough for 1e-12 of the largest entry, tests/test_parts.py), then the jumps' tail."""
+    (0: enough for 1e-12 of the largest entry, tests/test_parts.py), then the jumps' tail; with
+    ``other``, the added mass between modes (rows) and other's modes (columns)."""
     from scipy.special import zeta           # (here: only a broken plate's tables need it)
-    K = terms or max(16384, int(8 * np.max(modes.betas) * domain / math.pi))
+    other = modes if other is None else other
+    K = terms or max(16384, int(8 * max(np.max(modes.betas), np.max(other.betas)) * domain / math.pi))
     mu = math.pi * np.arange(1, K + 1) / domain
     c = (2.0 / domain) * cosine_integrals(modes, mu)
-    A = mirror * (domain / 2.0) * rho_w * (c * _coth_over(mu, H)) @ c.T
+    c_other = c if other is modes else (2.0 / domain) * cosine_integrals(other, mu)
+    A = mirror * (domain / 2.0) * rho_w * (c * _coth_over(mu, H)) @ c_other.T
     # the tail: c_mk -> (2 / Lambda) [psi sin(mu x) / mu]_a^b; sin^2(mu_k b) at its mean 1/2
     tail = mirror * rho_w * (1.0 / domain) * (domain / math.pi) ** 3 * zeta(3.0, K + 1.0)
     for b in np.unique(np.concatenate([modes.lows, modes.highs])):
-        if b <= 0.0 or b >= domain:
-            continue
-        jump = np.zeros(modes.kinds.size)
-        for m in range(modes.kinds.size):
-            for end, sign in ((modes.highs[m], 1.0), (modes.lows[m], -1.0)):
-                if end == b:
-                    jump[m] += sign * modes.norms[m] * float(raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m],
-                                                                      modes.halves[m], b))
-        A += tail * np.outer(jump, jump)
+        if 0.0 < b < domain:
+            A += tail * np.outer(_jumps(modes, b), _jumps(other, b))
     return A
+
+
+def _jumps(modes: PartModes, b) -> np.ndarray:
+    """(Nd,): each mode's jump at the break b (its value at a part's upper end minus at its lower)."""
+    jump = np.zeros(modes.kinds.size)
+    for m in np.flatnonzero((modes.highs == b) | (modes.lows == b)):
+        value = modes.norms[m] * float(raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], b))
+        jump[m] = value if modes.highs[m] == b else -value
+    return jump
 
 
 def part_lengths(modes: PartModes) -> np.ndarray:
@@ -285,6 +298,29 @@ def carry_state(p, wet: WetParts, a, adot):
     return b, bdot
 
 
+def carry_parts(p, old: WetParts, new: WetParts, b, bdot):
+    """The wet amplitudes (b, b') of a plate broken further (new: its parts refine old's) that
+    carry the state b, b' of the plate broken at fewer places across the new breaks: as
+    carry_state, the displacement projected in the stiffness and the velocity in the mass, here
+    with the cross integrals of the new dry modes and the old (each new part lies in one old
+    part, where the old modes are smooth) and the water's added mass between them."""
+    added = channel_added_mass(new.modes, new.domain, new.mirror, p.rho_w, p.H, terms=CARRY_TERMS, other=old.modes)
+    G = np.empty((new.modes.kinds.size, old.modes.kinds.size))    # <psi_m, phi_j>
+    bending = np.empty_like(G)                                      # <psi_m'', phi_j''>
+    for part in np.unique(new.modes.parts):
+        on = np.flatnonzero(new.modes.parts == part)
+        # one rule for the part: panels for its fastest mode against the old fastest
+        x, w = _gauss(new.modes, on[np.argmax(new.modes.betas[on])], np.max(old.modes.betas))
+        sub = PartModes(*(field[on] for field in new.modes))
+        G[on] = (part_values(sub, x) * w) @ part_values(old.modes, x).T
+        bending[on] = (part_values(sub, x, 2) * w) @ part_values(old.modes, x, 2).T
+    stiffness = new.mirror * (p.rigidity * bending + p.rho_w * p.g * G)
+    mass = new.mirror * p.plate_mass * G + added
+    b_new = (new.Q.T @ (stiffness @ (old.Q @ np.asarray(b)))) / new.omega**2
+    bdot_new = new.Q.T @ (mass @ (old.Q @ np.asarray(bdot)))
+    return b_new, bdot_new
+
+
 def wet_energy(wet: WetParts, b, bdot) -> tuple[float, float]:
     """(kinetic, potential) energy [J m-1] of the broken plate's wet amplitudes."""
     return 0.5 * float(np.sum(np.asarray(bdot) ** 2)), 0.5 * float(np.sum(wet.omega**2 * np.asarray(b) ** 2))
@@ -339,8 +375,10 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     header[fl.BREAK_COUNT] = cuts.size
     header[fl.FIRST_BREAK:fl.FIRST_BREAK + cuts.size] = cuts
     bending = Q.T @ (Q * (mirror * p.rigidity * modes.betas**4 * part_lengths(modes))[:, None])
+    damping = p.tau * np.diag(bending).copy()
+    damping[-1] = damping[-2]            # (the null mode's, at rest: the last mode is damped if any is)
     return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
-            "damping": p.tau * np.diag(bending).copy(),
+            "damping": damping,
             "damping_matrix": p.tau * bending * scale[:, None] / scale[None, :],
             "packed": fl.pack_floe(tables, shapes, header),
             "strain_scale": np.max(np.abs(tables[fl.TABLE_STRAIN]), axis=1), "betas": modes.betas, "wet": wet,

@@ -39,7 +39,7 @@ def event_value(model, kind, t, jm, state, out):
 
 
 @kernel
-def _value_after(stepper, kind, level, start, carried, t, s, out, value):
+def value_after(stepper, kind, level, start, carried, t, s, out, value):
     """A sub-step of length s and the event's value minus level there (inf where a stage failed:
     past the level). Returns (f, F, jmax, W)."""
     st, F, jm, w, ev = substep(stepper, start, carried, t, s, out)
@@ -65,7 +65,7 @@ def locate_event(stepper, kind, level, start, carried, t, h, p0, out, value):
     hi, f_hi = -1.0, 0.0
     for k in range(1, SCAN + 1):
         sk = h * k / SCAN
-        f, F, jm, w = _value_after(stepper, kind, level, start, carried, t, sk, out, value)
+        f, F, jm, w = value_after(stepper, kind, level, start, carried, t, sk, out, value)
         if f >= 0.0:
             hi, f_hi = sk, f
             break
@@ -75,7 +75,7 @@ def locate_event(stepper, kind, level, start, carried, t, h, p0, out, value):
     s = 0.5 * (lo + hi)
     side = 0
     for _ in range(100):
-        f, F, jm, w = _value_after(stepper, kind, level, start, carried, t, s, out, value)
+        f, F, jm, w = value_after(stepper, kind, level, start, carried, t, s, out, value)
         if f >= 0.0:
             hi, f_hi = s, f
             if side == 1:

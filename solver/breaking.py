@@ -1,0 +1,282 @@
+r"""A run in which the ice breaks (docs/model.md, "Breaking into parts"): :func:`solve_breaking`.
+
+The run goes in stages. Each stage integrates the plate as it is (unbroken, then broken at the
+breaks so far) and ends where either surface's tension first reaches the yield strain eps_Y,
+located on true sub-steps of the integrator (solver.loop._locate_break). There the plate breaks
+through its thickness: the next stage runs on the parts (solver.model.parts), from the state
+carried across the new break (w and w_t projected in the stiffness and the mass). A free edge
+carries no moment, so a break cannot reach eps_Y again where it is: the cascade goes on elsewhere
+until the run's end or until the plate would have more than ``max_parts`` parts (status
+``parts_limit``).
+
+**The carried state's overshoot.** The parts' modes all have w'' = 0 at the new free edge, so the
+curvature carried across a break is fitted with an overshoot next to it (Gibbs): the reference
+case at N = 30, broken at 1.18 m at 1.62 ms, has 8.7e-5 at 0.93 m just after the break, above
+eps_Y = 8e-5, though the tension there was below eps_Y before it (away from the edge the exact
+strain is continuous in time). The overshoot travels off on the fastest modes within a quarter of
+their period (2e-5 s there). So a surface breaks only once its tension at the nodes has been below
+eps_Y since the stage began (solver.loop: the surfaces are "armed"); the tension records keep the
+tension the stages reach from there on.
+
+The stages are joined into one Result on the run's output times: the fields, the series (the
+work and the dissipated energy summed over the stages), the diagnostics (maxima from the joined
+tension records, counts summed, each stage's energy residual against the whole run's work),
+the records and the breaks. The energy identity of the whole run is
+
+    E_plate + E_layer + D + R = W,
+
+R(t) the energy the breaks before t removed (extra["removed_energy"], over the output times):
+what the projection onto the parts' modes leaves out, E_plate + E_layer before a break minus
+after it.
+
+**Breakthrough.** The body has broken through when the ice under it has been cut from the walls:
+a break on each side of the body beyond the farthest reach of its contact so far (on the half
+plate of a centred impact, one break beyond it: the mirror image is the other side). Its time
+and the body's penetration then are diagnostics of the run.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import layout as kn
+from .outputs import SERIES
+from .parameters import ParameterError
+from .run import Result, checked_breaks, run_case, cosines_to_kernel
+
+#: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
+PARTS_LIMIT, WALL_BREAK = "parts_limit", "wall_break"
+#: a stage after the first starts with this fraction of the previous stage's largest step (the
+#: first touch's short first step, and the 10 % a step it may grow by, would cost some 120 steps
+#: a stage)
+RESTART_STEP = 0.1
+#: a break located within this fraction of L of the plate's centre is at the centre (the peak's
+#: place there is found to round-off)
+CENTRE_SNAP = 1e-9
+
+
+def _checked(p, s, case, fracture, yield_strain, max_parts, initial):
+    """The breaking run's inputs, or ParameterError naming the first that is wrong."""
+    if fracture != "break":
+        raise ParameterError(f"fracture must be 'none' or 'break', got {fracture!r}")
+    if yield_strain is None or not (math.isfinite(yield_strain) and yield_strain > 0):
+        raise ParameterError(f"fracture = 'break' needs yield_strain, a positive strain, got {yield_strain!r}")
+    if not isinstance(max_parts, (int, np.integer)) or max_parts < 2:
+        raise ParameterError(f"max_parts must be an integer >= 2, got {max_parts!r}")
+    if p.edges == "free":
+        raise ParameterError("fracture = 'break': a floe's parts are not built yet (its water is the half-plane's)")
+    if s.quadrature != "gauss":
+        raise ParameterError("fracture = 'break' needs quadrature = 'gauss': the paper's rule interpolates the "
+                             "modes between nodes, across a break")
+    if p.free_body:
+        raise ParameterError("fracture = 'break' needs the paper's body (body_mass = inf): a free body's state "
+                             "is not carried across a break yet")
+    if any(v is not None for v in initial):
+        raise ParameterError("fracture = 'break' starts from the unbroken plate at rest at first touch "
+                             "(no initial amplitudes, velocities or breaks)")
+    if case.end != "stage" or case.until_separation:
+        raise ParameterError("fracture = 'break' runs to t_end (end = 'stage')")
+
+
+def _restart_step(stages):
+    """The first step of the next stage [s]: RESTART_STEP of the last stage's largest (None: the
+    first touch's, for the first stage, or where the integrator reports no steps, DOP853)."""
+    h = RESTART_STEP * stages[-1][1].largest_step if stages else math.nan
+    return h if math.isfinite(h) and h > 0.0 else None
+
+
+def whole_plate_parts(breaks, L, full) -> int:
+    """The number of parts of the whole plate broken at ``breaks`` (x on the plate; on the half
+    plate of a centred impact each break but the centre's stands for two)."""
+    b = np.asarray(breaks, dtype=float)
+    if full:
+        return b.size + 1
+    return 2 * (b.size + 1) - (0 if np.any(b == 0.0) else 1)
+
+
+def broken_through(breaks, x0, extent, full) -> bool:
+    """Whether the breaks cut the ice under the body from the walls: a break beyond the contact's
+    farthest reach from the body's centre x0 on each side (on the half plate, one: its mirror is
+    the other)."""
+    b = np.asarray(breaks, dtype=float)
+    if not math.isfinite(extent):
+        extent = 0.0
+    if full:
+        return bool(np.any(b < x0 - extent) and np.any(b > x0 + extent))
+    return bool(np.any(b > extent))
+
+
+def solve_breaking(p, s, case, fracture, yield_strain, max_parts, initial):
+    """The run of ``case`` (solver.run.Case) in which the plate breaks where its tension first
+    reaches yield_strain, and again on its parts, to at most max_parts parts (module docstring).
+    Returns the stages joined into one Result: extra["breaks"] (each break's time [s], x [m],
+    surface, parts after it, energy removed [J m-1]), extra["stages"] (each stage's Result),
+    extra["removed_energy"] (T,) [J m-1]; diagnostics also first_break_time, break_count,
+    breakthrough_time, breakthrough_penetration."""
+    _checked(p, s, case, fracture, yield_strain, max_parts, initial)
+    full = p.off_centre if case.full_plate is None else bool(case.full_plate)
+    zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
+    state, breaks, t0 = (zeros, zeros.copy(), None), [], case.t_start
+    stages, events, status, message = [], [], None, ""
+    extent = 0.0
+    while True:
+        later = case.times >= t0 if not stages else case.times > t0
+        kernel_breaks = checked_breaks(p, s, breaks, full) if breaks else None
+        stage = run_case(p, s, case._replace(times=case.times[later], t_start=t0, a0=state[0], v0=state[1],
+                                         from_breaks=state[2], breaks=kernel_breaks, full_plate=full,
+                                         break_level=float(yield_strain),
+                                         h_init=_restart_step(stages)))
+        stages.append((later, stage))
+        extent = max(extent, np.nan_to_num(stage.diagnostics["contact_extent"]))
+        if "break_energy" in stage.extra:
+            events[-1]["removed_energy"] = _removed(stage.extra["break_energy"])
+        if stage.status != "ok" or "break" not in stage.extra:
+            break
+        where = stage.extra["break"]
+        x_b = 0.0 if abs(where["x"]) < CENTRE_SNAP * p.L and not p.off_centre else where["x"]
+        if abs(x_b) >= p.L * (1.0 - CENTRE_SNAP) or x_b in breaks:
+            status = WALL_BREAK
+            message = (f"the tension reached yield_strain = {yield_strain:g} at a wall (x = {x_b:.6g} m, t = "
+                       f"{where['time']:.6g} s, {where['surface']} surface), where breaking is not built; data up "
+                       f"to then is valid")
+            break
+        new_breaks = sorted(breaks + [x_b])
+        if whole_plate_parts(new_breaks, p.L, full) > max_parts:
+            status = PARTS_LIMIT
+            message = (f"the plate would break into more than max_parts = {max_parts} parts at t = "
+                       f"{where['time']:.6g} s (x = {x_b:.6g} m, {where['surface']} surface); data up to then is valid")
+            break
+        events.append({"time": where["time"], "x": x_b, "surface": where["surface"],
+                       "parts": whole_plate_parts(new_breaks, p.L, full),
+                       "broken_through": broken_through(new_breaks, p.x0, extent, full)})
+        breaks, t0 = new_breaks, stage.time_reached
+        a, adot, _ = stage.extra["final_state"]
+        state = (a, adot, kernel_breaks)
+    return _joined(p, s, case, stages, events, status, message, full)
+
+
+def _removed(energy) -> float:
+    """The energy a break removed [J m-1]: the plate's and the layer's before it minus after."""
+    return (energy["before"] + energy["layer_before"]) - (energy["after"] + energy["layer_after"])
+
+
+#: the diagnostics joined as the largest over the stages, each with its x and time slots
+_LARGEST = ("max_force", "max_compression", "contact_extent", "max_contact_intervals")
+#: the tension records' diagnostics (value, x, time) joined from the joined records
+_FROM_RECORDS = {"upper": "max_strain", "lower": "max_strain_lower", "impact_zone_upper": "impact_zone_max_strain",
+                 "impact_zone_lower": "impact_zone_max_strain_lower"}
+
+
+def joined_record(records):
+    """One running-maximum tension record from the stages' (solver.fracture's rows): a later
+    stage's rows where they pass the largest value so far, the first of them starting a new
+    piece (join 0)."""
+    rows, top = [], -math.inf
+    for rec in records:
+        kept = rec[rec[:, kn.R_VALUE] > top].copy()
+        if kept.size:
+            if rows:
+                kept[0, kn.R_JOIN] = 0.0
+            rows.append(kept)
+            top = kept[-1, kn.R_VALUE]
+    return np.vstack(rows) if rows else np.empty((0, kn.N_REC))
+
+
+def _joined_series(case, stages):
+    """The fields, series and amplitudes over the run's output times from the stages' (the
+    amplitudes are the unbroken plate's: NaN after the first break, where the modes are the
+    parts'), the work and dissipated energy summed over the stages, and the removed energy R."""
+    T, first = case.times.size, stages[0][1]
+    fields = {name: np.full((T,) + v.shape[1:], np.nan) for name, v in first.fields.items()}
+    series = {row.attribute: np.full(T, np.nan) for row in SERIES if row.attribute is not None}
+    amplitudes = {name: np.full((T,) + getattr(first, name).shape[1:], np.nan)
+                  for name in ("amplitudes", "velocities", "antisymmetric_amplitudes", "antisymmetric_velocities")}
+    removed_series, valid = np.full(T, np.nan), np.zeros(T, bool)
+    work = dissipated = removed = 0.0
+    for i, (rows, stage) in enumerate(stages):
+        if "break_energy" in stage.extra:             # the stage starts at a break
+            removed += _removed(stage.extra["break_energy"])
+        at = np.flatnonzero(rows)[stage.valid]
+        valid[at] = True
+        for name in fields:
+            fields[name][at] = stage.fields[name][stage.valid]
+        for name in series:
+            series[name][at] = getattr(stage, name)[stage.valid]
+        series["work"][at] += work
+        series["dissipated_energy"][at] += dissipated
+        removed_series[at] = removed
+        if i == 0:
+            for name in amplitudes:
+                amplitudes[name][at] = getattr(stage, name)[stage.valid]
+        work += stage.diagnostics["work"]
+        dissipated += stage.diagnostics["dissipated_energy"]
+    return fields, series, amplitudes, removed_series, valid, work, dissipated
+
+
+def _joined_diagnostics(stages, records, work):
+    """The whole run's diagnostics from its stages' (module docstring)."""
+    results = [stage for _, stage in stages]
+    last = results[-1]
+    d = dict(last.diagnostics)
+    for name in _LARGEST:
+        best = max(results, key=lambda r: np.nan_to_num(r.diagnostics[name], nan=-np.inf))
+        for key in (name, name + "_time", name + "_x"):
+            if key in d:
+                d[key] = best.diagnostics[key]
+    for record, name in _FROM_RECORDS.items():
+        rec = records.get(record)
+        if rec is not None and rec.size:
+            d[name], d[name + "_x"], d[name + "_time"] = rec[-1, kn.R_VALUE], rec[-1, kn.R_X], rec[-1, kn.R_T]
+    upper, lower = d["max_strain"], d["max_strain_lower"]
+    if np.isfinite(upper) or np.isfinite(lower):
+        side = "max_strain" if np.nan_to_num(upper, nan=-1.0) >= np.nan_to_num(lower, nan=-1.0) else "max_strain_lower"
+        d["max_abs_strain"], d["max_abs_strain_x"], d["max_abs_strain_time"] = d[side], d[side + "_x"], d[side + "_time"]
+    d["energy_rejections"] = sum(r.diagnostics["energy_rejections"] for r in results)
+    # each stage's residual is against its own work: against the whole run's, summed (a bound)
+    d["energy_residual"] = (sum(r.diagnostics["energy_residual"] * r.diagnostics["work"] for r in results) / work
+                            if work > 0 else 0.0)
+    d["work"] = work
+    d["dissipated_energy"] = sum(r.diagnostics["dissipated_energy"] for r in results)
+    for name in ("error_estimate", "error_estimate_time", "error_estimate_modes", "error_estimate_quadrature"):
+        d[name] = max((r.diagnostics[name] for r in results), key=lambda v: np.nan_to_num(v, nan=-np.inf))
+    return d
+
+
+def _joined(p, s, case, stages, events, status, message, full):
+    """The stages as one Result (module docstring)."""
+    fields, series, amplitudes, removed_series, valid, work, _ = _joined_series(case, stages)
+    results = [stage for _, stage in stages]
+    last = results[-1]
+    names = results[0].tension_record.keys()
+    records = {name: joined_record([r.tension_record[name] for r in results]) for name in names}
+    contacts = np.vstack([r.contact_record for r in results])
+    diagnostics = _joined_diagnostics(stages, records, work)
+    through = [e for e in events if e["broken_through"]]
+    extra = {"stages": results, "breaks": events, "removed_energy": removed_series,
+             "breaking": {"first_break_time": events[0]["time"] if events else math.nan,
+                          "break_count": len(events), "parts": events[-1]["parts"] if events else 1,
+                          "breakthrough_time": through[0]["time"] if through else math.nan,
+                          "breakthrough_penetration": p.V * through[0]["time"] if through else math.nan}}
+    if case.locate_eps_Y is not None and np.size(case.locate_eps_Y):
+        located = {}
+        for surface in ("upper", "lower"):
+            t = np.full(np.size(case.locate_eps_Y), np.nan)
+            x = t.copy()
+            for r in results:
+                rt, rx = r.extra["located_crack_onset"][surface]
+                new = np.isnan(t) & np.isfinite(rt)
+                t[new], x[new] = rt[new], rx[new]
+            located[surface] = (t, x)
+        extra["located_crack_onset"] = located
+    if status is None:
+        status, message = last.status, last.message
+    return Result(parameters=p, settings=s, times=case.times, x=case.x, fields=fields, **amplitudes, **series,
+                  valid=valid, diagnostics=diagnostics, status=status, message=message,
+                  time_reached=last.time_reached, steps=sum(r.steps for r in results),
+                  rejected_steps=sum(r.rejected_steps for r in results),
+                  forcing_evaluations=sum(r.forcing_evaluations for r in results),
+                  smallest_step=min(r.smallest_step for r in results),
+                  largest_step=max(r.largest_step for r in results), wall_time=sum(r.wall_time for r in results),
+                  tension_record=records, contact_record=contacts, extra=extra, outputs=last.outputs,
+                  end_reason="end" if status == "ok" else status)
