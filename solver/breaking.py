@@ -112,8 +112,8 @@ def solve_breaking(p, s, case, fracture, yield_strain, max_parts, initial):
     reaches yield_strain, and again on its parts, to at most max_parts parts (module docstring).
     Returns the stages joined into one Result: extra["breaks"] (each break's time [s], x [m],
     surface, parts after it, energy removed [J m-1]), extra["stages"] (each stage's Result),
-    extra["removed_energy"] (T,) [J m-1]; diagnostics also first_break_time, break_count,
-    breakthrough_time, breakthrough_penetration."""
+    extra["removed_energy"] (T,) [J m-1], extra["breaking"] (first_break_time, break_count,
+    parts, breakthrough_time, breakthrough_penetration)."""
     _checked(p, s, case, fracture, yield_strain, max_parts, initial)
     full = p.off_centre if case.full_plate is None else bool(case.full_plate)
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
@@ -137,7 +137,8 @@ def solve_breaking(p, s, case, fracture, yield_strain, max_parts, initial):
         x_b = 0.0 if abs(where["x"]) < CENTRE_SNAP * p.L and not p.off_centre else where["x"]
         if abs(x_b) >= p.L * (1.0 - CENTRE_SNAP) or x_b in breaks:
             status = WALL_BREAK
-            message = (f"the tension reached yield_strain = {yield_strain:g} at a wall (x = {x_b:.6g} m, t = "
+            place = "a wall" if x_b not in breaks else "a break (a free edge's tension is 0: a basis too coarse)"
+            message = (f"the tension reached yield_strain = {yield_strain:g} at {place} (x = {x_b:.6g} m, t = "
                        f"{where['time']:.6g} s, {where['surface']} surface), where breaking is not built; data up "
                        f"to then is valid")
             break
