@@ -21,10 +21,10 @@ from .loop import integrate                                   # (the kernels' en
 from .model.assemble import Tables
 from .outputs import FIELD_INFO, FIELDS
 from .parameters import Parameters, ParameterError
-from .run import Case, HMAX_FRACTION, Result, checked_breaks, cosines_to_kernel, run_case
+from .run import Case, Result, checked_breaks, cosines_to_kernel, run_case
 from .settings import Settings, check_combination
 
-__all__ = ["Result", "compile_kernels", "solve", "Case", "HMAX_FRACTION", "Tables", "integrate"]
+__all__ = ["Result", "compile_kernels", "solve", "Tables", "integrate"]
 
 
 def _check_times(times, t_start, t_end):

@@ -509,7 +509,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
         contacts, records, left = observe_step(model, observers, cur, new, carried, t, h_eff,
                                                StepEnds(jmax, jm5, F5, Dense(cur.z, cur.forcing, reached[2], new.forcing)),
                                                records, diag)
-        if not (bottomed or broke):           # a break the peak reached only inside the step
+        if not (bottomed or broke or control.break_level == math.inf):   # a break the peak reached only inside the step
             cut = ending_event(model, ws, control, start, carried, t, h_eff, new, True, diag)
             if cut.kind == BREAK:
                 broke, h_eff, t_new, F5, jm5, w_new = True, cut.s, t + cut.s, cut.F, cut.jmax, cut.W

@@ -166,14 +166,15 @@ def _across_break(p, s, tab, case):
     cosines (solver.model.parts.carry_state) or the parts of a plate broken at fewer places
     (carry_parts); and the plate's energy before and after [J m-1]."""
     wet, a, adot = tab.floe["wet"], case.a0, case.v0
+    old = Tables(p, s.subintervals, tab.full_plate, s.quadrature, s.quadrature_density, breaks=case.from_breaks)
     if case.from_breaks is None:
         if a.shape != (p.Nmod * (2 if tab.full_plate else 1),) or a.shape != adot.shape:
-            raise ParameterError("the unbroken plate's initial state must be the kernel's cosines' amplitudes and rates")
+            raise ParameterError("the unbroken plate's initial state must be the kernel's cosines' amplitudes and "
+                                 "rates")
         domain, mirror = wet.domain, wet.mirror
         b, bdot = parts.carry_state(p, wet, a, adot)
         before = sum(parts.cosine_state_energy(p, domain, mirror, a, adot))
     else:
-        old = Tables(p, s.subintervals, tab.full_plate, s.quadrature, s.quadrature_density, breaks=case.from_breaks)
         if not set(case.from_breaks) < set(case.breaks) or a.shape != old.omega.shape or adot.shape != a.shape:
             raise ParameterError("a broken plate's state carries only to the same plate broken at more places, "
                                  "as the kernel's amplitudes and rates of its wet modes")
@@ -185,9 +186,8 @@ def _across_break(p, s, tab, case):
     scale = tab.floe["scale"]                             # (the last wet mode is the null one)
     a_new, adot_new = np.append(b, 0.0) * scale, np.append(bdot, 0.0) * scale
     # the layer's energy too (w at the nodes moves by what the projection leaves out)
-    old_tab = (Tables(p, s.subintervals, tab.full_plate, s.quadrature, s.quadrature_density, breaks=case.from_breaks))
     layer = [state_series(t, case.t_start, x, xdot)[kn.S_E_LAYER]
-             for t, x, xdot in ((old_tab, case.a0, case.v0), (tab, a_new, adot_new))]
+             for t, x, xdot in ((old, case.a0, case.v0), (tab, a_new, adot_new))]
     return a_new, adot_new, {"before": before, "after": after, "layer_before": layer[0], "layer_after": layer[1]}
 
 
