@@ -2,7 +2,7 @@
 
 A run is solver.run's: it assembles the Model (solver.model.assemble), calls
 :func:`solver.loop.integrate`, and turns the modal amplitudes at the output times into the
-fields the caller asked for; a run that breaks (``fracture="break"``) is solver.breaking's, in
+fields the caller asked for; a run that breaks (``Parameters(fracture="break")``) is solver.breaking's, in
 stages that are each such a run. It raises only for bad input
 (:class:`solver.parameters.ParameterError`); a numerical failure is a status.
 """
@@ -95,7 +95,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
           until_separation=False, full_plate=None, outputs=None, eps_Y=None, end="stage", breaks=None,
-          initial_state=None, break_strain=None, fracture="none", yield_strain=None, max_parts=16) -> Result:
+          initial_state=None, break_strain=None) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -138,10 +138,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         initial_amplitudes and initial_velocities (which are the symmetric cosines' only).
     break_strain : the run ends where either surface's tension first reaches it, located on
         true sub-steps (``extra["break"]``: time, x, surface; ``extra["final_state"]`` the state
-        there): one stage of a run that breaks. Default None: no such end.
-    fracture : "none" (default) or "break": the plate breaks through its thickness where and
-        when its tension first reaches ``yield_strain``, and again on its parts, up to
-        ``max_parts`` parts (solver.breaking.solve_breaking; docs/model.md, "Breaking into parts").
+        there): one stage of a run that breaks. Default None: no such end. A whole run that
+        breaks is ``Parameters(fracture="break", yield_strain=..., max_parts=...)``: the plate
+        breaks where and when its tension first reaches yield_strain, and again on its parts
+        (solver.breaking.solve_breaking; docs/model.md, "Breaking into parts").
 
     Returns
     -------
@@ -164,13 +164,11 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     """
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate)
-    if fracture == "none" and yield_strain is not None:
-        raise ParameterError("yield_strain is the criterion of a run that breaks: give fracture = 'break' with it")
-    if fracture != "none":
+    if p.fracture == "break":
         return solve_breaking(p, s, Case(times, tuple(fields), x, t_end, float(t_start), None, None, None,
                                          None, full_plate, until_separation, outputs, eps_Y, end,
                                          locate_eps_Y, math.inf),
-                              fracture, yield_strain, max_parts, (initial_amplitudes, initial_velocities, breaks))
+                              (initial_amplitudes, initial_velocities, breaks))
     kernel_breaks = checked_breaks(p, s, breaks, full_plate)
     full = p.off_centre if full_plate is None else bool(full_plate)
     if break_strain is not None and not (math.isfinite(break_strain) and break_strain > 0):

@@ -48,17 +48,27 @@ PARAMETER_INFO = {
               "in open water with free edges", ""),
     "duration": ("length of the run (0: the walled plate's impact stage b_mean / V; a free floe needs it)",
                  "s"),
+    "fracture": ("what the ice does where its tension reaches yield_strain: none, it stays whole (the paper's "
+                 "model; crack onset is read from the tension records); break, it breaks through its thickness "
+                 "there and the run goes on on the parts", ""),
+    "yield_strain": ("yield strain of the ice, the tension at which it breaks (read with fracture = break; "
+                     "8e-5: the paper's illustrative value)", "1"),
+    "max_parts": ("most parts the whole plate may break into (read with fracture = break): a run that would "
+                  "break into more ends with status parts_limit", "1"),
 }
+
+#: the parameters that are whole numbers
+INTEGER_PARAMETERS = ("Nmod", "max_parts")
 
 #: parameters that take one of a few names: key -> the names (each module of solver.model that
 #: reads one declares its names)
-CHOICES = {"layer_law": tuple(LAW_CODES), "edges": ("walls", "free")}
+CHOICES = {"layer_law": tuple(LAW_CODES), "edges": ("walls", "free"), "fracture": ("none", "break")}
 
 #: parameters beyond the paper's model, with the value that is the paper's model: a case id
 #: leaves them out at that value, so the ids of every study from before they existed hold
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
                   "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0, "layer_law": "paper", "edges": "walls",
-                  "duration": 0.0}
+                  "duration": 0.0, "fracture": "none", "yield_strain": 8e-5, "max_parts": 16}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -70,6 +80,7 @@ PHYSICAL_RANGES = {
     "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
     "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
     "tau": (0.0, 10.0), "layer_tau": (0.0, 10.0), "duration": (1e-6, 1e4),
+    "yield_strain": (1e-6, 1e-1),
 }
 
 
@@ -99,6 +110,7 @@ BEYOND_BOUNDS = {
     "tau": (0.0, False, False, "0: elastic ice"),
     "layer_tau": (0.0, False, False, "0: elastic layer"),
     "duration": (0.0, False, False, "0: the walled plate's impact stage"),
+    "yield_strain": (0.0, True, False, "a tension"),
 }
 
 

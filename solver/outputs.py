@@ -224,9 +224,37 @@ def records_kept(asked) -> frozenset:
                      or any(ONSET_RECORD[name] == record for name in asked if name in ONSET_RECORD))
 
 
+#: what a run that breaks reports beyond every run's outputs (solver.breaking.breaking_values;
+#: docs/model.md, "Breaking into parts"): the stored name, units, long name, and along what:
+#: "case" one value, "break" one per break in the order they happened (NaN past the run's
+#: breaks), "t" one per output time. Stored in a study where some case has fracture = "break".
+BreakingOutput = namedtuple("BreakingOutput", "name units long_name along")
+
+BREAKING_OUTPUTS = (
+    BreakingOutput("first_break_time", "s", "time of the first break of the ice (NaN: it did not break)", "case"),
+    BreakingOutput("break_count", "1", "breaks of the ice over the run (on the half plate of a centred impact, a "
+                   "break at x > 0 stands for the one at -x too)", "case"),
+    BreakingOutput("part_count", "1", "parts of the whole plate at the end of the run (1: unbroken)", "case"),
+    BreakingOutput("breakthrough_time", "s", "time the body broke through the ice: a break on each side of the "
+                   "body's centre, cutting the ice under it from the walls (NaN: it did not)", "case"),
+    BreakingOutput("breakthrough_penetration", "m", "penetration of the body below first touch at "
+                   "breakthrough_time", "case"),
+    BreakingOutput("removed_energy", "J m-1", "energy the breaks removed over the run: what the state carried "
+                   "onto the parts' modes leaves out (E_plate + E_layer + D + removed_energy = work)", "case"),
+    BreakingOutput("break_time", "s", "time of each break", "break"),
+    BreakingOutput("break_x", "m", "place of each break (centred impact: x >= 0, with its mirror at -x)", "break"),
+    BreakingOutput("break_surface", "1", "surface whose tension reached yield_strain at each break: 0 upper, "
+                   "1 lower", "break"),
+    BreakingOutput("break_part_count", "1", "parts of the whole plate after each break", "break"),
+    BreakingOutput("break_removed_energy", "J m-1", "energy each break removed", "break"),
+    BreakingOutput("part_count_over_time", "1", "parts of the whole plate at each output time", "t"),
+)
+BREAKING_INFO = {row.name: (row.long_name, row.units, row.along) for row in BREAKING_OUTPUTS}
+
+
 #: every output a run can be asked for by name (the fields have solve's own argument)
 OUTPUT_NAMES = (*DIAGNOSTIC_INFO, *(f"tension_record_{r}" for r in RECORDS), "contact_record", *ONSET_RECORD,
-                *(row.name for row in SERIES if row.name))
+                *(row.name for row in SERIES if row.name), *BREAKING_INFO)
 
 #: field name -> (long_name, units)
 FIELD_INFO = {

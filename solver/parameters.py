@@ -22,8 +22,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .keys import (BEYOND_BOUNDS, CHOICES, PAPER_DEFAULTS, PARAMETER_INFO, PHYSICAL_RANGES,  # noqa: F401
-                   ParameterError, check_bound, check_positive, outside_physical_range)
+from .keys import (BEYOND_BOUNDS, CHOICES, INTEGER_PARAMETERS, PAPER_DEFAULTS, PARAMETER_INFO,  # noqa: F401
+                   PHYSICAL_RANGES, ParameterError, check_bound, check_positive, outside_physical_range)
 
 #: largest Nmod accepted (memory: the tables are Nmod x subintervals doubles; subintervals:
 #: solver.settings.MAX_SUBINTERVALS)
@@ -139,6 +139,19 @@ class Parameters:
     duration : float
         Length of the run [s]. 0 (the default): the walled plate's impact stage ``b_mean / V``
         (``L^2 / (6 R V)`` for the parabola); a free floe has no such end and needs a duration.
+    fracture : {"none", "break"}
+        "none" (the default): the ice stays whole, the paper's model; crack onset for any yield
+        strain is read from the run's tension records. "break": where either surface's tension
+        first reaches ``yield_strain`` the plate breaks through its thickness, and the run goes
+        on on the parts, which may break again (docs/model.md, "Breaking into parts"). On the
+        walled plate, with the paper's body, under the Gauss quadrature.
+    yield_strain : float
+        The tension at which the ice breaks [1], read with fracture = "break" (the default 8e-5
+        is the paper's illustrative yield strain).
+    max_parts : int
+        The most parts the whole plate may break into, read with fracture = "break" (default
+        16): a run that would break into more ends with status ``parts_limit``, its data up to
+        then valid.
     """
 
     K: float = 8e6
@@ -165,6 +178,9 @@ class Parameters:
     layer_law: str = "paper"
     edges: str = "walls"
     duration: float = 0.0
+    fracture: str = "none"
+    yield_strain: float = 8e-5
+    max_parts: int = 16
 
     def __post_init__(self):
         for f in fields(self):
@@ -188,14 +204,15 @@ class Parameters:
                         or not math.isfinite(float(value)) or not 0.0 <= float(value) < 0.5:
                     raise ParameterError(f"nu must be in [0, 0.5), got {value!r}")
             else:
-                check_positive(f.name, value, integer=(f.name == "Nmod"))
+                check_positive(f.name, value, integer=f.name in INTEGER_PARAMETERS)
                 if f.name == "Nmod" and int(value) > MAX_MODES:
                     raise ParameterError(f"Nmod must be at most {MAX_MODES}, got {value!r}")
-            object.__setattr__(self, f.name, int(value) if f.name == "Nmod" else float(value))
+            object.__setattr__(self, f.name, int(value) if f.name in INTEGER_PARAMETERS else float(value))
         if not abs(self.x0) < self.L:
             raise ParameterError(f"x0 must lie inside the plate, -L < x0 < L = {self.L!r} m, got {self.x0!r}")
         if self.edges == "free":
             self._check_floe()
+        self._check_fracture()
         self._check_scales()
 
     def _check_floe(self) -> None:
@@ -203,6 +220,19 @@ class Parameters:
         if not self.duration > 0.0:
             raise ParameterError("a free floe (edges = 'free') needs duration > 0 [s]: its run has no end of its "
                                  "own (the walls' impact stage follows from int w dx = 0, which a floe lacks)")
+
+    def _check_fracture(self) -> None:
+        """What breaking reads, and what it does not compose with yet (one line)."""
+        if self.fracture == "none":        # (yield_strain and max_parts unread: a grid over fracture sets them)
+            return
+        if self.max_parts < 2:
+            raise ParameterError(f"max_parts must be an integer >= 2 (a break makes two parts), got {self.max_parts!r}")
+        if self.edges == "free":
+            raise ParameterError("fracture = 'break' with edges = 'free': a floe's parts are not built (its water "
+                                 "is the half-plane's)")
+        if self.free_body:
+            raise ParameterError("fracture = 'break' needs the paper's body (body_mass = inf): a free body's state "
+                                 "is not carried across a break")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,

@@ -17,10 +17,9 @@ EPS_Y = 8e-5           # the paper's yield strain
 @pytest.fixture(scope="module")
 def breaking_run():
     """The reference case at N = 20, breaking at the paper's eps_Y, 2 ms at 81 output times."""
-    p = Parameters(Nmod=20)
+    p = Parameters(Nmod=20, fracture="break", yield_strain=EPS_Y)
     times = np.linspace(0.0, 2e-3, 81)
-    return p, solve(p, Settings(quadrature="gauss"), times=times, t_end=times[-1], fields=("strain",),
-                    fracture="break", yield_strain=EPS_Y)
+    return p, solve(p, Settings(quadrature="gauss"), times=times, t_end=times[-1], fields=("strain",))
 
 
 def test_a_stage_ends_where_the_tension_reaches_the_break_strain():
@@ -78,7 +77,7 @@ def test_the_energy_identity_holds_through_the_breaks(breaking_run):
 def test_the_cascade(breaking_run):
     """The breaks come one after another, each where the tension reached eps_Y: the first at the
     centre on the lower surface (the unbroken run's crack onset), the second on the upper surface
-    beyond the contact, cutting the ice under the body from the walls (breakthrough, at V t
+    off the centre, cutting the ice under the body from the walls (breakthrough, at V t
     deep); the parts are counted on the whole plate; the joined tension record never passes
     eps_Y (a free edge carries no moment); the amplitudes of the unbroken modes end at the first
     break, the fields go on."""
@@ -107,8 +106,8 @@ def test_the_first_break_and_breakthrough_converge_in_the_modes():
     (test_parts.test_what_a_break_at_the_centre_removes): 0.6378, 0.6326, 0.6226, 0.6255, 0.6239
     ms at N = 20, 30, 40, 60, 80 (measured 2026-11-29), N = 40 and 60 within 5e-3 (4.6e-3)."""
     s = Settings(quadrature="gauss")
-    runs = {N: solve(Parameters(Nmod=N), s, fields=(), times=[0.0, 8e-4], t_end=8e-4, fracture="break",
-                     yield_strain=EPS_Y, max_parts=6).extra["breaking"] for N in (40, 60)}
+    runs = {N: solve(Parameters(Nmod=N, fracture="break", yield_strain=EPS_Y, max_parts=6), s, fields=(),
+                     times=[0.0, 8e-4], t_end=8e-4).extra["breaking"] for N in (40, 60)}
     assert runs[60]["first_break_time"] == pytest.approx(runs[40]["first_break_time"], rel=3e-3)
     assert runs[60]["breakthrough_time"] == pytest.approx(runs[40]["breakthrough_time"], rel=5e-3)
 
@@ -116,30 +115,39 @@ def test_the_first_break_and_breakthrough_converge_in_the_modes():
 def test_the_cap_on_the_parts():
     """max_parts = 4: the centre's break makes 4 parts of the whole plate, the next would make 6:
     the run ends there, status parts_limit, its data up to then valid."""
-    p = Parameters(Nmod=20)
-    r = solve(p, Settings(quadrature="gauss"), fields=(), t_end=2e-3, fracture="break", yield_strain=EPS_Y,
-              max_parts=4)
+    p = Parameters(Nmod=20, fracture="break", yield_strain=EPS_Y, max_parts=4)
+    r = solve(p, Settings(quadrature="gauss"), fields=(), t_end=2e-3)
     assert r.status == "parts_limit" and "max_parts = 4" in r.message
     assert [e["parts"] for e in r.extra["breaks"]] == [4]
     assert r.time_reached < 2e-3 and np.all(np.isfinite(r.work[r.valid]))
 
 
 def test_what_a_breaking_run_refuses():
-    """One line naming the problem, before anything runs."""
+    """One line naming the problem, before anything runs: in the parameters themselves (what
+    breaking reads, and what it does not compose with), in their combination with the settings,
+    and in solve's arguments; yield_strain and max_parts are not read where the ice does not
+    break."""
     s = Settings(quadrature="gauss")
-    cases = [(Parameters(Nmod=10), s, dict(yield_strain=None), "yield_strain"),
-             (Parameters(Nmod=10), s, dict(yield_strain=-1.0), "yield_strain"),
-             (Parameters(Nmod=10), s, dict(yield_strain=EPS_Y, max_parts=1), "max_parts"),
-             (Parameters(Nmod=10), Settings(quadrature="paper"), dict(yield_strain=EPS_Y), "gauss"),
-             (Parameters(Nmod=10, edges="free", duration=0.01), s, dict(yield_strain=EPS_Y), "floe"),
-             (Parameters(Nmod=10, body_mass=500.0), s, dict(yield_strain=EPS_Y), "free body"),
-             (Parameters(Nmod=10), s, dict(yield_strain=EPS_Y, breaks=[1.0]), "initial"),
-             (Parameters(Nmod=10), s, dict(yield_strain=EPS_Y, fracture="crack"), "fracture"),
-             (Parameters(Nmod=10), s, dict(yield_strain=EPS_Y, fracture="none"), "fracture = 'break'")]
-    for p, settings, kw, match in cases:
-        kw = {"fracture": "break", **kw}
+    bad_parameters = [(dict(yield_strain=-1.0), "yield_strain"), (dict(yield_strain=math.inf), "yield_strain"),
+                      (dict(max_parts=1), "max_parts"), (dict(max_parts=2.5), "max_parts"),
+                      (dict(edges="free", duration=0.01), "floe"), (dict(body_mass=500.0), "free body"),
+                      (dict(fracture="crack"), "fracture")]
+    for kw, match in bad_parameters:
+        with pytest.raises(ParameterError, match=match) as err:
+            Parameters(Nmod=10, **{"fracture": "break", **kw})
+        assert "\n" not in str(err.value)
+    # read only by a run that breaks (a grid over fracture sets them for every case; a study where
+    # no case breaks refuses them: tests/test_breaking_study.py)
+    unread = solve(Parameters(Nmod=10, yield_strain=1e-5, max_parts=2), s, fields=(), t_end=1e-3)
+    assert unread.status == "ok" and "breaks" not in unread.extra
+    p = Parameters(Nmod=10, fracture="break")
+    assert p.yield_strain == EPS_Y and p.max_parts == 16          # the paper's eps_Y, 16 parts
+    with pytest.raises(ParameterError, match="gauss"):
+        solve(p, Settings(quadrature="paper"), fields=())
+    for kw, match in ((dict(breaks=[1.0]), "initial"), (dict(initial_amplitudes=np.zeros(10)), "initial"),
+                      (dict(end="answered", eps_Y=[EPS_Y], outputs=("crack_onset_time",)), "end = 'stage'")):
         with pytest.raises(ParameterError, match=match):
-            solve(p, settings, fields=(), **kw)
+            solve(p, s, fields=(), **kw)
 
 
 def test_a_broken_plate_carries_to_itself_and_to_more_breaks():
@@ -190,8 +198,8 @@ def test_breaking_composes_with_every_option_and_numerics(cell):
     quadrature = numerics.get("quadrature", "gauss")
     settings = Settings(**dict(numerics, subintervals=SUBINTERVALS[quadrature], tolerance=1e-8, error_estimate=False))
     try:
-        r = solve(Parameters(**BASE, **options), settings, fields=(), times=np.linspace(0.0, 4e-3, 41), t_end=4e-3,
-                  fracture="break", yield_strain=EPS_Y)
+        r = solve(Parameters(**BASE, **options, fracture="break", yield_strain=EPS_Y), settings, fields=(),
+                  times=np.linspace(0.0, 4e-3, 41), t_end=4e-3)
     except ParameterError as err:
         assert name in refused and refused[name] in str(err) and "\n" not in str(err), str(err)
         return

@@ -131,7 +131,7 @@ def test_ctrl_c_at_random_moments_many(study_file, undisturbed, tmp_path, trial)
 
 @pytest.mark.parametrize("delay", [1.0, 4.0])
 def test_ctrl_c_while_the_kernels_compile(study_file, tmp_path, delay):
-    """A first run compiles the numba kernels (about 25 s). Ctrl-C then used to interrupt LLVM
+    """A first run compiles the numba kernels (about a minute). Ctrl-C then used to interrupt LLVM
     inside the runner, which crashed at exit (SIGSEGV, seen on a clean clone) instead of exit
     130. The compile now runs in a child process, which the Ctrl-C stops alone."""
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "empty_numba_cache")}
@@ -180,7 +180,7 @@ def test_a_ctrl_c_that_a_library_swallowed_still_stops_the_run(study_file, tmp_p
 
 
 def test_the_compile_notice_shows_only_when_the_kernels_compile(capsys, monkeypatch):
-    """'compiling them ... about 25 s' is printed when the kernels take longer than
+    """'compiling them ... about a minute' is printed when the kernels take longer than
     COMPILE_NOTICE to load (a compile), not on every run (from the cache they load in 1.5 s)."""
     from pipeline.compute import engine
     monkeypatch.setattr(engine, "COMPILE_NOTICE", 0.5)

@@ -72,6 +72,18 @@ def test_plot_drop(tmp_path, monkeypatch):
     assert np.all(np.diff(ds["separation_time"].values) > 0)  # heavier: longer contact
 
 
+def test_plot_breakthrough(tmp_path, monkeypatch):
+    ds = run("plot_breakthrough.py", tmp_path, monkeypatch)["ds"].sel(V=5.0)
+    assert set(ds["status"].values) <= {"ok", "parts_limit", "wall_break"}
+    # thicker ice: it breaks later, and the body is deeper at breakthrough
+    assert ds["first_break_time"].sel(hi=1.0) > ds["first_break_time"].sel(hi=0.3)
+    assert ds["breakthrough_penetration"].sel(hi=1.0) > ds["breakthrough_penetration"].sel(hi=0.3)
+    assert (ds["first_break_time"] < ds["breakthrough_time"]).all()
+    parts = ds["part_count_over_time"].sel(hi=1.0).values
+    parts = parts[~(parts != parts)]                      # (NaN past the run's end)
+    assert parts[0] == 1 and parts[-1] == ds["part_count"].sel(hi=1.0) and (parts[1:] >= parts[:-1]).all()
+
+
 def test_plot_body_shapes(tmp_path, monkeypatch):
     summary = run("plot_body_shapes.py", tmp_path, monkeypatch)["summary"]
     assert all(status in ("ok", "layer_bottomed_out") for _, _, status in summary.values())

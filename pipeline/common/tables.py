@@ -17,6 +17,9 @@ SERIES_INFO = {
 }
 #: series of a study with a free body (finite body_mass in some case): left out otherwise
 BODY_SERIES_INFO = {row.name: (row.long_name, row.units) for row in SERIES if row.stored == "body"}
+#: the dimension along which a study where some case breaks stores each break of a case
+#: (solver.outputs.BREAKING_INFO's "break" rows), in the order they happened
+BREAK_DIMENSION = "break_number"
 RECORD_INFO = {
     "t_sc": ("time scale 1/omega_1 of the case", "s"),
     "stage_duration": ("impact stage of the case, b_mean / V (L^2/(6 R V) for the paper's parabola)", "s"),
@@ -46,7 +49,7 @@ RECORD_LONG_NAME = ("tension record: the peak tension of the upper surface (+str
 #: statuses of a run that covered what it was asked to: ok, and a free body's ends
 COMPLETE = ("ok", "separated", "stopped")
 #: statuses of a case that ended by the model itself (not ok), and numerical failures
-ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped")
+ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped", "parts_limit", "wall_break")
 NUMERICAL_FAILURES = ("nonfinite", "step_limit", "energy_violation", "error")
 #: what --rerun-failed computes again (a free body's end is a result, not a failure)
 FAILED = ("layer_bottomed_out",) + NUMERICAL_FAILURES

@@ -16,11 +16,14 @@ import sys
 import tempfile
 from pathlib import Path
 
-#: a study that asks for every variable study.nc can hold (small: 2 x 2 cases of 6 modes)
+#: a study that asks for every variable study.nc can hold (small: 2 x 2 cases of 6 modes; its ice
+#: breaks, for the breaking outputs; a free body's two series are left out: it does not break)
 EVERYTHING = """
 description = "every variable study.nc can hold (docs/variables.md is generated from it)"
 [base]
 Nmod = 6
+fracture = "break"
+max_parts = 4
 [grid]
 V = [3.0, 5.0]
 hi = [0.3, 0.5]
@@ -117,12 +120,14 @@ def parameter_table() -> str:
         lo_hi = PHYSICAL_RANGES.get(key)
         rng = (f"{lo_hi[0]:g} – {lo_hi[1]:g}" if lo_hi else
                " \\| ".join(f'`"{c}"`' for c in CHOICES[key]) if key in CHOICES else
-               f"1 – {MAX_MODES}" if key == "Nmod" else "0 ≤ nu < 0.5" if key == "nu" else "−L < x0 < L" if key == "x0" else "")
+               f"1 – {MAX_MODES}" if key == "Nmod" else "≥ 2" if key == "max_parts" else "0 ≤ nu < 0.5" if key == "nu" else "−L < x0 < L" if key == "x0" else "")
         neutral = _value(PAPER_DEFAULTS[key]) if key in PAPER_DEFAULTS else ""
         meaning = long_name.replace("|", "\\|")
         lines.append(f"| `{key}` | {meaning} | {f'`{units}`' if units else ''} | {_value(paper[key])} | {rng} | {neutral} |")
     lines += ["", "Besides: `hi ≤ L` (a plate, not a block). εY (`eps_Y`) is not a parameter: it goes in",
-              "`[output]`, and crack onset for any other εY follows from the stored records.", "",
+              "`[output]`, and crack onset for any other εY follows from the stored records. `yield_strain`",
+              "is: with `fracture = \"break\"` the ice breaks where its tension reaches it, which changes",
+              "the run (docs/model.md, \"Breaking into parts\").", "",
               "## Solver settings (`[solver]`, `[grid]`, `[[cases]]`, `[reference]`)", "",
               "| key | meaning | units | default |", "|---|---|---|---|"]
     for key, (long_name, units) in SETTING_INFO.items():

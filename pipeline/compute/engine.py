@@ -411,7 +411,7 @@ def kernels_ready(handle) -> None:
         try:
             _, stderr = proc.communicate(timeout=COMPILE_NOTICE)
         except subprocess.TimeoutExpired:              # not from the cache: numba compiles them
-            print("compiling them (the first run after an install or an update: about 25 s on a 2-core "
+            print("compiling them (the first run after an install or an update: about a minute on a 2-core "
                   "machine) ...", file=sys.stderr, flush=True)
             _, stderr = proc.communicate()
     except BaseException:                              # Ctrl-C: the child got it too

@@ -8,6 +8,9 @@ A batch file ``batches/<sha256>.nc`` holds the cases of one task along a ``case`
   free body (a finite ``body_mass``) ``body_position`` and ``body_speed``;
 - per case: the diagnostics, the run records (t_sc, steps, run_time, ...), ``status`` and
   ``message``, its parameters and ``solver_settings`` (JSON);
+- in a study where some case breaks (fracture = "break"): what a run that breaks reports
+  (solver.outputs.BREAKING_OUTPUTS) per case, per case and break (along ``break_number``) and
+  per case and output time;
 - the event records as contiguous ragged arrays: ``tension_record_count`` (case, surface)
   nodes of each case and surface, in that order, along ``tension_node``; and
   ``contact_change_entries`` (case) along ``contact_change``.
@@ -28,12 +31,14 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO
+from solver.breaking import breaking_values
+from solver.outputs import BREAKING_INFO
 from solver.parameters import CHOICES
 
 from ..common import provenance
 from ..study.case import Case, x_fractions
 from ..study.identity import SCHEMA_VERSION
-from ..common.tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
                              RECORD_LONG_NAME, RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO,
                              diagnostic_values, run_records)
 
@@ -80,6 +85,8 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
     for name in ("contact_intervals", "force", *(BODY_SERIES_INFO if case.body else ())):
         out[name] = series(None if result is None else getattr(result, name))
     out.update(diagnostic_values(result))
+    if case.break_slots:
+        out.update(_breaking_arrays(case, result, inside))
     out.update(run_records(result, _or_nan(lambda: p.time_scale), _or_nan(lambda: p.stage_duration)))
     none = result is None
     out["status"] = status or result.status
@@ -90,6 +97,23 @@ def case_arrays(case: Case, result=None, status=None, message="") -> dict:
     out["tension_records"] = [np.empty((0, 5)) if none else np.asarray(result.tension_record[s]) for s in RECORD_NAMES]
     contacts = None if none else result.contact_record
     out["contact_record"] = np.empty((0, 2)) if contacts is None else np.asarray(contacts)
+    return out
+
+
+def _breaking_arrays(case: Case, result, inside) -> dict:
+    """What a run that breaks reports, over the case's output times (NaN past its run, and all
+    NaN for a case with no result)."""
+    values = breaking_values(result, case.break_slots) if result is not None else None
+    out = {}
+    for name, (_, _, along) in BREAKING_INFO.items():
+        shape = {"case": (), "break": (case.break_slots,), "t": (inside.size,)}[along]
+        arr = np.full(shape, np.nan)
+        if values is not None:
+            if along == "t":
+                arr[inside] = values[name]
+            else:
+                arr[...] = values[name]
+        out[name] = arr
     return out
 
 
@@ -120,6 +144,10 @@ def batch_dataset(cases: list, arrays: list) -> dict:
         data[name] = (("case", "t"), np.stack([a[name] for a in arrays]), _attrs(long_name, units))
     for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
         data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
+    if first.break_slots:
+        for name, (long_name, units, along) in BREAKING_INFO.items():
+            dims = ("case",) + {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}[along]
+            data[name] = (dims, np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
     for name, (long_name, units) in RECORD_INFO.items():
         data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
     for name, long_name in TEXT_INFO.items():

@@ -26,7 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, EPS_Y_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
-from solver.parameters import CHOICES
+from solver.outputs import BREAKING_INFO
+from solver.parameters import CHOICES, INTEGER_PARAMETERS
 from solver.settings import NAMED_SETTINGS
 
 from ..common import provenance
@@ -37,7 +38,7 @@ from ..study.identity import SCHEMA_VERSION
 from .ledger import BATCHES, write_sidecar
 from .reduce import ERROR_INFO, reduce_batch
 from ..study.definition import Study
-from ..common.tables import (BODY_SERIES_INFO, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
                              RECORD_LONG_NAME, RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO, asked_attributes)
 
 #: the runner writes study.nc's per-case variables in slabs of about this many bytes
@@ -52,7 +53,7 @@ def parameter_coord(key, values):
         return np.asarray(values, dtype=object), {"long_name": long_name}
     if key == "error_estimate":
         return np.asarray(values, dtype=np.int8), {"long_name": long_name, "units": "1"}
-    dtype = np.int64 if key in ("Nmod", "subintervals", "max_steps") else np.float64
+    dtype = np.int64 if key in (*INTEGER_PARAMETERS, "subintervals", "max_steps") else np.float64
     return np.asarray(values, dtype=dtype), {"long_name": long_name, "units": units}
 
 
@@ -72,6 +73,10 @@ def _per_case_variables(study: Study) -> list:
         out.append((name, ("t",), "f", {"long_name": long_name, "units": units}))
     for name, (long_name, units, _) in DIAGNOSTIC_INFO.items():
         out.append((name, (), "f", {"long_name": long_name, "units": units}))
+    if study.output.break_slots:
+        for name, (long_name, units, along) in BREAKING_INFO.items():
+            tail = {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}[along]
+            out.append((name, tail, "f", {"long_name": long_name, "units": units}))
     for name, (long_name, units) in RECORD_INFO.items():
         out.append((name, (), "f", {"long_name": long_name, "units": units}))
     for name, long_name in TEXT_INFO.items():
@@ -137,6 +142,31 @@ def _groups(study: Study) -> list:
     return groups if any(groups) else []
 
 
+def fit_breaks(values, slots: int) -> np.ndarray:
+    """Per-break values (cases, stored slots) as ``slots`` columns: NaN after the stored ones, and
+    cut where a case was stored by a study that kept more (those columns are NaN: this study's
+    max_parts bounds its cases' breaks)."""
+    values = np.asarray(values, dtype=float)
+    out = np.full((values.shape[0], slots), np.nan)
+    n = min(slots, values.shape[1])
+    out[:, :n] = values[:, :n]
+    return out
+
+
+def unbroken(time, slots: int) -> dict:
+    """The breaking outputs of cases that did not break (solver.breaking.breaking_values of an
+    unbroken run) from their series ``time`` (cases, t): NaN where it is."""
+    time = np.asarray(time, dtype=float)
+    n = time.shape[0]
+    out = {name: np.full((n,) + {"case": (), "break": (slots,), "t": time.shape[1:]}[along], np.nan)
+           for name, (_, _, along) in BREAKING_INFO.items()}
+    out["break_count"][:] = 0.0
+    out["part_count"][:] = 1.0
+    out["removed_energy"][:] = 0.0
+    out["part_count_over_time"] = np.where(np.isfinite(time), 1.0, np.nan)
+    return out
+
+
 class StudyWriter:
     """study.nc opened with netCDF4; filled slice by slice; finished atomically."""
 
@@ -154,6 +184,8 @@ class StudyWriter:
             nc.createDimension("x", len(x_fraction))
         nc.createDimension("tension_record", len(RECORD_NAMES))
         nc.createDimension("eps_Y", len(study.output.eps_Y))
+        if study.output.break_slots:
+            nc.createDimension(BREAK_DIMENSION, study.output.break_slots)
         if study.output.records:
             nc.createDimension("tension_node", None)
             nc.createDimension("contact_change", None)
@@ -205,6 +237,11 @@ class StudyWriter:
         eps = nc.createVariable("eps_Y", "f8", ("eps_Y",))
         eps[:] = study.output.eps_Y
         eps.setncatts({"long_name": EPS_Y_INFO[0], "units": EPS_Y_INFO[1]})
+        if study.output.break_slots:
+            number = nc.createVariable(BREAK_DIMENSION, "i8", (BREAK_DIMENSION,))
+            number[:] = np.arange(study.output.break_slots)
+            number.setncatts({"long_name": "number of a break of the case, in the order they happened (0: the "
+                                           "first)", "units": "1"})
         if study.grid:
             for (key, values), dim in zip(study.grid.items(), study.dims):
                 data, attrs = parameter_coord(key, values)
@@ -235,7 +272,7 @@ class StudyWriter:
                 var[...] = np.array(getattr(first.parameters, key), dtype=object)
                 var.setncatts({"long_name": long_name})
                 continue
-            var = nc.createVariable(key, "i8" if key == "Nmod" else "f8", ())
+            var = nc.createVariable(key, "i8" if key in INTEGER_PARAMETERS else "f8", ())
             var.assignValue(getattr(first.parameters, key))
             var.setncatts({"long_name": long_name, "units": units})
         ids = nc.createVariable("case_id", str, self.dims)
@@ -294,12 +331,18 @@ class StudyWriter:
                 if flat.size:
                     self.records_in_order &= int(flat[0]) > self.records_upto
                     self.records_upto = max(self.records_upto, int(flat[-1]))
+        if self.study.output.break_slots:
+            for _, data in self.buffer:
+                if "break_count" not in data:     # stored by a study where no case broke
+                    data.update(unbroken(data["time"], self.study.output.break_slots))
         flat = np.concatenate([f for f, _ in self.buffer])
         order = np.argsort(flat, kind="stable")
         for name, tail, kind, _ in self.variables:
             parts = [d[name] for _, d in self.buffer if name in d]
             if len(parts) != len(self.buffer):
                 continue
+            if tail == (BREAK_DIMENSION,):       # a case stored by a study that kept more or fewer breaks
+                parts = [fit_breaks(p, self.study.output.break_slots) for p in parts]
             values = np.concatenate([np.asarray(p, dtype=object) if kind == "s" else np.asarray(p) for p in parts])
             self._put(name, flat[order], values[order])
         self.buffer, self.buffered = [], 0

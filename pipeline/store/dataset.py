@@ -10,12 +10,13 @@ import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, ParameterError, default_eps_Y
 from solver.fracture import yield_strains
-from solver.outputs import SERIES, TENSION_RECORDS
+from solver.breaking import breaking_values
+from solver.outputs import BREAKING_INFO, SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
 
 from ..common import provenance
 from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
-from ..common.tables import (BODY_SERIES_INFO, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
                              TENSION_RECORD_INFO, TEXT_INFO, asked_attributes, diagnostic_values, run_records)
 
 #: the series a Result carries beside the study's (solver.outputs.SERIES): name -> (Result
@@ -50,6 +51,15 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     for name, value in diagnostic_values(result).items():
         data[name] = ((), value, {**_attrs(*DIAGNOSTIC_INFO[name][:2]), **asked_attributes(name, result.outputs, answered)})
     p = result.parameters
+    if p.fracture == "break":                # each break along break_number (solver.outputs.BREAKING_OUTPUTS)
+        values = breaking_values(result, len(result.extra.get("breaks", [])))
+        for name, (long_name, units, along) in BREAKING_INFO.items():
+            dims = {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}[along]
+            data[name] = (dims, values[name], _attrs(long_name, units))
+        data["removed_energy_over_time"] = (("t",), np.asarray(result.extra["removed_energy"], dtype=float),
+                                            _attrs("energy the breaks removed up to each time: plate_energy + "
+                                                   "layer_energy + dissipated_energy_over_time + this = "
+                                                   "work_over_time", "J m-1"))
     records = run_records(result, p.time_scale, p.stage_duration)
     for name, (long_name, units) in RECORD_INFO.items():
         data[name] = ((), float(records[name]), _attrs(long_name, units))

@@ -26,6 +26,7 @@ class Case:
     body: bool = False              # store the body's position and speed (a study with a free body)
     outputs: tuple | None = None    # [output] outputs: what the run computes (None: every output)
     answer_eps_Y: float | None = None   # end "answered": the largest eps_Y whose crack onsets end the run
+    break_slots: int = 0            # breaks stored along break_number (0: the study's cases do not break)
 
     @property
     def t_end(self) -> float:
@@ -75,14 +76,15 @@ class Case:
                 "parameters": self.parameters.as_dict(), "settings": self.settings.as_dict(),
                 "times_spec": self.times_spec, "fields": list(self.fields), "x_points": self.x_points,
                 "end": self.end, "body": self.body, "outputs": None if self.outputs is None else list(self.outputs),
-                "answer_eps_Y": self.answer_eps_Y}
+                "answer_eps_Y": self.answer_eps_Y, "break_slots": self.break_slots}
 
     @staticmethod
     def from_dict(d: dict) -> "Case":
         return Case(d["case_id"], tuple(d["index"]), Parameters(**d["parameters"]),
                     Settings(**d["settings"]), d["times_spec"], tuple(d["fields"]), d["x_points"],
                     d.get("end", "stage"), d.get("body", False),
-                    None if d.get("outputs") is None else tuple(d["outputs"]), d.get("answer_eps_Y"))
+                    None if d.get("outputs") is None else tuple(d["outputs"]), d.get("answer_eps_Y"),
+                    d.get("break_slots", 0))
 
 
 def coordinate_times(spec: dict) -> np.ndarray:

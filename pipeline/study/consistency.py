@@ -21,14 +21,32 @@ from .case import coordinate_times
 from .identity import SAMPLE
 from .search import EVENTS
 
+def key_values(study, key: str) -> list:
+    """Every value a parameter takes in the study's cases (its default where none sets it)."""
+    base = study.base.get(key, getattr(Parameters(), key))
+    if key in study.grid:
+        return list(study.grid[key])
+    if study.case_list:
+        return [entry.get(key, base) for entry in study.case_list]
+    return [base]
+
+
 def body_masses(study) -> list:
     """Every body_mass value the study's cases take (inf: the paper's body)."""
-    base = study.base.get("body_mass", math.inf)
-    if "body_mass" in study.grid:
-        return list(study.grid["body_mass"])
-    if study.case_list:
-        return [entry.get("body_mass", base) for entry in study.case_list]
-    return [base]
+    return key_values(study, "body_mass")
+
+
+def break_slots(study) -> int:
+    """The breaks a study stores per case (Output.break_slots): max_parts - 1 of the largest
+    max_parts, where some case breaks; 0 where none does (and then a study that sets what only
+    breaking reads is refused: it would change nothing)."""
+    if "break" not in key_values(study, "fracture"):
+        for key in ("yield_strain", "max_parts"):
+            if any(v != getattr(Parameters(), key) for v in key_values(study, key)):
+                raise StudyError(f"{key} is read only by a run that breaks, and no case of the study does: "
+                                 f"give fracture = \"break\" in [base], [grid] or [[cases]]")
+        return 0
+    return max(int(m) for m in key_values(study, "max_parts") if isinstance(m, (int, float))) - 1
 
 
 def check_ranges(study) -> None:

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from solver import PARAMETER_INFO, Parameters
-from solver.parameters import CHOICES, ParameterError
+from solver.parameters import CHOICES, INTEGER_PARAMETERS, ParameterError
 
 from ..common.errors import StudyError, check_table
 from .analysis import MORRIS_LEVELS
@@ -35,8 +35,8 @@ from .analysis import MORRIS_LEVELS
 METHODS = ("sobol", "latin_hypercube", "halton", "random", "saltelli", "morris")
 #: designs made for an [analysis] (pipeline.study.analysis): cases per base sample, given d keys
 ANALYSIS_DESIGNS = {"saltelli": lambda d: d + 2, "morris": lambda d: d + 1}
-#: the keys a design may sample: continuous parameters (not Nmod, not named choices)
-SAMPLED = tuple(k for k in PARAMETER_INFO if k != "Nmod" and k not in CHOICES)
+#: the keys a design may sample: continuous parameters (not Nmod or max_parts, not named choices)
+SAMPLED = tuple(k for k in PARAMETER_INFO if k not in INTEGER_PARAMETERS and k not in CHOICES)
 #: at most this many cases in a design (samples x (keys + 2) for saltelli): its cases are built and
 #: checked one by one (about 85 us and 2 kB each, measured: 11 s and 300 MB at this size); a
 #: larger design is several studies

@@ -47,10 +47,21 @@ def id_value(name: str, value):
     return value
 
 
+#: the parameters only a run that breaks reads: a case id leaves them out where it does not break
+BREAKING_KEYS = ("yield_strain", "max_parts")
+
+
 def id_parameters(parameters: dict) -> dict:
     """The parameters a case id hashes: those beyond the paper's model are left out at the
-    value that is the paper's (H = inf), so ids from before they existed still hold."""
-    return {k: id_value(k, v) for k, v in parameters.items() if not (k in PAPER_DEFAULTS and v == PAPER_DEFAULTS[k])}
+    value that is the paper's (H = inf), so ids from before they existed still hold, and those
+    only breaking reads are left out where the ice does not break."""
+    unread = BREAKING_KEYS if parameters.get("fracture", "none") == "none" else ()
+    return {k: id_value(k, v) for k, v in parameters.items() if not _at_paper_value(k, v) and k not in unread}
+
+
+def _at_paper_value(key: str, value) -> bool:
+    """Whether a parameter beyond the paper's model is at the paper's value (a case id leaves it out)."""
+    return key in PAPER_DEFAULTS and value == PAPER_DEFAULTS[key]
 
 
 def _parameter_text(parameters: dict) -> str:
@@ -148,7 +159,7 @@ def make_case(index, values: dict, output: dict, label: str) -> Case:
     except ParameterError as err:
         raise StudyError(f"{label if label.startswith('[') else 'case ' + label}: {err}") from None
     return Case(case_id(p, s, output), tuple(index), p, s, output.times, tuple(output.fields),
-                output.x_points, output.end, output.body, output.outputs, output.answer_eps_Y)
+                output.x_points, output.end, output.body, output.outputs, output.answer_eps_Y, output.break_slots)
 
 
 def grid_label(grid: dict, idx: tuple) -> str:
@@ -166,9 +177,9 @@ def grid_case_ids(study) -> list:
     # parameter fragments: '"name":value' in sorted order; grid keys vary; a value an id leaves
     # out (id_parameters: H = inf) has no fragment (None)
     frag = {k: [('"%s":' % k + json.dumps(id_value(k, Parameters(**{**base_p, k: v}).as_dict()[k])))
-                if id_parameters({k: Parameters(**{**base_p, k: v}).as_dict()[k]}) else None
+                if not _at_paper_value(k, Parameters(**{**base_p, k: v}).as_dict()[k]) else None
                 for v in study.grid[k]] for k in pkeys}
-    kept = id_parameters(normal)
+    kept = {k for k, v in normal.items() if not _at_paper_value(k, v)}
     names = sorted(n for n in normal if n in kept or n in frag)
     consts = {n: f'"{n}":' + json.dumps(id_value(n, normal[n])) for n in names if n not in frag}
     output_text = _payload_text({}, {}, study.output)
@@ -178,9 +189,14 @@ def grid_case_ids(study) -> list:
     positions = {k: keys.index(k) for k in keys}
     ids = []
     sha = hashlib.sha256
+    # where the ice does not break (fracture "none": no fragment) the breaking keys' fragments go
+    breaking = [i for i, n in enumerate(names) if n in BREAKING_KEYS]
     sample = study.solver.get("error_estimate") == SAMPLE
     for idx in itertools.product(*(range(len(v)) for v in study.grid.values())):
         parts = [consts[n] if n in consts else frag[n][idx[positions[n]]] for n in names]
+        if breaking and (frag["fracture"][idx[positions["fracture"]]] if "fracture" in frag else
+                         consts.get("fracture")) is None:
+            parts = [None if i in breaking else part for i, part in enumerate(parts)]
         ptext = ",".join(p for p in parts if p is not None)
         skey = tuple(idx[positions[k]] for k in skeys) + ((_sampled(ptext),) if sample else ())
         stext = settings_cache.get(skey)

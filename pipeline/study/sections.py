@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 from solver import FIELDS, PARAMETER_INFO, SETTING_INFO, ParameterError, Settings, default_eps_Y
 from solver.axes import log_axis
-from solver.parameters import CHOICES
+from solver.parameters import CHOICES, INTEGER_PARAMETERS
 from solver.outputs import ONSET_RECORD, OUTPUT_NAMES
 from solver.settings import NAMED_SETTINGS
 
@@ -126,7 +126,7 @@ def check_grid(table, base: dict, solver: dict) -> dict:
         if not isinstance(values, list) or not values:
             raise StudyError(f"[grid] {key} must be a non-empty list of values")
         for v in values:
-            check_value(f"[grid] {key} value", key, v, integer=key in ("Nmod", "subintervals", "max_steps"))
+            check_value(f"[grid] {key} value", key, v, integer=key in (*INTEGER_PARAMETERS, "subintervals", "max_steps"))
         if len(set(values)) != len(values):
             raise StudyError(f"[grid] {key} has duplicate values")
         if key in base or key in solver:
@@ -149,7 +149,9 @@ class Output:
     others stored as NaN (solver.observe.asked); answer_eps_Y: with end "answered", the largest
     eps_Y the study reads (of [output], [analysis] and [search]), set by the study; end_given:
     whether the table says how far a case runs (without it, a study whose outputs are crack onsets
-    only ends each run at its answer: load_study_text)."""
+    only ends each run at its answer: load_study_text); break_slots: the breaks stored per case
+    along break_number, max_parts - 1 of the largest max_parts of a case that breaks (0: none
+    breaks, the breaking outputs are not stored), set by the study from its cases."""
 
     times: dict
     fields: tuple
@@ -161,6 +163,7 @@ class Output:
     outputs: tuple | None = None
     answer_eps_Y: float | None = None
     end_given: bool = True
+    break_slots: int = 0
 
 
 def check_output(out) -> Output:

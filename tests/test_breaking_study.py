@@ -1,0 +1,96 @@
+"""A study whose ice breaks (fracture = "break", docs/model.md, "Breaking into parts"): its
+study.nc holds each case's breaks along break_number, the breakthrough and the number of parts
+over time, as solve gives them for the same case; a grid over fracture shares its unbroken cases
+with a study that does not break; what only breaking reads is refused where nothing breaks."""
+import numpy as np
+import pytest
+
+import pipeline
+from pipeline import StudyError
+from pipeline.study.definition import load_study_text
+from pipeline.study.identity import case_id
+from solver import Parameters, Settings, solve
+from solver.breaking import breaking_values
+
+OUTPUT = {"times": {"unit": "s", "step": 2.5e-4, "stop": 1.5e-3}, "fields": [], "x_points": 11}
+BASE = {"Nmod": 12, "duration": 1.5e-3}
+
+
+def _study(**grid):
+    return {"base": {**BASE, "max_parts": 6}, "grid": {"hi": [0.3, 0.5], **grid}, "output": OUTPUT}
+
+
+@pytest.fixture(scope="module")
+def studies(tmp_path_factory):
+    """A study that does not break, then one over fracture = none, break in the same results
+    directory: its unbroken cases are the first study's (the same ids), stored before breaking
+    was asked of any case."""
+    out = tmp_path_factory.mktemp("breaking") / "results"
+    plain = pipeline.run_study({"base": BASE, "grid": {"hi": [0.3, 0.5]}, "output": OUTPUT}, out=out, workers=1,
+                               name="plain", plots=False, quiet=True)
+    both = pipeline.run_study(_study(fracture=["none", "break"]), out=out, workers=1, name="both", plots=False,
+                              quiet=True)
+    return plain, both
+
+
+def test_a_study_stores_what_solve_gives_for_each_case(studies):
+    """Each breaking case's breaks, breakthrough and parts over time in study.nc are those of
+    solve on the same case (same machine: bit for bit), its breaks along break_number (max_parts
+    - 1 = 5 slots, NaN after the case's own)."""
+    _, ds = studies
+    assert ds.sizes["break_number"] == 5 and list(ds["break_number"].values) == list(range(5))
+    times = np.arange(7) * 2.5e-4
+    for hi in (0.3, 0.5):
+        case = ds.sel(hi=hi, fracture="break")
+        p = Parameters(**BASE, hi=hi, fracture="break", max_parts=6)
+        values = breaking_values(solve(p, Settings(), fields=(), times=times, t_end=p.duration), 5)
+        assert str(case["status"].values) == "ok"
+        for name, expected in values.items():
+            np.testing.assert_array_equal(case[name].values, expected, err_msg=name)
+        assert case["break_count"] >= 2 and np.isfinite(case["breakthrough_time"])
+        assert case["first_break_time"] < case["breakthrough_time"] <= p.duration
+        for name in ("break_time", "breakthrough_time", "part_count_over_time"):
+            assert ds[name].attrs["units"] in ("s", "1") and ds[name].attrs["long_name"]
+
+
+def test_the_unbroken_cases_of_a_study_that_breaks(studies):
+    """A case that does not break has no break, one part at every time it reached and no
+    breakthrough, also where it was stored by a study in which no case broke (its batch file
+    holds no breaking outputs): its id leaves out max_parts, which it does not read."""
+    plain, ds = studies
+    unbroken = ds.sel(fracture="none")
+    assert set(unbroken["case_id"].values.ravel()) == set(plain["case_id"].values.ravel())
+    assert np.all(unbroken["break_count"] == 0) and np.all(unbroken["part_count"] == 1)
+    assert np.all(np.isnan(unbroken["break_time"])) and np.all(np.isnan(unbroken["breakthrough_time"]))
+    assert np.all(unbroken["part_count_over_time"] == 1)
+    np.testing.assert_array_equal(unbroken["max_strain"].values, plain["max_strain"].values)
+
+
+def test_case_ids_of_a_grid_over_fracture():
+    """The grid's one-pass ids are each case's own; where the ice does not break, the keys
+    only breaking reads (yield_strain, max_parts) do not enter the id."""
+    study = load_study_text(pipeline.study_text(_study(fracture=["none", "break"], yield_strain=[8e-5, 1e-4])), "ids")
+    assert [study.case(i).case_id for i in range(study.n_cases)] == study.case_ids
+    ids = {(c.parameters.hi, c.parameters.fracture, c.parameters.yield_strain): c.case_id
+           for c in (study.case(i) for i in range(study.n_cases))}
+    assert ids[(0.3, "none", 8e-5)] == ids[(0.3, "none", 1e-4)]
+    assert ids[(0.3, "break", 8e-5)] != ids[(0.3, "break", 1e-4)]
+    plain = case_id(Parameters(**BASE, hi=0.3), Settings(), study.output)
+    assert ids[(0.3, "none", 8e-5)] == plain
+
+
+@pytest.mark.parametrize("change, words", [
+    ({"base": {**BASE, "yield_strain": 1e-4}}, "yield_strain is read only by a run that breaks"),
+    ({"grid": {"max_parts": [4, 8]}}, "max_parts is read only by a run that breaks"),
+    ({"base": {**BASE, "fracture": "break"}, "output": {**OUTPUT, "end": "answered",
+                                                         "outputs": ["crack_onset_time"]}}, "end = \"answered\""),
+    ({"base": {**BASE, "fracture": "break", "max_parts": 1}}, "max_parts must be an integer >= 2"),
+    ({"base": {**BASE, "fracture": "break", "body_mass": 300.0}}, "free body"),
+    ({"base": {**BASE, "fracture": "break"}, "solver": {"quadrature": "paper"}}, "quadrature = 'gauss'"),
+])
+def test_what_a_study_that_breaks_refuses(change, words):
+    """One line naming the problem, when the study is read (before anything is written)."""
+    study = {"base": BASE, "output": OUTPUT, **change}
+    with pytest.raises(StudyError, match=words) as err:
+        load_study_text(pipeline.study_text(study), "bad")
+    assert "\n" not in str(err.value)
