@@ -27,17 +27,20 @@ from .store.casefile import temporary_path
 from .store.ledger import Ledger
 from .store.sealed import open_sealed, seal
 from .study.definition import load_study_text
-from .study.search import EVENTS, MAX_ROUNDS, Target, runs_per_search
+from .study.search import EVENTS, MAX_ROUNDS, UNSTRAINED, Target, runs_per_search
 from .study.study_files import study_text
 
 
 def _event(ds, i: int, search: dict, eps) -> bool | None:
     """Did the event happen in case i of the evaluations' study.nc (None: the case failed)?"""
     status = str(ds["status"].values[i])
+    name = EVENTS[search.event]
+    if search.event == "breakthrough" and status in ("parts_limit", "wall_break"):
+        # the run ended at a break it could not make: an answer only if it had broken through
+        return True if np.isfinite(ds[name].values[i]) else None
     if status not in (*COMPLETE, "layer_bottomed_out"):
         return None
-    name = EVENTS[search.event]
-    if search.event == "bottoming":
+    if search.event in UNSTRAINED:
         return bool(np.isfinite(ds[name].values[i]))
     k = int(np.argmin(np.abs(np.log(ds["eps_Y"].values / eps))))
     return bool(np.isfinite(ds[name].values[i, k]))

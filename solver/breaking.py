@@ -64,8 +64,8 @@ def _checked(case, initial):
     if any(v is not None for v in initial):
         raise ParameterError("fracture = 'break' starts from the unbroken plate at rest at first touch "
                              "(no initial amplitudes, velocities or breaks)")
-    if case.end != "stage" or case.until_separation:
-        raise ParameterError("fracture = 'break' runs to t_end (end = 'stage')")
+    if case.end != "stage":
+        raise ParameterError("fracture = 'break' runs to t_end, or to a free body's separation (end = 'stage')")
 
 
 def _restart_step(stages):
@@ -104,7 +104,7 @@ def solve_breaking(p, s, case, initial):
     yield_strain, max_parts = p.yield_strain, p.max_parts
     full = p.off_centre if case.full_plate is None else bool(case.full_plate)
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
-    state, breaks, t0 = (zeros, zeros.copy(), None), [], case.t_start
+    state, breaks, t0 = (zeros, zeros.copy(), None, None), [], case.t_start
     stages, events, status, message = [], [], None, ""
     while True:
         later = case.times >= t0 if not stages else case.times > t0
@@ -112,7 +112,7 @@ def solve_breaking(p, s, case, initial):
         stage = run_case(p, s, case._replace(times=case.times[later], t_start=t0, a0=state[0], v0=state[1],
                                          from_breaks=state[2], breaks=kernel_breaks, full_plate=full,
                                          break_level=float(yield_strain),
-                                         h_init=_restart_step(stages)))
+                                         h_init=_restart_step(stages), body=state[3]))
         stages.append((later, stage))
         if "break_energy" in stage.extra:
             events[-1]["removed_energy"] = _removed(stage.extra["break_energy"])
@@ -133,12 +133,13 @@ def solve_breaking(p, s, case, initial):
             message = (f"the plate would break into more than max_parts = {max_parts} parts at t = "
                        f"{where['time']:.6g} s (x = {x_b:.6g} m, {where['surface']} surface); data up to then is valid")
             break
+        a, adot, _, body = stage.extra["final_state"]
         events.append({"time": where["time"], "x": x_b, "surface": where["surface"],
                        "parts": whole_plate_parts(new_breaks, p.L, full),
-                       "broken_through": broken_through(new_breaks, p.x0, full)})
+                       "broken_through": broken_through(new_breaks, p.x0, full),
+                       "penetration": p.V * where["time"] if body is None else body[0]})
         breaks, t0 = new_breaks, stage.time_reached
-        a, adot, _ = stage.extra["final_state"]
-        state = (a, adot, kernel_breaks)
+        state = (a, adot, kernel_breaks, body)
     return _joined(p, s, case, stages, events, status, message, full)
 
 
@@ -219,9 +220,23 @@ def _joined_diagnostics(stages, records, work):
         side = "max_strain" if np.nan_to_num(upper, nan=-1.0) >= np.nan_to_num(lower, nan=-1.0) else "max_strain_lower"
         d["max_abs_strain"], d["max_abs_strain_x"], d["max_abs_strain_time"] = d[side], d[side + "_x"], d[side + "_time"]
     d["energy_rejections"] = sum(r.diagnostics["energy_rejections"] for r in results)
-    # each stage's residual is against its own work: against the whole run's, summed (a bound)
-    d["energy_residual"] = (sum(r.diagnostics["energy_residual"] * r.diagnostics["work"] for r in results) / work
-                            if work > 0 else 0.0)
+    # each stage's residual is against its own energy scale (the energy it starts with plus its
+    # largest work): against the whole run's, the largest work so far, summed (a bound)
+    before, scale = 0.0, 0.0
+    for r in results:
+        carried = (r.extra["break_energy"]["after"] + r.extra["break_energy"]["layer_after"]
+                   if "break_energy" in r.extra else 0.0)
+        scale = max(scale, before + r.extra["energy_scale"] - carried)
+        before += r.diagnostics["work"]
+    for name in ("energy_residual", "body_energy_residual"):
+        if not np.isnan(d[name]):        # (a free body's: NaN for the paper's body)
+            d[name] = sum(r.diagnostics[name] * r.extra["energy_scale"] for r in results) / scale if scale > 0 else 0.0
+    # a free body's stop and deepest penetration are carried from stage to stage (solver.control's
+    # body_start); its separation is the first a stage found
+    separated = [r for r in results if np.isfinite(r.diagnostics["separation_time"])]
+    if separated:
+        d["separation_time"] = separated[0].diagnostics["separation_time"]
+        d["separation_speed"] = separated[0].diagnostics["separation_speed"]
     d["work"] = work
     d["dissipated_energy"] = sum(r.diagnostics["dissipated_energy"] for r in results)
     for name in ("error_estimate", "error_estimate_time", "error_estimate_modes", "error_estimate_quadrature"):
@@ -243,7 +258,7 @@ def _joined(p, s, case, stages, events, status, message, full):
              "breaking": {"first_break_time": events[0]["time"] if events else math.nan,
                           "break_count": len(events), "parts": events[-1]["parts"] if events else 1,
                           "breakthrough_time": through[0]["time"] if through else math.nan,
-                          "breakthrough_penetration": p.V * through[0]["time"] if through else math.nan}}
+                          "breakthrough_penetration": through[0]["penetration"] if through else math.nan}}
     if case.locate_eps_Y is not None and np.size(case.locate_eps_Y):
         located = {}
         for surface in ("upper", "lower"):

@@ -77,9 +77,13 @@ ENERGY_BOUND = 1e-3
 #: that run) and answer (4 levels: the run ends when the tension records' crossings up to them
 #: are final; -inf a record not asked, +inf one asked to the end), solver.observe.asked;
 #: smoothness (1.0: adaptive steps are judged by smoothness_ratio too, 0.0: not); floor (the error
-#: norm's floor, a fraction of V sqrt(L M_1): error_scale)
+#: norm's floor, a fraction of V sqrt(L M_1): error_scale); break_level (the run ends where a
+#: surface's tension reaches it, inf: none); body_start (a free body at t_start: its penetration s
+#: [m] and speed U [m/s], and its first stop's time [s] and deepest penetration [m] before t_start;
+#: NaN: s = V t_start, U = V, no stop, as at first touch)
 Control = namedtuple("Control", "t_start t_end tolerance fixed_step h_init h_min h_max max_steps bottom_gap "
-                                "until_separation zone_margin observers answer smoothness floor break_level")
+                                "until_separation zone_margin observers answer smoothness floor break_level "
+                                "body_start")
 
 #: the smoothness estimate's exponent: its local error falls as h^5
 SMOOTH_EXPONENT = 0.2
@@ -96,14 +100,14 @@ SMOOTH_FLOOR = 0.01
 
 def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
                  until_separation=False, zone_margin=1.0, observers=ALL, answer=(math.inf,) * 4, smoothness=False,
-                 break_level=math.inf):
+                 break_level=math.inf, body_start=(math.nan,) * 4):
     """The :data:`Control` of a run (plain Python: built once per run); by default every observer
     runs, the run goes to t_end and only the embedded estimate judges a step, with the error norm's
     floor at V sqrt(L M_1) (SMOOTH_FLOOR of it under the smoothness control)."""
     return Control(float(t_start), float(t_end), float(tolerance), float(fixed_step), float(h_init), float(h_min),
                    float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin),
                    int(observers), tuple(float(level) for level in answer), 1.0 if smoothness else 0.0,
-                   SMOOTH_FLOOR if smoothness else 1.0, float(break_level))
+                   SMOOTH_FLOOR if smoothness else 1.0, float(break_level), tuple(float(v) for v in body_start))
 
 
 @kernel(inline="llvm")

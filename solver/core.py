@@ -42,7 +42,8 @@ def _check_times(times, t_start, t_end):
     return np.minimum(times, t_end)
 
 
-def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, until_separation, full_plate):
+def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, until_separation, full_plate,
+             body_given=False):
     """solve's inputs validated (ParameterError, one line, on the first that is wrong) and with
     their defaults: (parameters, settings, times, x, t_end, a0, v0)."""
     p = parameters if parameters is not None else Parameters()
@@ -77,9 +78,9 @@ def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, un
     if not isinstance(until_separation, bool):
         raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
     check_combination(p, s)
-    if p.free_body and t_start > 0:
-        raise ParameterError("a free body's run starts at first touch (t_start = 0): its state at a later "
-                             "start is not an input")
+    if p.free_body and t_start > 0 and not body_given:
+        raise ParameterError("a free body's run starts at first touch (t_start = 0), or from its state at "
+                             "t_start in initial_state (a, a', breaks, body)")
     if until_separation and not p.free_body:
         raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
                              "moves down at V for ever")
@@ -132,10 +133,12 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         with it): the run is on the parts' wet modes (amplitudes as a floe's), and initial
         amplitudes and velocities, the unbroken plate's state at t_start, are carried across
         the break (``extra["break_energy"]``: the plate's energy before and after [J m-1]).
-    initial_state : (a, adot, breaks): the state at t_start in the kernel's own form, of the plate
-        broken at ``breaks`` (``[]``: unbroken), as a run's ``extra["final_state"]`` gives it;
-        carried across to ``breaks`` where the run's plate is broken at more places. Instead of
-        initial_amplitudes and initial_velocities (which are the symmetric cosines' only).
+    initial_state : (a, adot, breaks, body): the state at t_start in the kernel's own form, of the
+        plate broken at ``breaks`` (``[]``: unbroken), and a free body's (s [m], U [m/s], its
+        first stop's time [s] and deepest penetration [m] before t_start; None for the paper's
+        body), as a run's ``extra["final_state"]`` gives it; carried across to ``breaks`` where
+        the run's plate is broken at more places. Instead of initial_amplitudes and
+        initial_velocities (which are the symmetric cosines' only).
     break_strain : the run ends where either surface's tension first reaches it, located on
         true sub-steps (``extra["break"]``: time, x, surface; ``extra["final_state"]`` the state
         there): one stage of a run that breaks. Default None: no such end. A whole run that
@@ -162,8 +165,10 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     >>> bool(result.diagnostics["max_strain"] > 0.0)
     True
     """
+    body_given = initial_state is not None and len(initial_state) > 3 and initial_state[3] is not None
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
-                                             (initial_amplitudes, initial_velocities), until_separation, full_plate)
+                                             (initial_amplitudes, initial_velocities), until_separation, full_plate,
+                                             body_given)
     if p.fracture == "break":
         return solve_breaking(p, s, Case(times, tuple(fields), x, t_end, float(t_start), None, None, None,
                                          None, full_plate, until_separation, outputs, eps_Y, end,
@@ -177,13 +182,27 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         if initial_amplitudes is not None or initial_velocities is not None:
             raise ParameterError("give the initial state as initial_state or as initial_amplitudes and "
                                  "initial_velocities, not both")
-        a0, v0, from_breaks = initial_state
+        a0, v0, from_breaks, *body = initial_state
         from_breaks = checked_breaks(p, s, from_breaks, full_plate) if len(from_breaks) else None
+        body = _checked_body(p, body[0] if body else None)
     else:
-        a0, v0, from_breaks = cosines_to_kernel(a0, full), cosines_to_kernel(v0, full), None
+        a0, v0, from_breaks, body = cosines_to_kernel(a0, full), cosines_to_kernel(v0, full), None, None
     return run_case(p, s, Case(times, tuple(fields), x, t_end, float(t_start), np.asarray(a0, float),
                            np.asarray(v0, float), from_breaks, kernel_breaks, full, until_separation, outputs, eps_Y,
-                           end, locate_eps_Y, math.inf if break_strain is None else float(break_strain)))
+                           end, locate_eps_Y, math.inf if break_strain is None else float(break_strain),
+                           body=body))
+
+
+def _checked_body(p, body):
+    """A free body's state at t_start in initial_state, (s, U, stop time, deepest penetration)
+    (NaN: no stop yet), as a run's extra["final_state"] gives it; None for the paper's body."""
+    if body is None:
+        return None
+    values = tuple(float(v) for v in body)
+    if not p.free_body or len(values) != 4 or not all(math.isfinite(v) for v in values[:2]):
+        raise ParameterError("initial_state's body is a free body's (s [m], U [m/s], stop time [s], deepest "
+                             "penetration [m]), as extra['final_state'] gives it")
+    return values
 
 
 def compile_kernels() -> None:

@@ -12,7 +12,7 @@ import numpy as np
 
 from .control import ENERGY_BOUND
 from .compile.jit import kernel
-from .layout import (D_BODY_RESIDUAL, D_BOTTOM_SPEED, D_BOTTOM_T, D_BOTTOM_X, D_ENERGY_JUMPS,
+from .layout import (D_BODY_RESIDUAL, D_BOTTOM_SPEED, D_BOTTOM_T, D_BOTTOM_X, D_ENERGY_JUMPS, D_ENERGY_SCALE,
                      D_ENERGY_RESIDUAL, D_FAIL_KIND, D_FAIL_T, D_H_MAX, D_H_MIN, D_MAX_ABS, D_MAX_ABS_T,
                      D_MAX_ABS_X, D_MAX_CONTACTS, D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_FORCE, D_MAX_FORCE_T,
                      D_MAX_LOWER, D_MAX_LOWER_T, D_MAX_LOWER_X, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X,
@@ -27,7 +27,8 @@ from .model.plate import plus_plate_energy
 #: what a run fills (arrays made by the caller): a, adot (T, N) and series (T, N_SERIES) at the
 #: output times reached; diag (N_DIAG,); level_t, level_x (2, levels) NaN on entry, the located
 #: time and place at which the upper (row 0) and lower (row 1) tension first reaches each level;
-#: final (2, N): a and adot at the time reached (the state a restart, or a break, starts from)
+#: final (2, N + 1): a and adot at the time reached (the state a restart, or a break, starts from),
+#: and in column N the body's penetration s and speed U there
 Outputs = namedtuple("Outputs", "a adot series diag level_t level_x final")
 #: the records of a run: the tension records of both surfaces, plate-wide and in the impact zone
 #: (rows R_T..R_JOIN), and the contact record (rows (t, count)), each with its count of valid rows
@@ -37,7 +38,7 @@ Records = namedtuple("Records", "upper n_upper lower n_lower contacts n_contacts
 #: and what stopped it ("" where it ran to its end or its own status says why)
 Run = namedtuple("Run", "status n_out records failure")
 #: the energy identity's largest terms over a run: the work, the energy residual, the body's residual
-Residuals = namedtuple("Residuals", "peak_work max_residual max_body_residual")
+Residuals = namedtuple("Residuals", "peak_work max_residual max_body_residual start_energy")
 #: a run's counts: accepted steps, rejected steps, forcing evaluations
 Counts = namedtuple("Counts", "steps rejected rhs")
 
@@ -118,10 +119,14 @@ def largest_tension(diag):
 @kernel
 def finish_diagnostics(diag, status, t, work, residuals, gap, he, counts):
     """The run's summary diagnostics at its end; returns the final status. residuals: the run's
-    Residuals, reported relative to its largest work: the final work for the paper's body (W only
-    grows), the work at the deepest point for a body that rebounds and takes its energy back.
-    counts: the run's Counts."""
-    peak_work, max_residual, max_body_residual = residuals.peak_work, residuals.max_residual, residuals.max_body_residual
+    Residuals, reported relative to its largest work (the final work for the paper's body, W only
+    grows; the work at the deepest point for a body that rebounds and takes its energy back) plus
+    the plate's and the layer's energy at its start (0 for a run from rest; a run restarted from a
+    state, a break's next stage, does little work against the energy it holds). counts: the run's
+    Counts."""
+    max_residual, max_body_residual = residuals.max_residual, residuals.max_body_residual
+    peak_work = residuals.peak_work + residuals.start_energy
+    diag[D_ENERGY_SCALE] = peak_work
     if status == LAYER_BOTTOMED_OUT and math.isnan(diag[D_BOTTOM_T]):
         diag[D_BOTTOM_T] = t                # not located: the last state the steps reached
         diag[D_BOTTOM_X] = gap[2]

@@ -31,7 +31,7 @@ from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_BREAK_SURFACE, D
                      FAIL_MAX_STEPS, FAIL_NONFINITE, FAIL_STEP_UNDERFLOW, LAYER_BOTTOMED_OUT, N_REC, NONFINITE,
                      OK, SEPARATED, STEP_LIMIT, STOPPED)
 from .model.basis import global_peak, node_strain
-from .model.body import body_coefficients, body_position, body_residual, body_speed
+from .model.body import body_coefficients, body_position, body_residual, body_speed, start_body
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
@@ -124,6 +124,18 @@ def state_at(model, t, a, adot, fvals, state):
     if st == 0:
         node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], state.a, state.eps)
     return st, force, jmax, lp
+
+
+@kernel
+def final_state(model, t, state, final):
+    """The state reached at t into final (2, N + 1), where a restart or a break starts from: a
+    and adot, and the body's penetration s and speed U in column N."""
+    N = state.a.shape[0]
+    for n in range(N):
+        final[0, n] = state.a[n]
+        final[1, n] = state.adot[n]
+    final[0, N] = body_position(model.body, t, state.yb)
+    final[1, N] = body_speed(model.body, state.yb)
 
 
 @kernel(nrt=True)
@@ -438,6 +450,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     fixed, maxima, crossed, asked, history = ws.fixed, ws.maxima, ws.crossed, control.observers, ws.history
     asks_levels = levels.shape[0] > 0
     cur, new = new_state(N, J), new_state(N, J)
+    start_body(model.body, control.t_start, control.body_start, cur.yb, diag)
     coeffs = Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2)))
     t = control.t_start
     st, force, jmax, lp, contacts, records = initial_state(model, ws, cur, t, a0, adot0, new_records(N_REC), diag)
@@ -541,13 +554,12 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
             diag[D_ANSWERED_T] = t
         elif adaptive:
             h, prev_ratio = grown_step(control, ratio, expo, prev_ratio, h_step, h, landing)
-    if status == OK and not done and free_body and control.until_separation and not math.isnan(diag[D_STOP_T]):
-        status = STOPPED                     # stopped, and still on the ice at the window's end
+    if status == OK and not (done or broke) and free_body and control.until_separation and \
+            not math.isnan(diag[D_STOP_T]):
+        status = STOPPED                     # stopped, and still on the ice at the window's end (not at a break)
     finish_maxima(model, ws, asked, diag)
-    for n in range(N):                       # the state reached: where a restart or a break starts
-        out.final[0, n] = cur.a[n]
-        out.final[1, n] = cur.adot[n]
+    final_state(model, t, cur, out.final)
     out.diag[D_DISSIPATED] = diss
-    status = finish_diagnostics(diag, status, t, work, Residuals(peak_work, max_residual, max_body_residual), gap0,
+    status = finish_diagnostics(diag, status, t, work, Residuals(peak_work, max_residual, max_body_residual, e0), gap0,
                                 model.layer.he, Counts(steps, rejected, rhs_count))
     return status, k, records

@@ -107,6 +107,8 @@ DIAGNOSTICS = (
                "there, to break the plate (solver.breaking; NaN: it did not)"),
     Diagnostic("BREAK_X", None, "m", "place of that break", position=True),
     Diagnostic("BREAK_SURFACE", None, "1", "surface whose tension reached the break level: 0 upper, 1 lower"),
+    Diagnostic("ENERGY_SCALE", None, "J m-1", "what the energy residuals are relative to: the plate's and the "
+               "layer's energy at the run's start (0 from rest) plus the largest work over the run"),
 )
 
 #: the kernel's slots in order (D_<slot> = the index), and the slots that hold positions on the plate

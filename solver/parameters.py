@@ -144,7 +144,7 @@ class Parameters:
         strain is read from the run's tension records. "break": where either surface's tension
         first reaches ``yield_strain`` the plate breaks through its thickness, and the run goes
         on on the parts, which may break again (docs/model.md, "Breaking into parts"). On the
-        walled plate, with the paper's body, under the Gauss quadrature.
+        walled plate, under the Gauss quadrature.
     yield_strain : float
         The tension at which the ice breaks [1], read with fracture = "break" (the default 8e-5
         is the paper's illustrative yield strain).
@@ -230,9 +230,6 @@ class Parameters:
         if self.edges == "free":
             raise ParameterError("fracture = 'break' with edges = 'free': a floe's parts are not built (its water "
                                  "is the half-plane's)")
-        if self.free_body:
-            raise ParameterError("fracture = 'break' needs the paper's body (body_mass = inf): a free body's state "
-                                 "is not carried across a break")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,

@@ -186,7 +186,8 @@ def _across_break(p, s, tab, case):
     scale = tab.floe["scale"]                             # (the last wet mode is the null one)
     a_new, adot_new = np.append(b, 0.0) * scale, np.append(bdot, 0.0) * scale
     # the layer's energy too (w at the nodes moves by what the projection leaves out)
-    layer = [state_series(t, case.t_start, x, xdot)[kn.S_E_LAYER]
+    body = (math.nan, math.nan) if case.body is None else case.body[:2]
+    layer = [state_series(t, case.t_start, x, xdot, body)[kn.S_E_LAYER]
              for t, x, xdot in ((old, case.a0, case.v0), (tab, a_new, adot_new))]
     return a_new, adot_new, {"before": before, "after": after, "layer_before": layer[0], "layer_after": layer[1]}
 
@@ -257,9 +258,11 @@ INTEGRATORS = {"etd34": Integrator(_kernel_loop(ETD34), False, True, True),
 #: initial state in the kernel's form (a, adot) of the plate broken at from_breaks (None:
 #: unbroken; kernel coordinates), the breaks of the plate it runs on (None: unbroken), the full
 #: plate, the free body's end, the outputs asked, the levels to locate, and the break level (inf:
-#: none), and the first step [s] (None: the first touch's, short)
+#: none), the first step [s] (None: the first touch's, short), and a free body at t_start
+#: (solver.control.Control.body_start: s, U, its first stop's time and deepest penetration
+#: before; None: at first touch)
 Case = namedtuple("Case", "times fields x t_end t_start a0 v0 from_breaks breaks full_plate until_separation "
-                          "outputs eps_Y end locate_eps_Y break_level h_init", defaults=(None,))
+                          "outputs eps_Y end locate_eps_Y break_level h_init body", defaults=(None, None))
 
 
 def cosines_to_kernel(amplitudes, full):
@@ -313,8 +316,9 @@ def run_case(p, s, case: Case) -> Result:
     level_x = np.full((2, levels.size), np.nan)
     control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
                            s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin, observers, answer,
-                           s.error_control == "smoothness", case.break_level)
-    final = np.full((2, N), np.nan)
+                           s.error_control == "smoothness", case.break_level,
+                           (math.nan,) * 4 if case.body is None else case.body)
+    final = np.full((2, N + 1), np.nan)
     started = _time.perf_counter()
     code, n_out, rec, fail = integrator.run(tab, control, times, a0, v0, levels,
                                             Outputs(out_a, out_adot, series, diag, level_t, level_x, final))
@@ -367,7 +371,10 @@ def run_case(p, s, case: Case) -> Result:
         diagnostics.update({name: np.nan for name in ("error_estimate", "error_estimate_time",
                                                        "error_estimate_modes", "error_estimate_quadrature")})
     message = status_message(p, s, status, diagnostics, diag, t_end, fixed, fail, tab.full_plate)
-    extra["final_state"] = (final[0], final[1], [] if kernel_breaks is None else list(kernel_breaks + tab.origin))
+    body = (final[0, N], final[1, N], diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION]) if p.free_body else None
+    extra["energy_scale"] = float(diag[kn.D_ENERGY_SCALE])     # what the energy residuals are relative to
+    extra["final_state"] = (final[0, :N], final[1, :N], [] if kernel_breaks is None else
+                            list(kernel_breaks + tab.origin), body)
     if not math.isnan(t_break):
         extra["break"] = {"time": t_break, "x": float(diag[kn.D_BREAK_X]),
                           "surface": ("upper", "lower")[int(diag[kn.D_BREAK_SURFACE])]}

@@ -32,7 +32,7 @@ from .diagnostics import Run, largest_tension
 from .keys import ParameterError
 from .loop import (Observers, StepEnds, break_value, initial_state, new_records, new_state, new_workspace, observe_step,
                    state_at)
-from .model.body import body_accel, body_residual
+from .model.body import body_accel, body_residual, start_body
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
@@ -123,6 +123,7 @@ class _LayerMaxima:
         self.max_force = self.max_delta = 0.0
         self.max_force_t = self.max_delta_t = np.nan
         self.body_residual = self.peak_work = 0.0
+        self.body_start = None                 # the body's energy balance at the run's start (0 at first touch)
         self.history = []                      # the last three samples (t, force, largest delta)
         self.value_at = None                   # (kind, t) -> force (kind 0) or largest delta, dense output
 
@@ -152,7 +153,9 @@ class _LayerMaxima:
         self._locate(t, force, delta_max)
         self.peak_work = max(self.peak_work, work)
         if self.free:
-            self.body_residual = max(self.body_residual, abs(body_residual(self.body, t, deficits, work)))
+            value = body_residual(self.body, t, deficits, work)
+            self.body_start = value if self.body_start is None else self.body_start
+            self.body_residual = max(self.body_residual, abs(value - self.body_start))
 
     def finish(self, diag):
         if not np.isinf(diag[kn.D_MAX_FORCE]):        # +inf: bottomed out, set by the caller
@@ -186,9 +189,11 @@ class _System:
         self.damped = viscous_ice or self.model.layer.tau > 0   # D: the plate's and the layer's dissipation
         self.n_extra = 3 if self.free else 1
 
-    def initial(self, t_start, a0, v0):
-        return np.concatenate([a0, v0, [0.0, self.V * t_start, self.V] if self.free else [0.0],
-                               [0.0] if self.damped else []])
+    def initial(self, t_start, a0, v0, body_start=(np.nan, np.nan)):
+        """y at t_start from the plate's a0, v0 and a free body's s, U (body_start; NaN: V t_start
+        and V, as at first touch)."""
+        s0, U0 = (self.V * t_start, self.V) if np.isnan(body_start[0]) else body_start[:2]
+        return np.concatenate([a0, v0, [0.0, s0, U0] if self.free else [0.0], [0.0] if self.damped else []])
 
     def position(self, t, y):
         return y[2 * self.N + 1] if self.free else self.V * t
@@ -253,14 +258,14 @@ class _System:
         maxima.sample(t, F, dmax, y[2 * N], np.array([self.V * t - self.position(t, y), self.V - self.speed(y)]))
 
 
-def state_series(tab, t, a, adot) -> np.ndarray:
+def state_series(tab, t, a, adot, body=(np.nan, np.nan)) -> np.ndarray:
     """The series row (solver.layout's S_*: contacts, force, the plate's and the layer's energy,
-    the body's position, ...) of the kernel's state a, adot of the plate of tab at t, the paper's
-    body's (the energies a break carries across, solver.core._across_break)."""
+    the body's position, ...) of the kernel's state a, adot of the plate of tab at t, a free body
+    at body = (s, U) (NaN: V t, V) (the energies a break carries across, solver.run._across_break)."""
     system = _System(tab)
     N = system.N
     row = SimpleNamespace(a=np.empty((1, N)), adot=np.empty((1, N)), series=np.full((1, kn.N_SERIES), np.nan))
-    system.record(row, 0, t, system.initial(t, np.asarray(a, float), np.asarray(adot, float)))
+    system.record(row, 0, t, system.initial(t, np.asarray(a, float), np.asarray(adot, float), body))
     return row.series[0]
 
 
@@ -312,7 +317,8 @@ def _bottoming(system, level, t_old, t_new, y_new, dense):
 
 def _summary(out, n_out, status, reason, t_reached, counts):
     """The diagnostics at the end of the run from the output rows: work, dissipated energy and the
-    energy residual; counts = (forcing evaluations, steps)."""
+    energy residuals, relative to the largest work plus the energy at the first row (as the
+    kernels' finish_diagnostics); counts = (forcing evaluations, steps)."""
     diag, series = out.diag, out.series
     if status not in (kn.OK, kn.SEPARATED):
         diag[kn.D_FAIL_T] = t_reached
@@ -326,7 +332,11 @@ def _summary(out, n_out, status, reason, t_reached, counts):
         residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] + e[:, kn.S_DISSIPATED] - e[:, kn.S_WORK]
                           - e[0, kn.S_E_PLATE] - e[0, kn.S_E_LAYER])
         diag[kn.D_DISSIPATED] = e[-1, kn.S_DISSIPATED]
-        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / peak if peak > 0 else 0.0
+        scale = peak + e[0, kn.S_E_PLATE] + e[0, kn.S_E_LAYER]
+        diag[kn.D_ENERGY_SCALE] = scale
+        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / scale if scale > 0 else 0.0
+        if np.isfinite(diag[kn.D_BODY_RESIDUAL]) and scale > 0 and peak > 0:     # (maxima.finish: over peak)
+            diag[kn.D_BODY_RESIDUAL] *= peak / scale
     diag[kn.D_RHS], diag[kn.D_STEPS] = counts
     diag[kn.D_REJECTED] = 0
 
@@ -348,7 +358,8 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
     diag[kn.D_FAIL_KIND] = kn.FAIL_NONE
     status, reason, failure = kn.OK, kn.FAIL_NONE, ""
     t_start, t_end = control.t_start, control.t_end
-    y0 = system.initial(t_start, a0, adot0)
+    y0 = system.initial(t_start, a0, adot0, control.body_start)
+    start_body(tab.model.body, t_start, control.body_start, np.zeros(2), diag)   # (its stop before t_start)
     k = 0
     observers = _Observers(tab, control, t_start, y0, system, diag)
     maxima = _LayerMaxima(tab.model.body)
@@ -358,7 +369,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         k += 1
     solver = DOP853(system.rhs, t_start, y0, t_end, rtol=control.tolerance, atol=control.tolerance * 1e-3,
                     first_step=control.h_init)
-    t_reached, steps, dense, armed = t_start, 0, None, [None, None]
+    t_reached, steps, dense, armed, broke = t_start, 0, None, [None, None], None
     while solver.status == "running":
         if steps >= control.max_steps:
             status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS
@@ -410,14 +421,16 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
             break
         if broke is not None:
             break
-    if status == kn.OK and system.free and control.until_separation and not np.isnan(diag[kn.D_STOP_T]):
-        status = kn.STOPPED                  # stopped, and still on the ice at the window's end
+    if status == kn.OK and broke is None and system.free and control.until_separation and \
+            not np.isnan(diag[kn.D_STOP_T]):
+        status = kn.STOPPED                  # stopped, and still on the ice at the window's end (not at a break)
     records = observers.finish()
     maxima.finish(diag)
     y_end = solver.y if dense is None or t_reached == solver.t else dense(t_reached)
     if t_reached == t_start:
         y_end = y0
-    out.final[0], out.final[1] = y_end[:system.N], y_end[system.N:2 * system.N]
+    out.final[0, :system.N], out.final[1, :system.N] = y_end[:system.N], y_end[system.N:2 * system.N]
+    out.final[0, system.N], out.final[1, system.N] = system.position(t_reached, y_end), system.speed(y_end)
     _summary(out, k, status, reason, t_reached, (system.nfev, steps))
     diag[kn.D_WORK] = y_end[2 * system.N]               # at the time reached, as the kernels' (a break's)
     diag[kn.D_DISSIPATED] = y_end[2 * system.N + system.n_extra] if system.damped else 0.0

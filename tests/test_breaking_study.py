@@ -85,7 +85,7 @@ def test_case_ids_of_a_grid_over_fracture():
     ({"base": {**BASE, "fracture": "break"}, "output": {**OUTPUT, "end": "answered",
                                                          "outputs": ["crack_onset_time"]}}, "end = \"answered\""),
     ({"base": {**BASE, "fracture": "break", "max_parts": 1}}, "max_parts must be an integer >= 2"),
-    ({"base": {**BASE, "fracture": "break", "body_mass": 300.0}}, "free body"),
+    ({"base": {**BASE, "fracture": "break", "edges": "free"}}, "floe's parts are not built"),
     ({"base": {**BASE, "fracture": "break"}, "solver": {"quadrature": "paper"}}, "quadrature = 'gauss'"),
 ])
 def test_what_a_study_that_breaks_refuses(change, words):
@@ -94,3 +94,23 @@ def test_what_a_study_that_breaks_refuses(change, words):
     with pytest.raises(StudyError, match=words) as err:
         load_study_text(pipeline.study_text(study), "bad")
     assert "\n" not in str(err.value)
+
+
+def test_a_breakthrough_search_reads_the_breakthrough():
+    """event = "breakthrough" takes no eps_Y (the cases' yield_strain is the criterion) and needs
+    ice that breaks in every case; a run that ended at a break it could not make answers only if
+    it had broken through."""
+    import xarray as xr
+    from pipeline.search_runner import _event
+    search = {"key": "V", "bracket": [0.1, 5.0], "log": True, "event": "breakthrough"}
+    study = load_study_text(pipeline.study_text({"base": {**BASE, "fracture": "break"}, "search": search,
+                                                 "output": OUTPUT}), "s")
+    assert study.search.eps_Y == ()
+    for bad, words in (({"base": BASE}, 'needs ice that breaks in every case'),
+                       ({"base": {**BASE, "fracture": "break"}, "search": {**search, "eps_Y": [8e-5]}},
+                        "no yield strain")):
+        with pytest.raises(StudyError, match=words):
+            load_study_text(pipeline.study_text({"search": search, "output": OUTPUT, **bad}), "bad")
+    ds = xr.Dataset({"status": ("case", ["ok", "separated", "wall_break", "parts_limit", "nonfinite"]),
+                     "breakthrough_time": ("case", [1e-3, np.nan, 2e-3, np.nan, 1e-3])})
+    assert [_event(ds, i, study.search, None) for i in range(5)] == [True, False, True, None, None]

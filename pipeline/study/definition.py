@@ -38,7 +38,7 @@ from solver.outputs import CRACK_ONSET_TIMES, OBSERVED, ONSET_RECORD, RECORDS
 from ..common.errors import StudyError
 from .analysis import Analysis, check_analysis
 from .case import Case, coordinate_times
-from .consistency import body_masses, break_slots, check_grid_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
+from .consistency import body_masses, break_slots, check_grid_values, key_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
 from .design import Design, check_design, design_cases, design_size
 from .identity import case_id, grid_case_ids, grid_label, make_case, resolve_sample, wider_output
 from .search import EVENTS, Search, check_bracket, check_search, search_points
@@ -241,9 +241,12 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         study.output = output = replace(output, end="answered")     # the answers: nothing read changes
     masses = body_masses(study)
     study.output = replace(study.output, body=any(math.isfinite(m) for m in masses if isinstance(m, (int, float))))
-    if study.output.break_slots and study.output.end in ("answered", "separation"):
-        raise StudyError(f'[output] end = "{study.output.end}" ends a run at its answer, and a run that breaks '
-                         f'(fracture = "break") runs to its end: give end = "stage" or "last_output"')
+    if study.output.break_slots and study.output.end == "answered":
+        raise StudyError('[output] end = "answered" ends a run at its crack onsets, and a run that breaks '
+                         '(fracture = "break") runs to its end: give end = "stage", "last_output" or "separation"')
+    if study.search and study.search.event == "breakthrough" and set(key_values(study, "fracture")) != {"break"}:
+        raise StudyError('[search] event = "breakthrough" needs ice that breaks in every case: give fracture = '
+                         '"break" in [base]')
     if output.end == "answered":
         study.output = replace(study.output, answer_eps_Y=max(study.eps_Y_read()))
     check_outputs_read(study)

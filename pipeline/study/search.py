@@ -7,14 +7,16 @@ of one key at which an event first happens, by bisection on runs of the same run
     key = "V"                  # the key searched (a continuous parameter, not in [base] or [grid])
     bracket = [0.5, 40.0]      # the event must differ between its ends
     log = true                 # bisect in log(V); tolerance is then relative
-    event = "bottoming"        # "bottoming" | "crack_onset" | "crack_onset_lower" | "impact_zone_crack_onset"
-                               # | "impact_zone_crack_onset_lower" (crack onset: at each eps_Y)
+    event = "bottoming"        # "bottoming" | "breakthrough" | "crack_onset" | "crack_onset_lower"
+                               # | "impact_zone_crack_onset" | "impact_zone_crack_onset_lower" (crack
+                               # onset: at each eps_Y; breakthrough: ice that breaks, fracture = "break")
     eps_Y = [8e-5, 1e-3]       # for crack onset: one search per yield strain
     tolerance = 0.01           # the final bracket: hi/lo - 1 (log) or hi - lo (linear)
     scan = 9                   # the first round: 9 values over the bracket, its ends included
 
 The event is a yes/no outcome of a run over the impact stage: the layer bottomed out
-(``bottoming_time`` finite), or the tension reached eps_Y (``crack_onset_time`` finite). A yes/no
+(``bottoming_time`` finite), the body broke through ice that breaks (``breakthrough_time``
+finite), or the tension reached eps_Y (``crack_onset_time`` finite). A yes/no
 outcome carries no distance to the threshold, so the search brackets and bisects (Brent's method
 needs a value that changes sign). The event need not be monotone in the key: whether the layer
 bottoms out before the stage ends depends on the plate's oscillations near the end, and it can
@@ -49,7 +51,11 @@ from .design import SAMPLED
 from .identity import SAMPLE
 
 #: event -> the variable whose finite value says it happened (crack onset: at each eps_Y)
-EVENTS = {"bottoming": "bottoming_time", **{name.replace("_time", ""): name for name in CRACK_ONSET_TIMES}}
+EVENTS = {"bottoming": "bottoming_time", "breakthrough": "breakthrough_time",
+          **{name.replace("_time", ""): name for name in CRACK_ONSET_TIMES}}
+#: the events a run's own outcome gives, with no yield strain of the search's (breakthrough's is
+#: the cases' yield_strain)
+UNSTRAINED = ("bottoming", "breakthrough")
 SEARCH_KEYS = {"key", "bracket", "log", "event", "eps_Y", "tolerance", "scan"}
 #: points of the first round's scan over the bracket (its ends included), by default
 SCAN = 9
@@ -103,11 +109,11 @@ def check_search(table, taken: set) -> Search:
     event = table.get("event")
     if event not in EVENTS:
         raise StudyError(f"[search] event must be one of {', '.join(EVENTS)}, got {event!r}")
-    if event == "bottoming" and "eps_Y" in table:
-        raise StudyError(f"[search] eps_Y = {table['eps_Y']!r} is for a crack-onset event: a bottoming search has "
-                         f"no yield strain (leave eps_Y out)")
-    eps = table.get("eps_Y", [8e-5]) if event != "bottoming" else []
-    if event != "bottoming" and (not isinstance(eps, list) or not eps or not all(
+    if event in UNSTRAINED and "eps_Y" in table:
+        raise StudyError(f"[search] eps_Y = {table['eps_Y']!r} is for a crack-onset event: a {event} search has "
+                         f"no yield strain (leave eps_Y out{'; the ice breaks at yield_strain' if event == 'breakthrough' else ''})")
+    eps = table.get("eps_Y", [8e-5]) if event not in UNSTRAINED else []
+    if event not in UNSTRAINED and (not isinstance(eps, list) or not eps or not all(
             isinstance(e, (int, float)) and not isinstance(e, bool) and 0 < e < 1 for e in eps)):
         raise StudyError(f"[search] eps_Y must be a list of yield strains in (0, 1), got {eps!r}")
     tol = table.get("tolerance", 0.01)

@@ -19,7 +19,7 @@ import math
 from collections import namedtuple
 
 from ..compile.jit import kernel
-from ..layout import B_D, B_U
+from ..layout import B_D, B_U, D_MAX_PENETRATION, D_STOP_T
 
 #: the body: V [m s-1], inv_mass = 1/M [m kg-1] (0: the paper's body at constant speed), g = g_b
 #: [m s-2] (0 with 1/M = 0), the shape's R [m], p, flat = c [m], tanb = tan(deadrise), xc, the
@@ -169,3 +169,16 @@ def body_step_work(body, h, work, F, U):
     if body.inv_mass == 0.0:
         return work + h * body.V * (F1 / 6.0 + (F2 + F3) / 3.0 + F4 / 6.0)
     return work + h * (F1 * U1 / 6.0 + (F2 * U2 + F3 * U3) / 3.0 + F4 * U4 / 6.0)
+
+
+@kernel
+def start_body(body, t, start, yb, diag):
+    """A free body's state at t from start (solver.control.Control.body_start: s, U, and the stop
+    and deepest penetration before t; NaN: at first touch, yb as it is) into its deficits yb and
+    the diagnostics its observer carries on from."""
+    if body.inv_mass == 0.0 or math.isnan(start[0]):
+        return
+    yb[B_D] = body.V * t - start[0]
+    yb[B_U] = body.V - start[1]
+    diag[D_STOP_T] = start[2]
+    diag[D_MAX_PENETRATION] = start[3]

@@ -22,6 +22,7 @@ from .basis import (NEWTON_STOP, Field, newton_move, argmax_node, continuous_pea
                     modal_sum_range, refine)
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
 from ..compile.jit import kernel
+from .floe import BREAK_COUNT, FIRST_BREAK, floe_header
 from .plate import ONES
 
 #: modes taken exactly in contact_bound's node-by-node bound on the deflection
@@ -58,7 +59,25 @@ def contact_bound(body, basis, s, a, work):
         return 1
     jc = min(J, int(body_extent(reach, body) / basis.dx) + 2)
     j = last_reachable(body.profile, basis.cosq, a, m, s + tail + 1e-9 * (head + tail), work, 0, jc)
-    return min(J, j + 2)
+    return min(J, edges_reachable(body, basis, reach + 1e-9 * (head + tail), j) + 2)
+
+
+@kernel(nrt=True)
+def edges_reachable(body, basis, reach, j):
+    """j raised so that jmax = j + 2 takes in each break of a broken plate that the coarse bound
+    lets touch (b(x_b) <= reach = s + sum |a_n|, the kernel's modes being at most 1 in size): a
+    part's free edge, where the deflection jumps, can stand between two nodes higher than both, and
+    its contact found only once a node touches would enter the forcing with a jump of the force
+    and the energy (seen as energy_violation after a breakthrough, the outer part's edge rising
+    into the layer)."""
+    if basis.kind == 0.0:
+        return j
+    header = floe_header(basis.floe)
+    for k in range(int(header[BREAK_COUNT])):
+        x_b = header[FIRST_BREAK + k]
+        if body_profile(x_b, body) <= reach:
+            j = max(j, int(x_b / basis.dx) + 1)
+    return j
 
 
 @kernel
