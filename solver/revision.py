@@ -34,10 +34,15 @@ step of 2.5e-4 t_sc, now 7.7e-11); smoothness 1 (2026-11-28: etd34's smoothness 
 default from then, with the error norm's floor at solver.control.SMOOTH_FLOOR = 0.01 of the
 embedded control's and a free body's velocity judged by it too; its runs carry this revision
 beside their rule's; the embedded control's runs unchanged, at its own default tolerance 1e-9,
-solver.settings.DEFAULT_TOLERANCE).
+solver.settings.DEFAULT_TOLERANCE); breaking 1 (2026-11-29: a run that breaks, fracture = "break",
+carries this revision beside its rule's: a broken plate's part edges within the contact bound
+(solver.model.contact.edges_reachable), its contacts strictly between two points seen
+(solver.model.contact_edges._island), a restarted run's energy residuals relative to the energy
+it starts with plus its largest work; no unbroken run changed).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
-#: "smoothness": of etd34's adaptive runs under the smoothness control (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 2, "smoothness": 1}
+#: "smoothness": of etd34's adaptive runs under the smoothness control (in addition); "breaking":
+#: of the runs in which the ice breaks (in addition)
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 2, "smoothness": 1, "breaking": 1}

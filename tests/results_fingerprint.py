@@ -58,16 +58,23 @@ def cases() -> dict:
     cases["gauss crack onsets, embedded"] = (Parameters(Nmod=12), Settings(**embedded), {"locate_eps_Y": [1e-5, 5e-5]})
     cases["gauss free floe, embedded"] = (Parameters(edges="free", L=6.0, duration=0.03, Nmod=8), Settings(**embedded),
                                           {})
+    # ice that breaks: the paper's body through a cascade, a dropped body to its separation
+    cases["gauss breaking"] = (Parameters(Nmod=12, fracture="break", duration=2e-3), Settings(error_estimate=False), {})
+    cases["gauss breaking, dropped body"] = (Parameters(Nmod=12, fracture="break", body_mass=100.0, duration=4e-3),
+                                             Settings(error_estimate=False), {"until_separation": True})
     return cases
 
 
 def guards(p, s) -> str:
     """The revisions that guard a case's results, "+"-joined (a bump of any of them gives it new
     ids): its rule, or "floe" for a free floe, "dop853" for the DOP853 reference; and
-    "smoothness" for an adaptive etd34 run under the smoothness control."""
+    "smoothness" for an adaptive etd34 run under the smoothness control, "breaking" for a run in
+    which the ice breaks."""
     guard = "floe" if p.edges == "free" else "dop853" if s.integrator == "dop853" else s.quadrature
     if s.integrator == "etd34" and s.fixed_step == 0.0 and s.error_control == "smoothness":
         guard += "+smoothness"
+    if p.fracture == "break":
+        guard += "+breaking"
     return guard
 
 
@@ -81,6 +88,8 @@ def _digest(result) -> str:
     arrays += [np.array([v for k, v in sorted(result.diagnostics.items())], dtype=float)]
     for located in result.extra.get("located_crack_onset", {}).values():
         arrays += list(located)
+    for event in result.extra.get("breaks", []):          # a run that breaks: each break
+        arrays.append([event["time"], event["x"], event["parts"], event.get("removed_energy", np.nan)])
     for a in arrays:
         h.update(np.ascontiguousarray(np.asarray(a, dtype=float)).tobytes())
     return h.hexdigest()[:24]

@@ -41,9 +41,11 @@ SAMPLE_EVERY = 10
 def id_value(name: str, value):
     """A parameter's value as a case id hashes it: a free floe's edges carry the revision of the
     floe's results (solver/revision.py), so that a change of the floe's numerics recomputes the
-    floe's cases and no other."""
+    floe's cases and no other; and ice that breaks carries the revision of breaking's results."""
     if name == "edges" and value == "free" and RESULTS_REVISION["floe"] > 0:
         return f"free, results revision {RESULTS_REVISION['floe']}"
+    if name == "fracture" and value == "break" and RESULTS_REVISION["breaking"] > 0:
+        return f"break, results revision {RESULTS_REVISION['breaking']}"
     return value
 
 

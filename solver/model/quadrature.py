@@ -45,8 +45,9 @@ from collections import namedtuple
 import numpy as np
 
 from .basis import modal_projection, modal_sum_range
-from .body import body_corners, body_profile, body_slope_curvature
-from .floe import BREAK_COUNT, FIRST_BREAK, MAX_BREAKS, dry_table, floe_dry, floe_dry_sums, floe_header, floe_wet
+from .body import body_corners, body_profile
+from .contact_edges import EDGE_STOP, break_count, broken_intervals, contact_edge, gap_and_slope
+from .floe import BREAK_COUNT, FIRST_BREAK, MAX_BREAKS, dry_table, floe_dry, floe_header, floe_wet
 from ..compile.jit import kernel
 from .law import law_energy, law_pressure
 from .plate import Modes
@@ -82,54 +83,6 @@ ELLIPSE_T = 0.5 * (RHO_MIN + 1.0 / RHO_MIN)
 #: no panel narrower than this fraction of the plate's length is cut
 NARROWEST = 1e-12
 
-#: the roots of delta at the contact edges are refined until their step is below this fraction
-#: of dx (their error enters the integrals at second order, f vanishing there: 1e-10 dx moves
-#: them by ~1e-20 relative; a smaller stop would ask for less than the rounding of x itself)
-EDGE_STOP = 1e-10
-
-
-@kernel
-def _gap_and_slope(a, lam1, floe, x, s, body):
-    """(w + s - b, w' - b') at x [m]: the layer's compression times he and its slope; on a
-    floe (floe not empty) a holds the dry modes' coefficients (solver.model.floe.floe_dry)."""
-    if floe.shape[0] != 0:
-        w, dw, _ = floe_dry_sums(floe, a, x, 0)
-        b1, _ = body_slope_curvature(x, body)
-        return w + s - body_profile(x, body), dw - b1
-    rot = complex(math.cos(lam1 * x), math.sin(lam1 * x))
-    cur = rot
-    w = 0.0
-    dw = 0.0
-    for n in range(a.shape[0]):
-        w += a[n] * cur.real
-        dw -= a[n] * lam1 * (n + 1) * cur.imag
-        cur *= rot
-    b1, _ = body_slope_curvature(x, body)
-    return w + s - body_profile(x, body), dw - b1
-
-
-@kernel
-def contact_edge(a, lam1, floe, s, body, x0, g0, x1, g1, stop):
-    """The root of g = w + s - b in [x0, x1], g0 = g(x0) and g1 = g(x1) of opposite signs:
-    Newton from the linear interpolant, a bisection of the bracket where Newton leaves it."""
-    x = x0 + (x1 - x0) * g0 / (g0 - g1)
-    for _ in range(60):
-        g, dg = _gap_and_slope(a, lam1, floe, x, s, body)
-        if g == 0.0:
-            return x
-        if (g > 0.0) == (g0 > 0.0):
-            x0, g0 = x, g
-        else:
-            x1 = x
-        xn = x - g / dg if dg != 0.0 else 0.5 * (x0 + x1)
-        if not (min(x0, x1) < xn < max(x0, x1)):
-            xn = 0.5 * (x0 + x1)
-        if abs(xn - x) <= stop:
-            return xn
-        x = xn
-    return x
-
-
 @kernel
 def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
     """The contact intervals from delta at the nodes j < jmax (delta < 0 beyond): their ends
@@ -161,7 +114,7 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
         else:
             dn = delta[k + 1] if k + 1 < jmax else -1.0
             if k + 1 >= jmax:      # beyond the bound delta < 0: take its value on the modes
-                dn, _ = _gap_and_slope(a, lam1, floe, (k + 1) * dx, s, body)
+                dn, _ = gap_and_slope(a, lam1, floe, (k + 1) * dx, s, body)
                 dn /= he
             xb = contact_edge(a, lam1, floe, s, body, k * dx, he * delta[k], (k + 1) * dx, he * dn, stop)
         edges[2 * count] = xa
@@ -169,60 +122,6 @@ def contact_intervals(body, basis, s, a, he, delta, jmax, edges):
         count += 1
         j = k + 1
     return count + corner_contacts(body, basis, s, a, he, delta, jmax, edges[2 * count:])
-
-
-@kernel(nrt=True)
-def break_count(basis):
-    """The number of the plate's breaks (0 on the cosines and on a floe)."""
-    return 0 if basis.kind == 0.0 else int(floe_header(basis.floe)[BREAK_COUNT])
-
-
-@kernel(nrt=True)
-def broken_intervals(body, basis, s, a, he, delta, jmax, edges):
-    """contact_intervals on a broken plate, part by part: a part's nodes and its two ends, where
-    the gap is taken on the part's own modes (it jumps at a break), so that no interval crosses a
-    break and a part's edge pressed into the layer between two nodes is seen. Parts beyond the
-    node jmax (the bound: delta < 0 there) have none."""
-    header = floe_header(basis.floe)
-    breaks = int(header[BREAK_COUNT])
-    dx, floe = basis.dx, basis.floe
-    stop = EDGE_STOP * dx
-    count = 0
-    for part in range(breaks + 1):
-        lo = 0.0 if part == 0 else header[FIRST_BREAK + part - 1]
-        hi = basis.length if part == breaks else header[FIRST_BREAK + part]
-        if lo >= jmax * dx:
-            break
-        x0 = lo
-        g0 = _gap_and_slope(a, 0.0, floe, lo, s, body)[0]
-        start = lo
-        j = int(math.ceil(lo / dx))
-        if j * dx <= lo:
-            j += 1
-        while True:
-            if j * dx < hi:
-                x1 = j * dx
-                g1 = he * delta[j] if j < jmax else _gap_and_slope(a, 0.0, floe, x1, s, body)[0]
-            else:
-                x1 = hi
-                g1 = _gap_and_slope(a, 0.0, floe, hi - 1e-12 * dx, s, body)[0]
-            if g0 > 0.0 and not g1 > 0.0:
-                edges[2 * count] = start
-                edges[2 * count + 1] = contact_edge(a, 0.0, floe, s, body, x0, g0, x1, g1, stop)
-                count += 1
-            elif g1 > 0.0 and not g0 > 0.0:
-                start = contact_edge(a, 0.0, floe, s, body, x0, g0, x1, g1, stop)
-            if x1 >= hi:
-                if g1 > 0.0:
-                    edges[2 * count] = start
-                    edges[2 * count + 1] = hi
-                    count += 1
-                break
-            if j >= jmax and not g1 > 0.0:       # beyond the bound, out of contact
-                break
-            x0, g0 = x1, g1
-            j += 1
-    return count
 
 
 @kernel
@@ -243,12 +142,12 @@ def corner_contacts(body, basis, s, a, he, delta, jmax, edges):
         j = int(c / dx)
         if j * dx == c:
             continue
-        g, _ = _gap_and_slope(a, basis.lam1, basis.floe, c, s, body)
+        g, _ = gap_and_slope(a, basis.lam1, basis.floe, c, s, body)
         if not g > 0.0:
             continue
         # the nodes' compressions (beyond jmax, where delta is not computed, on the modes)
-        gl = he * delta[j] if j < jmax else _gap_and_slope(a, basis.lam1, basis.floe, j * dx, s, body)[0]
-        gr = he * delta[j + 1] if j + 1 < jmax else _gap_and_slope(a, basis.lam1, basis.floe, (j + 1) * dx, s,
+        gl = he * delta[j] if j < jmax else gap_and_slope(a, basis.lam1, basis.floe, j * dx, s, body)[0]
+        gr = he * delta[j + 1] if j + 1 < jmax else gap_and_slope(a, basis.lam1, basis.floe, (j + 1) * dx, s,
                                                                      body)[0]
         if gl > 0.0 or gr > 0.0:
             continue
