@@ -284,14 +284,21 @@ def _joined(p, s, case, stages, events, status, message, full):
 
 
 def breaking_values(result, slots: int) -> dict:
-    """What a run reports of its breaking (solver.outputs.BREAKING_OUTPUTS), as arrays: name ->
-    a float (along "case"), an array of ``slots`` floats (along "break": the run's breaks in the
-    order they happened, NaN after them; breaks beyond ``slots`` are counted but not listed) or
-    one value per output time (along "t": NaN where the run did not reach). A run that does
-    not break reports none: no break, one part, no breakthrough."""
-    events = result.extra.get("breaks", [])
-    summary = result.extra.get("breaking", {"first_break_time": math.nan, "break_count": 0, "parts": 1,
-                                            "breakthrough_time": math.nan, "breakthrough_penetration": math.nan})
+    """What a run reports of its breaking (solver.outputs.BREAKING_OUTPUTS): :func:`break_table`
+    of its breaks over its output times (a run that does not break has none)."""
+    return break_table(result.extra.get("breaks", []), result.extra.get("breaking"), result.times, result.valid,
+                       slots)
+
+
+def break_table(events, summary, times, valid, slots: int) -> dict:
+    """The breaking outputs as arrays from a run's breaks (extra["breaks"]) and their summary
+    (extra["breaking"]; None: the run did not break): name -> a float (along "case"), an array
+    of ``slots`` floats (along "break": the breaks in the order they happened, NaN after them;
+    breaks beyond ``slots`` are counted but not listed) or one value per output time (along "t":
+    NaN where ``valid`` is not). Without breaks: no break, one part, no breakthrough."""
+    if summary is None:
+        summary = {"first_break_time": math.nan, "break_count": 0, "parts": 1, "breakthrough_time": math.nan,
+                   "breakthrough_penetration": math.nan}
     out = {"first_break_time": summary["first_break_time"], "break_count": float(summary["break_count"]),
            "part_count": float(summary["parts"]), "breakthrough_time": summary["breakthrough_time"],
            "breakthrough_penetration": summary["breakthrough_penetration"],
@@ -304,9 +311,9 @@ def breaking_values(result, slots: int) -> dict:
             value = event.get(key, math.nan)
             values[k] = ("upper", "lower").index(value) if key == "surface" else value
         out[name] = values
-    times = np.asarray(result.times, dtype=float)
+    times = np.asarray(times, dtype=float)
     parts = np.ones(times.size)
     for event in events:                              # an output at a break's time is still before it
         parts[times > event["time"]] = event["parts"]
-    out["part_count_over_time"] = np.where(result.valid, parts, np.nan)
+    out["part_count_over_time"] = np.where(valid, parts, np.nan)
     return out

@@ -57,6 +57,9 @@ PARAMETER_INFO = {
                   "break into more ends with status parts_limit", "1"),
 }
 
+#: the parameters only a run that breaks (fracture = "break") reads
+BREAKING_KEYS = ("yield_strain", "max_parts")
+
 #: the parameters that are whole numbers
 INTEGER_PARAMETERS = ("Nmod", "max_parts")
 

@@ -20,6 +20,8 @@ BODY_SERIES_INFO = {row.name: (row.long_name, row.units) for row in SERIES if ro
 #: the dimension along which a study where some case breaks stores each break of a case
 #: (solver.outputs.BREAKING_INFO's "break" rows), in the order they happened
 BREAK_DIMENSION = "break_number"
+#: the dimensions (after a case's) of a breaking output, by what it runs along
+BREAKING_DIMS = {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}
 RECORD_INFO = {
     "t_sc": ("time scale 1/omega_1 of the case", "s"),
     "stage_duration": ("impact stage of the case, b_mean / V (L^2/(6 R V) for the paper's parabola)", "s"),

@@ -38,7 +38,7 @@ from solver.parameters import CHOICES
 from ..common import provenance
 from ..study.case import Case, x_fractions
 from ..study.identity import SCHEMA_VERSION
-from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+from ..common.tables import (BODY_SERIES_INFO, BREAKING_DIMS, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
                              RECORD_LONG_NAME, RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO,
                              diagnostic_values, run_records)
 
@@ -146,7 +146,7 @@ def batch_dataset(cases: list, arrays: list) -> dict:
         data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
     if first.break_slots:
         for name, (long_name, units, along) in BREAKING_INFO.items():
-            dims = ("case",) + {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}[along]
+            dims = ("case",) + BREAKING_DIMS[along]
             data[name] = (dims, np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))
     for name, (long_name, units) in RECORD_INFO.items():
         data[name] = (("case",), np.array([a[name] for a in arrays], dtype=float), _attrs(long_name, units))

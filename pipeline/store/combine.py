@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, EPS_Y_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
+from solver.breaking import break_table
 from solver.outputs import BREAKING_INFO
 from solver.parameters import CHOICES, INTEGER_PARAMETERS
 from solver.settings import NAMED_SETTINGS
@@ -38,7 +39,7 @@ from ..study.identity import SCHEMA_VERSION
 from .ledger import BATCHES, write_sidecar
 from .reduce import ERROR_INFO, reduce_batch
 from ..study.definition import Study
-from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, BREAKING_DIMS, COMPLETE, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
                              RECORD_LONG_NAME, RECORD_NAMES, TENSION_RECORD_INFO, TEXT_INFO, asked_attributes)
 
 #: the runner writes study.nc's per-case variables in slabs of about this many bytes
@@ -75,8 +76,7 @@ def _per_case_variables(study: Study) -> list:
         out.append((name, (), "f", {"long_name": long_name, "units": units}))
     if study.output.break_slots:
         for name, (long_name, units, along) in BREAKING_INFO.items():
-            tail = {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}[along]
-            out.append((name, tail, "f", {"long_name": long_name, "units": units}))
+            out.append((name, BREAKING_DIMS[along], "f", {"long_name": long_name, "units": units}))
     for name, (long_name, units) in RECORD_INFO.items():
         out.append((name, (), "f", {"long_name": long_name, "units": units}))
     for name, long_name in TEXT_INFO.items():
@@ -154,17 +154,10 @@ def fit_breaks(values, slots: int) -> np.ndarray:
 
 
 def unbroken(time, slots: int) -> dict:
-    """The breaking outputs of cases that did not break (solver.breaking.breaking_values of an
-    unbroken run) from their series ``time`` (cases, t): NaN where it is."""
-    time = np.asarray(time, dtype=float)
-    n = time.shape[0]
-    out = {name: np.full((n,) + {"case": (), "break": (slots,), "t": time.shape[1:]}[along], np.nan)
-           for name, (_, _, along) in BREAKING_INFO.items()}
-    out["break_count"][:] = 0.0
-    out["part_count"][:] = 1.0
-    out["removed_energy"][:] = 0.0
-    out["part_count_over_time"] = np.where(np.isfinite(time), 1.0, np.nan)
-    return out
+    """The breaking outputs of cases that did not break (solver.breaking.break_table without
+    breaks) from their series ``time`` (cases, t): NaN where it is."""
+    rows = [break_table([], None, row, np.isfinite(row), slots) for row in np.asarray(time, dtype=float)]
+    return {name: np.array([row[name] for row in rows]) for name in BREAKING_INFO}
 
 
 class StudyWriter:

@@ -16,7 +16,7 @@ from solver.parameters import CHOICES
 
 from ..common import provenance
 from .fracture import CRACK_INFO, eps_Y_coord, onset_from_records
-from ..common.tables import (BODY_SERIES_INFO, BREAK_DIMENSION, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
+from ..common.tables import (BODY_SERIES_INFO, BREAKING_DIMS, CONTACT_RECORD_INFO, RECORD_INFO, SERIES_INFO,
                              TENSION_RECORD_INFO, TEXT_INFO, asked_attributes, diagnostic_values, run_records)
 
 #: the series a Result carries beside the study's (solver.outputs.SERIES): name -> (Result
@@ -54,8 +54,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     if p.fracture == "break":                # each break along break_number (solver.outputs.BREAKING_OUTPUTS)
         values = breaking_values(result, len(result.extra.get("breaks", [])))
         for name, (long_name, units, along) in BREAKING_INFO.items():
-            dims = {"case": (), "break": (BREAK_DIMENSION,), "t": ("t",)}[along]
-            data[name] = (dims, values[name], _attrs(long_name, units))
+            data[name] = (BREAKING_DIMS[along], values[name], _attrs(long_name, units))
         data["removed_energy_over_time"] = (("t",), np.asarray(result.extra["removed_energy"], dtype=float),
                                             _attrs("energy the breaks removed up to each time: plate_energy + "
                                                    "layer_energy + dissipated_energy_over_time + this = "

@@ -14,6 +14,7 @@ from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Set
 from solver.outputs import OBSERVED
 from solver.parameters import (CHOICES, COUPLED_KEYS, NOT_MONOTONE, TIME_SCALE_KEYS, outside_physical_range,
                                time_scale_of)
+from solver.keys import BREAKING_KEYS
 from solver.settings import NAMED_SETTINGS, check_combination
 
 from ..common.errors import StudyError
@@ -41,7 +42,7 @@ def break_slots(study) -> int:
     max_parts, where some case breaks; 0 where none does (and then a study that sets what only
     breaking reads is refused: it would change nothing)."""
     if "break" not in key_values(study, "fracture"):
-        for key in ("yield_strain", "max_parts"):
+        for key in BREAKING_KEYS:
             if any(v != getattr(Parameters(), key) for v in key_values(study, key)):
                 raise StudyError(f"{key} is read only by a run that breaks, and no case of the study does: "
                                  f"give fracture = \"break\" in [base], [grid] or [[cases]]")

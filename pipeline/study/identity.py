@@ -15,6 +15,7 @@ import json
 from dataclasses import replace
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
+from solver.keys import BREAKING_KEYS
 from solver.parameters import PAPER_DEFAULTS
 from solver.revision import RESULTS_REVISION
 from solver.settings import check_combination
@@ -47,10 +48,6 @@ def id_value(name: str, value):
     if name == "fracture" and value == "break" and RESULTS_REVISION["breaking"] > 0:
         return f"break, results revision {RESULTS_REVISION['breaking']}"
     return value
-
-
-#: the parameters only a run that breaks reads: a case id leaves them out where it does not break
-BREAKING_KEYS = ("yield_strain", "max_parts")
 
 
 def id_parameters(parameters: dict) -> dict:
