@@ -75,13 +75,13 @@ def _restart_step(stages):
     return h if math.isfinite(h) and h > 0.0 else None
 
 
-def whole_plate_parts(breaks, L, full) -> int:
-    """The number of parts of the whole plate broken at ``breaks`` (x on the plate; on the half
-    plate of a centred impact each break but the centre's stands for two)."""
+def whole_plate_parts(breaks, full) -> int:
+    """The number of parts of the whole plate broken at ``breaks`` (x on the plate): one more
+    than its breaks, where on the half plate of a centred impact each break but the centre's
+    stands for two (x and -x)."""
     b = np.asarray(breaks, dtype=float)
-    if full:
-        return b.size + 1
-    return 2 * (b.size + 1) - (0 if np.any(b == 0.0) else 1)
+    cuts = b.size if full else 2 * np.count_nonzero(b != 0.0) + np.count_nonzero(b == 0.0)
+    return int(cuts) + 1
 
 
 def broken_through(breaks, x0, full) -> bool:
@@ -97,7 +97,8 @@ def solve_breaking(p, s, case, initial):
     """The run of ``case`` (solver.run.Case) in which the plate breaks where its tension first
     reaches p.yield_strain, and again on its parts, to at most p.max_parts parts (module docstring).
     Returns the stages joined into one Result: extra["breaks"] (each break's time [s], x [m],
-    surface, parts after it, energy removed [J m-1]), extra["stages"] (each stage's Result),
+    surface, parts after it, energy removed [J m-1], and its plate's and layer's parts), extra["full_plate"]
+    (whether the kernels ran the whole plate; else the half plate of a centred impact), extra["stages"] (each stage's Result),
     extra["removed_energy"] (T,) [J m-1], extra["breaking"] (first_break_time, break_count,
     parts, breakthrough_time, breakthrough_penetration)."""
     _checked(case, initial)
@@ -115,7 +116,9 @@ def solve_breaking(p, s, case, initial):
                                          h_init=_restart_step(stages), body=state[3]))
         stages.append((later, stage))
         if "break_energy" in stage.extra:
-            events[-1]["removed_energy"] = _removed(stage.extra["break_energy"])
+            energy = stage.extra["break_energy"]
+            events[-1].update(removed_energy=_removed(energy), removed_plate_energy=energy["before"] - energy["after"],
+                              removed_layer_energy=energy["layer_before"] - energy["layer_after"])
         if stage.status != "ok" or "break" not in stage.extra:
             break
         where = stage.extra["break"]
@@ -128,14 +131,14 @@ def solve_breaking(p, s, case, initial):
                        f"to then is valid")
             break
         new_breaks = sorted(breaks + [x_b])
-        if whole_plate_parts(new_breaks, p.L, full) > max_parts:
+        if whole_plate_parts(new_breaks, full) > max_parts:
             status = PARTS_LIMIT
             message = (f"the plate would break into more than max_parts = {max_parts} parts at t = "
                        f"{where['time']:.6g} s (x = {x_b:.6g} m, {where['surface']} surface); data up to then is valid")
             break
         a, adot, _, body = stage.extra["final_state"]
         events.append({"time": where["time"], "x": x_b, "surface": where["surface"],
-                       "parts": whole_plate_parts(new_breaks, p.L, full),
+                       "parts": whole_plate_parts(new_breaks, full),
                        "broken_through": broken_through(new_breaks, p.x0, full),
                        "penetration": p.V * where["time"] if body is None else body[0]})
         breaks, t0 = new_breaks, stage.time_reached
@@ -144,7 +147,10 @@ def solve_breaking(p, s, case, initial):
 
 
 def _removed(energy) -> float:
-    """The energy a break removed [J m-1]: the plate's and the layer's before it minus after."""
+    """The energy a break removed [J m-1]: the plate's and the layer's before it minus after. The
+    plate's part is never negative (the carry is a projection in the plate's own energies); the
+    layer's has either sign (the projection moves w under the body), so a break can add energy
+    to the layer, and in all (docs/model.md, "The energy identity through the breaks")."""
     return (energy["before"] + energy["layer_before"]) - (energy["after"] + energy["layer_after"])
 
 
@@ -254,7 +260,7 @@ def _joined(p, s, case, stages, events, status, message, full):
     contacts = np.vstack([r.contact_record for r in results])
     diagnostics = _joined_diagnostics(stages, records, work)
     through = [e for e in events if e["broken_through"]]
-    extra = {"stages": results, "breaks": events, "removed_energy": removed_series,
+    extra = {"stages": results, "breaks": events, "removed_energy": removed_series, "full_plate": full,
              "breaking": {"first_break_time": events[0]["time"] if events else math.nan,
                           "break_count": len(events), "parts": events[-1]["parts"] if events else 1,
                           "breakthrough_time": through[0]["time"] if through else math.nan,

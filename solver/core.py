@@ -16,10 +16,11 @@ import numpy as np
 from . import first_compile
 from .breaking import solve_breaking
 from .compile import kernel_cache, parallel_compile
-from .fracture import compile_crack_onset
+from .fracture import above_yield_strain, compile_crack_onset, yield_strains
 from .loop import integrate                                   # (the kernels' entry, as solver.core.integrate)
 from .model.assemble import Tables
-from .outputs import FIELD_INFO, FIELDS
+from .observe.asked import ENDS
+from .outputs import BREAKING_INFO, FIELD_INFO, FIELDS
 from .parameters import Parameters, ParameterError
 from .run import Case, Result, checked_breaks, cosines_to_kernel, run_case
 from .settings import Settings, check_combination
@@ -165,11 +166,22 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
     >>> bool(result.diagnostics["max_strain"] > 0.0)
     True
     """
+    fields, outputs = _names("fields", fields), None if outputs is None else _names("outputs", outputs)
+    if end not in ENDS:
+        raise ParameterError(f"end must be one of {', '.join(repr(e) for e in ENDS)}, got {end!r}")
+    eps_Y = None if eps_Y is None else tuple(yield_strains(eps_Y).tolist())
+    locate_eps_Y = tuple(yield_strains(locate_eps_Y).tolist()) if np.size(locate_eps_Y) else ()
     body_given = initial_state is not None and len(initial_state) > 3 and initial_state[3] is not None
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate,
                                              body_given)
+    breaking = sorted(set(outputs or ()) & set(BREAKING_INFO))
+    if breaking and p.fracture != "break":
+        raise ParameterError(f"outputs: {breaking[0]} is an output of a run that breaks (fracture = 'break')")
     if p.fracture == "break":
+        _checked_breaking(p, locate_eps_Y, eps_Y, initial_state=initial_state, initial_amplitudes=initial_amplitudes,
+                          initial_velocities=initial_velocities, breaks=breaks, break_strain=break_strain,
+                          t_start=None if t_start == 0 else t_start)
         return solve_breaking(p, s, Case(times, tuple(fields), x, t_end, float(t_start), None, None, None,
                                          None, full_plate, until_separation, outputs, eps_Y, end,
                                          locate_eps_Y, math.inf),
@@ -191,6 +203,32 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
                            np.asarray(v0, float), from_breaks, kernel_breaks, full, until_separation, outputs, eps_Y,
                            end, locate_eps_Y, math.inf if break_strain is None else float(break_strain),
                            body=body))
+
+
+def _names(what, names) -> tuple:
+    """A list of names (fields, outputs) as a tuple, or ParameterError: a single string is not a list
+    (it would be read letter by letter)."""
+    if isinstance(names, (str, bytes)):
+        raise ParameterError(f"{what} must be a list of names, got the string {names!r} (give [{names!r}])")
+    try:
+        names = tuple(names)
+    except TypeError:
+        raise ParameterError(f"{what} must be a list of names, got {names!r}") from None
+    bad = [n for n in names if not isinstance(n, str)]
+    if bad:
+        raise ParameterError(f"{what} must be a list of names, got {bad[0]!r} in it")
+    return names
+
+
+def _checked_breaking(p, locate_eps_Y, eps_Y, **unread):
+    """What a run that breaks refuses of solve's keywords beyond its parameters' checks: a state
+    or an end of its own (it starts from the unbroken plate at rest at first touch and breaks
+    at p.yield_strain), and crack onsets above the yield strain (solver.fracture)."""
+    given = [name for name, value in unread.items() if value is not None]
+    if given:
+        raise ParameterError(f"{given[0]} is not read by a run that breaks (fracture = 'break'): it starts from the "
+                             f"unbroken plate at rest at first touch and breaks where its tension reaches yield_strain")
+    above_yield_strain(p, [*locate_eps_Y, *(eps_Y or ())])
 
 
 def _checked_body(p, body):

@@ -111,8 +111,23 @@ def cubic_first_reach(c0, c1, c2, c3, level):
     for i in range(nc + 1):
         hi = _break(i + 1, nc, b1, b2)
         if cubic(c0, c1, c2, c3, hi) >= level:
-            return _bisect(c0, c1, c2, c3, level, _break(i, nc, b1, b2), hi)
+            return _bisect_reach(c0, c1, c2, c3, level, _break(i, nc, b1, b2), hi)
     return -1.0
+
+
+@kernel
+def _bisect_reach(c0, c1, c2, c3, level, lo, hi):
+    """The smallest th in [lo, hi] with p(th) >= level, p(lo) < level <= p(hi) (to round-off;
+    p(hi) == level, a record ending at a break's level, is reached at hi)."""
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        if mid <= lo or mid >= hi:
+            break
+        if cubic(c0, c1, c2, c3, mid) >= level:
+            hi = mid
+        else:
+            lo = mid
+    return hi
 
 
 @kernel

@@ -72,7 +72,7 @@ def _first_reach(rec, levels, out_t, out_x):
         c0, c1, c2, c3 = hermite(rec[i, R_VALUE], rec[i + 1, R_VALUE], rec[i, R_RATE],
                                  rec[i + 1, R_RATE], h)
         v, _ = cubic_max(c0, c1, c2, c3)
-        running = max(running, v)
+        running = max(running, v, rec[i + 1, R_VALUE])     # (the end's value exactly: a break's level)
         maxima[q] = running
     for k in range(levels.shape[0]):
         out_t[k] = np.nan
@@ -90,6 +90,8 @@ def _first_reach(rec, levels, out_t, out_x):
             c0, c1, c2, c3 = hermite(rec[i, R_VALUE], rec[i + 1, R_VALUE], rec[i, R_RATE],
                                      rec[i + 1, R_RATE], h)
             th = cubic_first_reach(c0, c1, c2, c3, level)
+            if th < 0.0 and rec[i + 1, R_VALUE] >= level:    # the cubic's end a rounding below its value
+                th = 1.0
             if th >= 0.0 and rec[i, R_T] + th * h < best:
                 best = rec[i, R_T] + th * h
                 x0, x1 = rec[i, R_X], rec[i + 1, R_X]
@@ -157,15 +159,35 @@ def thin_record(rec):
     return keep
 
 
+def _has_text(values) -> bool:
+    """Whether values is or holds text ("8e-5" is not a yield strain: numpy would read it as one)."""
+    try:
+        kind = np.asarray(values).dtype.kind
+    except (TypeError, ValueError):
+        return False
+    return kind in "US" or (kind == "O" and any(isinstance(v, (str, bytes)) for v in np.ravel(values)))
+
+
 def yield_strains(eps_Y) -> np.ndarray:
     """eps_Y as an array of yield strains: numbers, finite and > 0, or ParameterError naming it."""
     try:
-        levels = np.atleast_1d(np.asarray(eps_Y, dtype=float))
+        levels = None if _has_text(eps_Y) else np.atleast_1d(np.asarray(eps_Y, dtype=float))
     except (TypeError, ValueError):
         levels = None
     if levels is None or levels.size == 0 or not np.all(np.isfinite(levels) & (levels > 0)):
         raise ParameterError(f"eps_Y must be one or more yield strains, finite numbers > 0 [1]; got {eps_Y!r}")
     return levels
+
+
+def above_yield_strain(p, levels) -> None:
+    """ParameterError where crack onset is asked above the yield strain of ice that breaks
+    (Parameters p, fracture = "break"): the plate breaks where its tension reaches
+    p.yield_strain, so its tension never passes it and crack onset is defined up to it."""
+    levels = np.asarray(levels, dtype=float)
+    if p.fracture == "break" and levels.size and np.max(levels) > p.yield_strain:
+        raise ParameterError(f"eps_Y = {np.max(levels):g} is above yield_strain = {p.yield_strain:g}, where this ice "
+                             f"breaks (fracture = 'break'): its tension never passes it, so crack onset is defined for "
+                             f"eps_Y <= yield_strain")
 
 
 def crack_onset(record, eps_Y):

@@ -138,7 +138,8 @@ def check_positive(name: str, value, integer: bool = False) -> None:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
         raise ParameterError(f"{name} must be a number, got {value!r}")
     if integer:
-        if not math.isfinite(float(value)) or float(value) != int(value) or int(value) < 1:
+        whole = isinstance(value, (int, np.integer)) or (math.isfinite(float(value)) and float(value).is_integer())
+        if not whole or int(value) < 1:
             raise ParameterError(f"{name} must be a positive integer, got {value!r}")
         return
     if not math.isfinite(float(value)) or float(value) <= 0.0:

@@ -28,6 +28,10 @@ from .keys import (BEYOND_BOUNDS, CHOICES, INTEGER_PARAMETERS, PAPER_DEFAULTS, P
 #: largest Nmod accepted (memory: the tables are Nmod x subintervals doubles; subintervals:
 #: solver.settings.MAX_SUBINTERVALS)
 MAX_MODES = 4096
+#: the most parts a run that breaks may make (max_parts): each part carries its own modes (at least
+#: its heave), and a study stores max_parts - 1 break slots per case; the reference case's cascade
+#: makes 8 parts in 2 ms
+MAX_PARTS = 1000
 
 #: the shortest impact stage the model resolves, as a fraction of the layer's response time
 #: 1/Omega_c (Parameters.contact_frequency): a body flatter than that (deadrise = 1e-9 degree:
@@ -207,6 +211,9 @@ class Parameters:
                 check_positive(f.name, value, integer=f.name in INTEGER_PARAMETERS)
                 if f.name == "Nmod" and int(value) > MAX_MODES:
                     raise ParameterError(f"Nmod must be at most {MAX_MODES}, got {value!r}")
+                if f.name == "max_parts" and int(value) > MAX_PARTS:
+                    raise ParameterError(f"max_parts must be at most {MAX_PARTS} (each part carries modes of its "
+                                         f"own, and a case stores max_parts - 1 breaks), got {value!r}")
             object.__setattr__(self, f.name, int(value) if f.name in INTEGER_PARAMETERS else float(value))
         if not abs(self.x0) < self.L:
             raise ParameterError(f"x0 must lie inside the plate, -L < x0 < L = {self.L!r} m, got {self.x0!r}")

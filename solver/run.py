@@ -16,13 +16,14 @@ from .control import make_control
 from .diagnostics import Outputs, Run
 from .error_estimate import TOLERANCE_EXPONENT, error_estimates
 from .layout import ETD34, RK4
-from .loop import integrate
+from .loop import integrate, new_records
 from .model import parts
 from .model.assemble import Tables
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import BITS, plan as plan_outputs
+from .observe.reach import zone_ends
 from .outputs import DIAGNOSTIC_INFO, OBSERVED, POSITION_SLOTS, RECORDS, SERIES, records_kept
-from .fracture import crack_onset, thin_record
+from .fracture import above_yield_strain, crack_onset, thin_record, yield_strains
 from .parameters import Parameters, ParameterError
 from .settings import Settings
 from .scipy_reference import integrate_dop853, state_series
@@ -101,9 +102,11 @@ class Result:
             raise ParameterError(f"surface must be 'upper' or 'lower', got {surface!r}")
         if region not in ("plate", "impact_zone"):
             raise ParameterError(f"region must be 'plate' or 'impact_zone', got {region!r}")
-        if np.any(np.asarray(eps_Y, dtype=float) > self.answered_eps_Y):
+        levels = yield_strains(eps_Y)
+        if np.any(levels > self.answered_eps_Y):
             raise ParameterError(f"the run ended when its crack onsets up to eps_Y = {self.answered_eps_Y:g} were "
                                  f"final (end = 'answered'); a larger eps_Y needs a run to the end")
+        above_yield_strain(self.parameters, levels)
         return crack_onset(self.tension_record[surface if region == "plate" else f"impact_zone_{surface}"], eps_Y)
 
     def to_dataset(self, eps_Y=None):
@@ -192,6 +195,34 @@ def _across_break(p, s, tab, case):
     return a_new, adot_new, {"before": before, "after": after, "layer_before": layer[0], "layer_after": layer[1]}
 
 
+def _reached_at_break(tab, s, diag, final, level, records, level_t, level_x, levels):
+    """The records and located crossings of a stage that ended at a break, closed there: the
+    break is where its surface's tension reached the break level (docs/model.md, "The run that
+    breaks"), located on sub-steps to the last one below it, so the surface's plate-wide record,
+    and its impact zone's where the break lies in the zone, end at (t_b, level, rate, x_b): its
+    last row at t_b takes the level, or a row is added there (its rate eps_t(x_b) from the state
+    at t_b). Crack onset for any eps_Y <= level is then defined (at the level: the break's time),
+    and so is each located level up to it. Returns the records."""
+    t_b, x_b, surface = float(diag[kn.D_BREAK_T]), float(diag[kn.D_BREAK_X]), int(diag[kn.D_BREAK_SURFACE])  # (x_b on
+    # the plate)
+    sign, N = 1.0 - 2.0 * surface, tab.lam.size
+    rate = sign * float(tab.mode_values(np.array([x_b]), "strain")[0] @ final[1, :N])
+    lo, hi = zone_ends.py_func(tab.model, float(diag[kn.D_CONTACT_EXTENT]), s.impact_zone_margin)
+    names = [RECORDS[surface]] + ([RECORDS[2 + surface]] if lo <= x_b - tab.origin <= hi else [])
+    records = dict(records)
+    for name in names:
+        rec = records[name]
+        if rec.shape[0] and rec[-1, kn.R_T] == t_b:
+            rec = rec.copy()
+            rec[-1, kn.R_VALUE] = max(rec[-1, kn.R_VALUE], level)
+        elif not rec.shape[0] or rec[-1, kn.R_VALUE] < level:
+            rec = np.vstack([rec, [[t_b, level, rate, x_b, 1.0 if rec.shape[0] else 0.0]]])
+        records[name] = rec
+    missed = np.isnan(level_t[surface]) & (levels <= level)
+    level_t[surface, missed], level_x[surface, missed] = t_b, x_b
+    return records
+
+
 def _field_values(p, tab, fields, x, out_a, out_adot, series, valid) -> dict:
     """The requested fields at the output times and positions x [m] from the modal amplitudes: the
     deflection and strain by the modal sums, the compression and the layer's pressure by the
@@ -236,9 +267,22 @@ def _only_asked(asked, diagnostics, records, contact_record):
 
 
 def _kernel_loop(method):
-    """solver.loop.integrate with the given method, as an Integrator's run."""
+    """solver.loop.integrate with the given method, as an Integrator's run. An arithmetic error
+    the kernels raise (numba's division by zero, where an extreme value underflowed) ends the run
+    with status nonfinite and a message naming it, none of its outputs valid, instead of
+    escaping as an exception (a case that fails numerically gets a status)."""
     def run(tab, control, t_out, a0, adot0, levels, outputs):
-        status, n_out, records = integrate(method, tab.model, control, t_out, a0, adot0, levels, outputs)
+        try:
+            status, n_out, records = integrate(method, tab.model, control, t_out, a0, adot0, levels, outputs)
+        except ArithmeticError as err:
+            diag = outputs.diag
+            diag[kn.D_T_REACHED] = diag[kn.D_FAIL_T] = control.t_start
+            diag[kn.D_FAIL_KIND], diag[kn.D_BREAK_T] = kn.FAIL_NONFINITE, math.nan
+            for slot in (kn.D_STEPS, kn.D_REJECTED, kn.D_RHS):
+                diag[slot] = np.nan_to_num(diag[slot])
+            return Run(kn.NONFINITE, 0, new_records(kn.N_REC),
+                       f"the kernels met an arithmetic error ({type(err).__name__}: {err}) in the run from t = "
+                       f"{control.t_start:.6g} s, where a value under- or overflowed; none of its outputs is kept")
         return Run(status, n_out, records, "")
     return run
 
@@ -347,6 +391,8 @@ def run_case(p, s, case: Case) -> Result:
         if not np.isfinite(diag[i]):                 # the zone was empty (the walls' margins cover the plate)
             diag[i:i + 3] = np.nan
             diag[kn.D_ZONE_UPPER_EDGE + s_] = np.nan
+    if not math.isnan(t_break):
+        records = _reached_at_break(tab, s, diag, final, case.break_level, records, level_t, level_x, levels)
     field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan

@@ -23,6 +23,7 @@ own sub-steps (solver.observe.layer_maxima). scipy is imported here only.
 from __future__ import annotations
 
 
+from collections import namedtuple
 from types import SimpleNamespace
 
 import numpy as np
@@ -250,6 +251,17 @@ class _System:
         series[k, kn.S_BODY_SPEED] = self.speed(y)
         series[k, kn.S_DISSIPATED] = y[2 * N + self.n_extra] if self.damped else 0.0
 
+    def balance(self, t, y):
+        """(E_plate + E_layer + D - W, W) at t: the energy identity's left side less its right,
+        which stays at the energy the run starts with [J m-1]."""
+        N = self.N
+        a = np.ascontiguousarray(y[:N])
+        _, _, jmax, _ = self.forcing(t, y)
+        plate = 0.5 * np.sum(self.tab.LM * (y[N:2 * N]**2 + self.om2 * a**2))
+        dissipated = y[2 * N + self.n_extra] if self.damped else 0.0
+        return plate + layer_energy(self.model, a, self.position(t, y), self.delta, jmax) + dissipated - y[2 * N], \
+            y[2 * N]
+
     def sample(self, maxima, t, y):
         """The force, the largest delta, the work and the body's deficits at t into maxima."""
         N = self.N
@@ -315,28 +327,32 @@ def _bottoming(system, level, t_old, t_new, y_new, dense):
     return None
 
 
-def _summary(out, n_out, status, reason, t_reached, counts):
-    """The diagnostics at the end of the run from the output rows: work, dissipated energy and the
-    energy residuals, relative to the largest work plus the energy at the first row (as the
-    kernels' finish_diagnostics); counts = (forcing evaluations, steps)."""
-    diag, series = out.diag, out.series
+#: a run's energy identity over its accepted steps: the energy it starts with E0 (the plate's and
+#: the layer's), the largest work so far and the largest |E_plate + E_layer + D - W - E0| [J m-1]
+Balance = namedtuple("Balance", "start peak_work residual")
+
+
+def _balanced(system, balance, t, y):
+    """The Balance with the state y at t (an accepted step's end) taken in."""
+    left, work = system.balance(t, y)
+    return Balance(balance.start, max(balance.peak_work, work), max(balance.residual, abs(left - balance.start)))
+
+
+def _summary(out, n_out, status, reason, t_reached, counts, balance):
+    """The diagnostics at the end of the run: the energy residuals from the identity at every
+    accepted step's end (balance), relative to the largest work plus the energy the run started
+    with (as the kernels' finish_diagnostics; not from the output rows, which a later stage does
+    not start with and whose number would change it); counts = (forcing evaluations, steps)."""
+    diag = out.diag
     if status not in (kn.OK, kn.SEPARATED):
         diag[kn.D_FAIL_T] = t_reached
         diag[kn.D_FAIL_KIND] = reason
     diag[kn.D_T_REACHED] = t_reached
-    if n_out:
-        e = series[:n_out]
-        work = e[-1, kn.S_WORK]
-        peak = e[:, kn.S_WORK].max()
-        diag[kn.D_WORK] = work
-        residual = np.abs(e[:, kn.S_E_PLATE] + e[:, kn.S_E_LAYER] + e[:, kn.S_DISSIPATED] - e[:, kn.S_WORK]
-                          - e[0, kn.S_E_PLATE] - e[0, kn.S_E_LAYER])
-        diag[kn.D_DISSIPATED] = e[-1, kn.S_DISSIPATED]
-        scale = peak + e[0, kn.S_E_PLATE] + e[0, kn.S_E_LAYER]
-        diag[kn.D_ENERGY_SCALE] = scale
-        diag[kn.D_ENERGY_RESIDUAL] = residual.max() / scale if scale > 0 else 0.0
-        if np.isfinite(diag[kn.D_BODY_RESIDUAL]) and scale > 0 and peak > 0:     # (maxima.finish: over peak)
-            diag[kn.D_BODY_RESIDUAL] *= peak / scale
+    scale = balance.peak_work + balance.start
+    diag[kn.D_ENERGY_SCALE] = scale
+    diag[kn.D_ENERGY_RESIDUAL] = balance.residual / scale if scale > 0 else 0.0
+    if np.isfinite(diag[kn.D_BODY_RESIDUAL]) and scale > 0 and balance.peak_work > 0:   # (maxima.finish: over peak)
+        diag[kn.D_BODY_RESIDUAL] *= balance.peak_work / scale
     diag[kn.D_RHS], diag[kn.D_STEPS] = counts
     diag[kn.D_REJECTED] = 0
 
@@ -364,6 +380,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
     observers = _Observers(tab, control, t_start, y0, system, diag)
     maxima = _LayerMaxima(tab.model.body)
     system.sample(maxima, t_start, y0)
+    balance = Balance(system.balance(t_start, y0)[0], 0.0, 0.0)
     while k < T and t_out[k] <= t_start:
         system.record(out, k, t_start, y0)
         k += 1
@@ -408,6 +425,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
             system.record(out, k, t_out[k], dense(t_out[k]))
             k += 1
         t_reached = t_stop
+        balance = _balanced(system, balance, t_stop, solver.y if t_stop == solver.t else dense(t_stop))
         if t_bottom is not None:
             system.largest_delta(t_bottom, dense(t_bottom))
             gap = system.gap
@@ -431,7 +449,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         y_end = y0
     out.final[0, :system.N], out.final[1, :system.N] = y_end[:system.N], y_end[system.N:2 * system.N]
     out.final[0, system.N], out.final[1, system.N] = system.position(t_reached, y_end), system.speed(y_end)
-    _summary(out, k, status, reason, t_reached, (system.nfev, steps))
+    _summary(out, k, status, reason, t_reached, (system.nfev, steps), balance)
     diag[kn.D_WORK] = y_end[2 * system.N]               # at the time reached, as the kernels' (a break's)
     diag[kn.D_DISSIPATED] = y_end[2 * system.N + system.n_extra] if system.damped else 0.0
     return Run(status, k, records, failure)

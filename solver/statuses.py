@@ -91,6 +91,8 @@ def status_message(p, s, status, diagnostics, diag, t_end, fixed, fail, full_pla
                        f"(largest delta before: {max_delta:.6g})")
         elif kind == kn.FAIL_NONFINITE and s.integrator == "dop853":
             message = f"dop853 failed {where}: {fail}"
+        elif kind == kn.FAIL_NONFINITE and fail:
+            message = f"{s.integrator} failed: {fail}"
         elif kind == kn.FAIL_NONFINITE:
             message = f"non-finite state {where} with the step at its smallest ({floor})"
         elif kind == kn.FAIL_STEP_UNDERFLOW:

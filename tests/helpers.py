@@ -340,3 +340,102 @@ def write_fake_batches(study, out, per_batch: int, seed: int = 0):
         entry["cases"] = [[c.case_id, "ok", "", 0.0] for c in cases]
         ledger.append(entry)
     return ledger
+
+
+def assert_breaking_consistent(result):
+    """A run that breaks (solve with fracture = "break") agrees with itself: its breaks in time
+    order, each one's part count that of the places so far (solver.breaking.whole_plate_parts),
+    the summary's counts, first break and breakthrough those of the breaks, each break's removed
+    energy the sum of its plate's part (never negative: the carry is a projection in the plate's
+    energies) and its layer's, the removed energies summing to the run's, and crack onset on each
+    surface that broke reaching the yield strain exactly at its first break on that surface (none
+    above it: a run that breaks refuses a larger eps_Y)."""
+    import pytest
+    from solver.breaking import whole_plate_parts
+    p, events, summary = result.parameters, result.extra["breaks"], result.extra["breaking"]
+    full = result.extra["full_plate"]
+    times = [e["time"] for e in events]
+    assert times == sorted(times)
+    assert summary["break_count"] == len(events)
+    assert [e["parts"] for e in events] == [whole_plate_parts([e["x"] for e in events[:k + 1]], full)
+                                            for k in range(len(events))]
+    assert summary["parts"] == (events[-1]["parts"] if events else 1)
+    assert summary["first_break_time"] == (times[0] if events else summary["first_break_time"])
+    through = [e["time"] for e in events if e["broken_through"]]
+    assert (np.isnan(summary["breakthrough_time"]) if not through else summary["breakthrough_time"] == through[0])
+    made = [e for e in events if "removed_energy" in e]           # (a break the run ended at removes none)
+    for e in made:
+        assert e["removed_plate_energy"] >= -1e-12 * abs(e["removed_energy"] + 1.0)
+        assert e["removed_energy"] == pytest.approx(e["removed_plate_energy"] + e["removed_layer_energy"], rel=1e-12,
+                                                    abs=1e-12)
+    ok = result.valid
+    if made and ok.any():
+        assert result.extra["removed_energy"][ok][-1] == pytest.approx(sum(e["removed_energy"] for e in made),
+                                                                        rel=1e-12, abs=1e-12)
+    for surface in ("upper", "lower"):
+        on = [e["time"] for e in events if e["surface"] == surface]
+        onset, _ = result.crack_onset([p.yield_strain], surface)
+        if on:
+            assert onset[0] <= on[0] * (1 + 1e-12) and onset[0] == pytest.approx(on[0], rel=1e-9), surface
+    with pytest.raises(Exception, match="above yield_strain"):
+        result.crack_onset([1.01 * p.yield_strain])
+
+
+def assert_breaking_study_consistent(ds):
+    """A study.nc in which ice breaks agrees with itself, case by case (assert_breaking_consistent's
+    rules on what study.nc stores): the listed breaks in time order and first, their count
+    break_count (or all slots, where a run broke more often than there are slots), each break's
+    part count that of the places so far and part_count the last, first_break_time and the
+    parts over time those of the break times, the removed energies summing to the case's, and
+    crack onset at the yield strain of ice that broke on a surface its first break there; its
+    eps_Y axis stops at the smallest yield strain of ice that breaks."""
+    from solver.breaking import whole_plate_parts
+    names = ["break_time", "break_x", "break_surface", "break_part_count", "break_removed_energy", "break_count",
+             "part_count", "first_break_time", "breakthrough_time", "removed_energy", "part_count_over_time",
+             "fracture", "yield_strain", "x0", "status"]
+    case_dims = [d for d in ds["part_count"].dims]
+    table = xr.Dataset({n: xr.broadcast(ds[n], ds["part_count"])[0] if ds[n].ndim < len(case_dims) else ds[n]
+                        for n in names})
+    flat = table.stack(case=case_dims) if case_dims else table.expand_dims("case")
+    onset = {s: ds[f"crack_onset_time{'' if s == 'upper' else '_lower'}"] for s in ("upper", "lower")}
+    breaking = np.asarray(flat["fracture"].values).astype(str) == "break"
+    if breaking.any():
+        assert float(ds["eps_Y"].max()) <= float(np.min(np.asarray(flat["yield_strain"].values)[breaking]))
+    t = ds["t"].values
+    for i in range(flat.sizes["case"]):
+        c = flat.isel(case=i)
+        times = np.asarray(c["break_time"].values, dtype=float)
+        n = int(np.isfinite(times).sum())
+        assert np.all(np.isfinite(times[:n])) and np.all(np.diff(times[:n]) >= 0)
+        count = int(c["break_count"])
+        assert count == n or (n == times.size and count > n)
+        if str(c["fracture"].values) != "break":
+            assert count == 0 and int(c["part_count"]) == 1
+            continue
+        x = np.asarray(c["break_x"].values, dtype=float)[:n]
+        full = float(c["x0"]) != 0.0 or bool(np.any(x < 0))
+        parts = [whole_plate_parts(x[:k + 1], full) for k in range(n)]
+        np.testing.assert_array_equal(np.asarray(c["break_part_count"].values)[:n], parts)
+        if count == n:
+            assert int(c["part_count"]) == (parts[-1] if n else 1)
+        assert (np.isnan(float(c["first_break_time"])) if not n else float(c["first_break_time"]) == times[0])
+        over = np.asarray(c["part_count_over_time"].values, dtype=float)
+        expected = np.array([([1] + parts)[int(np.sum(times[:n] < tk))] for tk in t], dtype=float)
+        reached = np.isfinite(over)
+        np.testing.assert_array_equal(over[reached], expected[reached])
+        removed = np.asarray(c["break_removed_energy"].values, dtype=float)[:n]
+        made = removed[np.isfinite(removed)]
+        assert float(c["removed_energy"]) == pytest_approx(float(made.sum()))
+        if n:
+            index = {d: c[d].values for d in case_dims}
+            surfaces = np.asarray(c["break_surface"].values)[:n]
+            for code, surface in enumerate(("upper", "lower")):
+                on = times[:n][surfaces == code]
+                if on.size:
+                    value = float(onset[surface].sel(**index).sel(eps_Y=float(c["yield_strain"]), method="nearest"))
+                    assert abs(value - on[0]) <= 1e-9 * on[0], (index, surface, value, on[0])
+
+
+def pytest_approx(value):
+    import pytest
+    return pytest.approx(value, rel=1e-12, abs=1e-12)

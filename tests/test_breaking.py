@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from helpers import BASE, NUMERICS, OPTIONS, SUBINTERVALS
+from helpers import BASE, NUMERICS, OPTIONS, SUBINTERVALS, assert_breaking_consistent
 from solver import ParameterError, Parameters, Settings, solve
 from solver.model import parts
 
@@ -85,7 +85,7 @@ def test_the_cascade(breaking_run):
     breaks = r.extra["breaks"]
     times = [e["time"] for e in breaks]
     assert times == sorted(times) and breaks[0]["x"] == 0.0 and breaks[0]["surface"] == "lower"
-    assert [e["parts"] for e in breaks] == list(range(4, 4 + 2 * len(breaks), 2))
+    assert [e["parts"] for e in breaks] == list(range(2, 2 + 2 * len(breaks), 2))   # the centre's: 2, then 2 a break
     assert breaks[1]["surface"] == "upper" and breaks[1]["broken_through"]
     summary = r.extra["breaking"]
     assert summary["breakthrough_time"] == breaks[1]["time"]
@@ -97,6 +97,34 @@ def test_the_cascade(breaking_run):
     assert onset[1] == pytest.approx(breaks[0]["time"], rel=1e-9) and onset[0] < onset[1]   # sub-step below)
     after = r.times > breaks[0]["time"]
     assert np.all(np.isnan(r.amplitudes[after & r.valid])) and np.all(np.isfinite(r.fields["strain"][r.valid]))
+    assert_breaking_consistent(r)
+
+
+def test_crack_onset_at_the_yield_strain_is_the_break(breaking_run):
+    """Crack onset at eps_Y = yield_strain is the first break on that surface, in the records, in
+    the located crossings (locate_eps_Y) and through to_dataset; below it the unbroken run's;
+    above it refused in one line (the tension never passes the yield strain). The records end at
+    the level itself at a break (the located break is the last sub-step below it)."""
+    p, r = breaking_run
+    first = {s: next(e for e in r.extra["breaks"] if e["surface"] == s) for s in ("upper", "lower")}
+    for surface, event in first.items():
+        t, x = r.crack_onset([EPS_Y], surface)
+        assert t[0] == pytest.approx(event["time"], rel=1e-12) and x[0] == pytest.approx(event["x"], abs=1e-9)
+    located = solve(p, Settings(quadrature="gauss"), fields=(), t_end=8e-4, times=[0.0, 8e-4],
+                    locate_eps_Y=[0.9 * EPS_Y, EPS_Y])
+    for surface, event in first.items():
+        t, _ = located.extra["located_crack_onset"][surface]
+        assert t[1] == pytest.approx(event["time"], rel=1e-8) and t[0] < t[1]     # (located to 1e-13 s)
+    case = r.to_dataset()
+    assert float(case["eps_Y"].max()) == EPS_Y
+    assert float(case["crack_onset_time_lower"].sel(eps_Y=EPS_Y)) == pytest.approx(first["lower"]["time"], rel=1e-12)
+    for bad in (dict(eps_Y=[1e-4]), dict(eps_Y="8e-5"), dict(eps_Y=["abc"]), dict(eps_Y=[-1e-5]),
+                dict(eps_Y=[math.nan])):
+        with pytest.raises(ParameterError) as err:
+            r.crack_onset(**bad)
+        assert "\n" not in str(err.value) and ("above yield_strain" in str(err.value) or "eps_Y must" in str(err.value))
+    with pytest.raises(ParameterError, match="above yield_strain"):
+        r.to_dataset(eps_Y=[EPS_Y, 2 * EPS_Y])
 
 
 def test_the_first_break_and_breakthrough_converge_in_the_modes():
@@ -112,14 +140,43 @@ def test_the_first_break_and_breakthrough_converge_in_the_modes():
     assert runs[60]["breakthrough_time"] == pytest.approx(runs[40]["breakthrough_time"], rel=5e-3)
 
 
-def test_the_cap_on_the_parts():
-    """max_parts = 4: the centre's break makes 4 parts of the whole plate, the next would make 6:
-    the run ends there, status parts_limit, its data up to then valid."""
-    p = Parameters(Nmod=20, fracture="break", yield_strain=EPS_Y, max_parts=4)
+@pytest.mark.parametrize("max_parts, parts", [(2, [2]), (3, [2]), (4, [2, 4]), (5, [2, 4])])
+def test_the_cap_on_the_parts(max_parts, parts):
+    """The centre's break cuts the whole plate into 2 parts, each later break (at x and -x on the
+    half plate) adds 2: with max_parts = 2 or 3 the first break is made and the second (4 parts)
+    ends the run, with 4 or 5 the second is made and the third (6) ends it; status parts_limit,
+    its data up to then valid."""
+    p = Parameters(Nmod=20, fracture="break", yield_strain=EPS_Y, max_parts=max_parts)
     r = solve(p, Settings(quadrature="gauss"), fields=(), t_end=2e-3)
-    assert r.status == "parts_limit" and "max_parts = 4" in r.message
-    assert [e["parts"] for e in r.extra["breaks"]] == [4]
+    assert r.status == "parts_limit" and f"max_parts = {max_parts}" in r.message
+    assert [e["parts"] for e in r.extra["breaks"]] == parts
     assert r.time_reached < 2e-3 and np.all(np.isfinite(r.work[r.valid]))
+    assert_breaking_consistent(r)
+
+
+def test_an_arithmetic_error_in_the_kernels_is_a_status():
+    """A yield strain so small (1e-300: accept_extreme_values lets a study give it) that the first
+    break comes at 1e-250 s, where the next stage divides by an underflowed value: the run ends
+    nonfinite with one line naming the error, the first stage's data kept, not an exception."""
+    p = Parameters(Nmod=6, fracture="break", yield_strain=1e-300)
+    r = solve(p, Settings(), fields=(), t_end=1e-4, times=[0.0, 1e-4])
+    assert r.status == "nonfinite" and "ZeroDivisionError" in r.message and "\n" not in r.message
+    assert r.valid[0] and len(r.extra["breaks"]) == 1
+
+
+def test_the_whole_plate_counts_the_same_parts():
+    """The same breaks on the half plate of a centred impact and on the whole plate
+    (full_plate=True): the same number of parts after each (the centre's break cuts 2 parts,
+    the pair at +-x on the half plate two more, as the two breaks on the whole plate)."""
+    p = Parameters(Nmod=12, fracture="break", yield_strain=EPS_Y)
+    s = Settings(quadrature="gauss")
+    half = solve(p, s, fields=(), t_end=8e-4, times=[0.0, 8e-4])
+    whole = solve(p, s, fields=(), t_end=8e-4, times=[0.0, 8e-4], full_plate=True)
+    assert half.extra["breaks"][0]["x"] == 0.0 and half.extra["breaks"][1]["x"] > 0.0
+    assert half.extra["breaking"]["parts"] == whole.extra["breaking"]["parts"] == 4
+    assert [e["parts"] for e in whole.extra["breaks"]] == [2, 3, 4]
+    for r in (half, whole):
+        assert_breaking_consistent(r)
 
 
 def test_what_a_breaking_run_refuses():
@@ -144,10 +201,20 @@ def test_what_a_breaking_run_refuses():
     assert p.yield_strain == EPS_Y and p.max_parts == 16          # the paper's eps_Y, 16 parts
     with pytest.raises(ParameterError, match="gauss"):
         solve(p, Settings(quadrature="paper"), fields=())
-    for kw, match in ((dict(breaks=[1.0]), "initial"), (dict(initial_amplitudes=np.zeros(10)), "initial"),
-                      (dict(end="answered", eps_Y=[EPS_Y], outputs=("crack_onset_time",)), "end = 'stage'")):
-        with pytest.raises(ParameterError, match=match):
-            solve(p, s, fields=(), **kw)
+    state = (np.zeros(10), np.zeros(10), [])
+    for kw, match in ((dict(breaks=[1.0]), "breaks is not read"),
+                      (dict(initial_amplitudes=np.zeros(10)), "initial_amplitudes is not read"),
+                      (dict(initial_state=state), "initial_state is not read"),
+                      (dict(break_strain=1e-4), "break_strain is not read"),
+                      (dict(t_start=1e-4, times=[1e-4, 2e-4], t_end=2e-4), "t_start is not read"),
+                      (dict(end="answered", eps_Y=[EPS_Y], outputs=("crack_onset_time",)), "end = 'stage'"),
+                      (dict(end="bogus"), "end must be one of"),
+                      (dict(locate_eps_Y=[1e-4]), "above yield_strain = 8e-05"),
+                      (dict(fields="strain"), "fields must be a list of names, got the string 'strain'"),
+                      (dict(outputs="max_strain"), "outputs must be a list of names")):
+        with pytest.raises(ParameterError, match=match) as err:
+            solve(p, s, **{"fields": (), **kw})
+        assert "\n" not in str(err.value)
 
 
 def test_a_dropped_body_goes_on_across_the_breaks():

@@ -111,8 +111,10 @@ def plan(outputs, eps_Y, end, floe=True):
             raise ParameterError('end = "answered" with no crack onset asked: nothing ends the run early')
         return bits, (math.inf,) * 4, asked
     levels = [float(v) for v in (eps_Y if eps_Y is not None else ())]
-    if not levels or not all(math.isfinite(v) and v > 0 for v in levels):
+    if not levels:
         raise ParameterError('end = "answered" needs eps_Y, the yield strains the crack onsets are asked at')
+    if not all(math.isfinite(v) and v > 0 for v in levels):
+        raise ParameterError(f"eps_Y must be yield strains, finite numbers > 0 [1]; got {list(eps_Y)!r}")
     top = max(levels)
     answer = tuple(top if any(ONSET_RECORD[n] == record for n in onsets) else -math.inf for record in RECORDS)
     return bits, answer, asked
