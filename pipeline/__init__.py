@@ -11,7 +11,7 @@ From the shell: ``floe-impact run|status|show`` (= ``python -m pipeline``).
 from importlib.metadata import PackageNotFoundError, version as _version
 
 from .api import open_emulator, open_sensitivity, open_study, run_study, study_text
-from .common.errors import ResultsIOError, StudyError
+from .common.errors import EmulatorError, ResultsIOError, StudyError
 from .store.lock import StudyLocked
 
 try:
@@ -19,5 +19,5 @@ try:
 except PackageNotFoundError:                    # a source tree that was not installed
     __version__ = "unknown"
 
-__all__ = ["ResultsIOError", "StudyError", "StudyLocked", "open_emulator", "open_sensitivity", "open_study",
+__all__ = ["EmulatorError", "ResultsIOError", "StudyError", "StudyLocked", "open_emulator", "open_sensitivity", "open_study",
            "run_study", "study_text"]

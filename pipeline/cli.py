@@ -150,6 +150,8 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
             raise
         return load_study_copy(fallback), fallback
     out_dir = Path(out) if out else Path("results") / study.name
+    if not out and given.name == STUDY_COPY and study_copy_name(given.parent) == study.name:
+        out_dir = given.parent                      # a results directory's own copy: its results are there
     held = study_copy_name(out_dir)
     if held is not None and held != study.name:       # status would list its cases as pending, show draw into it
         raise StudyError(f"{out_dir} holds the results of study {held!r}, not of {study.name!r}: give that "

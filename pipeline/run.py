@@ -210,11 +210,16 @@ CASE_OVERHEAD = 50_000
 
 def output_size(study) -> tuple:
     """(bytes one case holds in a worker's memory, bytes the study writes to disk), estimated
-    from the output request: each field is times x x_points doubles."""
+    from the output request: each field is times x x_points doubles; where ice breaks, each
+    case's break slots (max_parts - 1) hold the BREAKING_INFO values along break_number, and the
+    parts over time one more series."""
+    from solver.outputs import BREAKING_INFO       # (numba: the doors do not load it at their tops)
     times = study.case(0).requested_times().size
     fields = len(study.output.fields) * times * study.output.x_points * 8
-    per_case = fields + 3 * times * 8 + CASE_OVERHEAD
-    memory = 4 * fields + CASE_OVERHEAD                   # the solver's, the case's and the batch's copies
+    slots = study.output.break_slots
+    breaks = (sum(along == "break" for *_, along in BREAKING_INFO.values()) * slots + times) * 8 if slots else 0
+    per_case = fields + breaks + 3 * times * 8 + CASE_OVERHEAD
+    memory = 4 * (fields + breaks) + CASE_OVERHEAD        # the solver's, the case's and the batch's copies
     disk = 2 * per_case * len(study.run_ids)              # batch files and study.nc
     return memory, disk
 
@@ -224,8 +229,9 @@ def _refuse_what_cannot_fit(study, out_dir: Path) -> None:
     total_memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
     if memory > total_memory / 4:
         raise StudyError(f"one case's output needs about {memory / 2**30:.1f} GiB of memory ([output] fields x "
-                         f"times x x_points), more than a quarter of this machine's {total_memory / 2**30:.0f} GiB; "
-                         f"ask for fewer fields, times or x_points")
+                         f"times x x_points{', and max_parts - 1 break slots' if study.output.break_slots else ''}), "
+                         f"more than a quarter of this machine's {total_memory / 2**30:.0f} GiB; ask for fewer fields, "
+                         f"times or x_points{', or a smaller max_parts' if study.output.break_slots else ''}")
     if (out_dir / "ledger.jsonl").exists():               # a resume: much of it is written already
         return
     base = out_dir.absolute()
@@ -234,7 +240,8 @@ def _refuse_what_cannot_fit(study, out_dir: Path) -> None:
     free = shutil.disk_usage(base).free
     if disk > free:
         raise StudyError(f"the study would write about {disk / 2**30:.1f} GiB, more than the "
-                         f"{free / 2**30:.1f} GiB free under {base}; ask for fewer fields, times or x_points")
+                         f"{free / 2**30:.1f} GiB free under {base}; ask for fewer fields, times or x_points"
+                         f"{', or a smaller max_parts' if study.output.break_slots else ''}")
 
 
 def _identity(out_dir: Path) -> tuple:

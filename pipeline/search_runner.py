@@ -46,6 +46,16 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
     return bool(np.isfinite(ds[name].values[i, k]))
 
 
+def _ended(ds, i: int, search: dict) -> str:
+    """How case i of the evaluations' study.nc ended without an answer, in a few words: its
+    status and message (a run that ended at a break it could not make before breaking through:
+    what stopped it)."""
+    status, message = str(ds["status"].values[i]), str(ds["message"].values[i])
+    before = " before it broke through" if search.event == "breakthrough" and status in ("parts_limit",
+                                                                                          "wall_break") else ""
+    return f"it ended {status}{before}" + (f" ({message})" if message else "")
+
+
 def _evaluation_text(study, cases: list) -> str:
     """The evaluations' study: the search study's [base], [solver] and [output] (its eps_Y with
     the search's), and one [[cases]] entry a run."""
@@ -88,7 +98,9 @@ def run_search(study, out_dir: Path, options, run_study) -> int:
                           sum(t.status == "searching" for t in targets))
             for t in targets:
                 if wanted[id(t)]:
-                    t.learn({v: _event(ds, runs.row(t.point, v), search, t.eps) for v in wanted[id(t)]}, search)
+                    outcomes = {v: _event(ds, runs.row(t.point, v), search, t.eps) for v in wanted[id(t)]}
+                    t.learn(outcomes, search, {v: _ended(ds, runs.row(t.point, v), search) for v, happened
+                                               in outcomes.items() if happened is None})
             _refuse_no_crossing(search, targets, points)
     none = [t for t in targets if t.status == "no_crossing"]
     if none:

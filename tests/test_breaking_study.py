@@ -2,6 +2,8 @@
 study.nc holds each case's breaks along break_number, the breakthrough and the number of parts
 over time, as solve gives them for the same case; a grid over fracture shares its unbroken cases
 with a study that does not break; what only breaking reads is refused where nothing breaks."""
+import math
+
 import numpy as np
 import pytest
 
@@ -9,6 +11,7 @@ import pipeline
 from pipeline import StudyError
 from pipeline.study.definition import load_study_text
 from pipeline.study.identity import case_id
+from helpers import assert_breaking_study_consistent
 from solver import Parameters, Settings, solve
 from solver.breaking import breaking_values
 
@@ -51,6 +54,25 @@ def test_a_study_stores_what_solve_gives_for_each_case(studies):
         assert case["first_break_time"] < case["breakthrough_time"] <= p.duration
         for name in ("break_time", "breakthrough_time", "part_count_over_time"):
             assert ds[name].attrs["units"] in ("s", "1") and ds[name].attrs["long_name"]
+    assert_breaking_study_consistent(ds)
+
+
+def test_crack_onset_of_a_study_that_breaks_stops_at_the_yield_strain(studies):
+    """The default eps_Y axis of a study where ice breaks ends at its yield strain (8e-5 here),
+    and crack onset there is the first break on its surface (assert_breaking_study_consistent);
+    asking the stored records for a larger eps_Y is refused in one line, as a study that lists
+    one is."""
+    from pipeline.store.fracture import crack_onset
+    _, ds = studies
+    assert float(ds["eps_Y"].max()) == 8e-5 and float(ds["eps_Y"].min()) == 1e-5
+    onset = crack_onset(ds)
+    np.testing.assert_array_equal(onset["crack_onset_time"].values, ds["crack_onset_time"].values)
+    with pytest.raises(ValueError, match="above yield_strain = 8e-05") as err:
+        crack_onset(ds, eps_Y=[8e-5, 1e-4])
+    assert "\n" not in str(err.value)
+    for bad in ("8e-5", ["x"], [-1e-5]):
+        with pytest.raises(ValueError, match="eps_Y must be yield strains"):
+            crack_onset(ds, eps_Y=bad)
 
 
 def test_the_unbroken_cases_of_a_study_that_breaks(studies):
@@ -87,6 +109,19 @@ def test_case_ids_of_a_grid_over_fracture():
     ({"base": {**BASE, "fracture": "break", "max_parts": 1}}, "max_parts must be an integer >= 2"),
     ({"base": {**BASE, "fracture": "break", "edges": "free"}}, "floe's parts are not built"),
     ({"base": {**BASE, "fracture": "break"}, "solver": {"quadrature": "paper"}}, "quadrature = 'gauss'"),
+    ({"base": {**BASE, "fracture": "break"}, "output": {**OUTPUT, "eps_Y": [5e-5, 1e-4]}},
+     "eps_Y = 0.0001 is above yield_strain = 8e-05"),
+    ({"grid": {"fracture": ["none", "break"], "yield_strain": [5e-5, 1e-4]},
+      "output": {**OUTPUT, "eps_Y": [6e-5]}}, "eps_Y = 6e-05 is above yield_strain = 5e-05"),
+    ({"base": {**BASE, "fracture": "break"}, "search": {"key": "V", "bracket": [1.0, 5.0], "event": "crack_onset",
+                                                       "eps_Y": [2e-4]}},
+     "eps_Y = 0.0002 is above yield_strain"),
+    ({"output": {**OUTPUT, "outputs": ["breakthrough_time"]}}, "breakthrough_time is an output of ice that breaks"),
+    ({"base": {**BASE, "fracture": "break", "max_parts": 1e9}}, "max_parts must be at most 1000"),
+    ({"base": {**BASE, "fracture": "break", "max_parts": 2**63 - 1}}, "max_parts must be at most 1000"),
+    ({"base": {**BASE, "fracture": "break", "max_parts": math.nan}}, "max_parts must be a positive integer"),
+    ({"base": {**BASE, "fracture": "break", "max_parts": math.inf}}, "max_parts must be a positive integer"),
+    ({"base": {**BASE, "fracture": "break", "max_parts": "6"}}, "max_parts must be a number"),
 ])
 def test_what_a_study_that_breaks_refuses(change, words):
     """One line naming the problem, when the study is read (before anything is written)."""
@@ -112,5 +147,14 @@ def test_a_breakthrough_search_reads_the_breakthrough():
         with pytest.raises(StudyError, match=words):
             load_study_text(pipeline.study_text({"search": search, "output": OUTPUT, **bad}), "bad")
     ds = xr.Dataset({"status": ("case", ["ok", "separated", "wall_break", "parts_limit", "nonfinite"]),
+                     "message": ("case", ["", "", "", "the plate would break into more than max_parts = 2 parts", "x"]),
                      "breakthrough_time": ("case", [1e-3, np.nan, 2e-3, np.nan, 1e-3])})
     assert [_event(ds, i, study.search, None) for i in range(5)] == [True, False, True, None, None]
+    # a run with no answer says how it ended: a search whose runs all stopped at max_parts names it
+    from pipeline.search_runner import _ended
+    from pipeline.study.search import Target
+    target = Target(0, None, study.search)
+    target.learn({2.0: None}, study.search, {2.0: _ended(ds, 3, study.search)})
+    assert target.status == "failed"
+    assert target.message == ("the run at V = 2 gave no answer: it ended parts_limit before it broke through (the "
+                              "plate would break into more than max_parts = 2 parts)")

@@ -174,12 +174,26 @@ def test_the_emulator_predicts_within_its_error_estimate_and_refuses_what_it_can
                           (dict(V=2.0), "missing hi"), (dict(V=2.0, hi=0.5, K=1e7), "unknown K"),
                           (dict(V=None, hi=0.5), "V = None: give numbers"),
                           (dict(V="fast", hi=0.5), "V = 'fast': give numbers"),
+                          (dict(V="2.0", hi=0.5), "V = '2.0': give numbers"),
+                          (dict(V=["2.0", 3.0], hi=0.5), "give numbers"),
                           (dict(V=[2.0, float("nan")], hi=0.5), "give numbers"),
                           (dict(V=[2.0, 3.0], hi=[0.4, 0.5, 0.6]), "do not broadcast to one shape: V (2,), hi (3,)")):
         with pytest.raises(EmulatorError, match=re.escape(words)):
             emulator.predict("max_strain", **kwargs)
     with pytest.raises(EmulatorError, match="no output 'max_force'"):
         emulator.predict("max_force", V=2.0, hi=0.5)
+    # no points: no predictions (numpy's rule for an empty array), not a refusal
+    empty = emulator.predict("max_strain", V=np.array([]), hi=np.array([]))
+    assert empty.value.shape == empty.error.shape == (0,)
+
+
+def test_the_emulators_error_is_caught_where_it_was_and_where_studys_is():
+    """EmulatorError is pipeline's, as StudyError is, and still the one the emulator's old module
+    path names (pipeline.emulator, before pipeline/ was laid out by stage)."""
+    import pipeline.emulator
+    from pipeline.analyse import emulator as staged
+    assert pipeline.EmulatorError is staged.EmulatorError is pipeline.emulator.EmulatorError is EmulatorError
+    assert pipeline.emulator.Emulator is staged.Emulator and "EmulatorError" in pipeline.__all__
 
 
 STUDY = """

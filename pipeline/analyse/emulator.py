@@ -20,12 +20,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..common.errors import EmulatorError
 from .sensitivity import unit_scale
 from .surrogate import evaluate
-
-
-class EmulatorError(ValueError):
-    """The emulator cannot answer: its one line says why."""
 
 
 class Prediction(NamedTuple):
@@ -69,11 +66,12 @@ class Emulator:
                                 + (f"; unknown {', '.join(unknown)}" if unknown else ""))
         arrays = []
         for k in self.keys:
-            try:
-                a = np.asarray(values[k], dtype=float)
+            try:       # (text is not a number, though numpy would read "0.3" as one)
+                a = np.array([np.nan]) if np.asarray(values[k]).dtype.kind in "USO" else \
+                    np.asarray(values[k], dtype=float)
             except (TypeError, ValueError):
                 a = np.array([np.nan])
-            if a.size == 0 or np.isnan(a).any():
+            if np.isnan(a).any():         # (an empty array is no points: an empty prediction)
                 raise EmulatorError(f"{k} = {values[k]!r}: give numbers (a scalar or an array of them)")
             arrays.append(a)
         try:

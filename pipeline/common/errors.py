@@ -7,6 +7,10 @@ class StudyError(ValueError):
     """A study file or command line that cannot be run; the message is one line."""
 
 
+class EmulatorError(ValueError):
+    """The emulator (pipeline.open_emulator) cannot answer: its one line says why."""
+
+
 def check_table(section: str, table, known: set) -> None:
     """Refuse a study file's table that is not a table or holds a key not in known (one line)."""
     if not isinstance(table, dict):

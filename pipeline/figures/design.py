@@ -12,7 +12,7 @@ import matplotlib.ticker
 import numpy as np
 import xarray as xr
 
-from ..store.sealed import is_intact
+from ..store.sealed import problem
 from ..common.tables import COMPLETE
 from .common import log_spaced, save, tick_label, auto_log_y, paper_eps_Y, design_axis, plt
 
@@ -209,8 +209,9 @@ def draw_sensitivity(ds: xr.Dataset, dims: list, out_dir: Path) -> tuple:
     source = out_dir / "sensitivity.nc"
     if not source.exists():
         return [], "sensitivity figure needs the [analysis]'s sensitivity.nc: skipped"
-    if not is_intact(source):
-        return [], f"sensitivity figure: {source} does not match its checksum: skipped (run again to rebuild it)"
+    wrong = problem(source)
+    if wrong is not None:
+        return [], f"sensitivity figure: {source} {wrong}: skipped (run again to rebuild it)"
     with xr.open_dataset(source) as indices:
         return [sensitivity_figure(indices.load(), out_dir / "sensitivity.png")], ""
 
@@ -220,8 +221,9 @@ def draw_emulator(ds: xr.Dataset, dims: list, out_dir: Path) -> tuple:
     source = out_dir / "sensitivity.nc"
     if not source.exists():
         return [], "emulator figure needs the [analysis]'s sensitivity.nc: skipped"
-    if not is_intact(source):
-        return [], f"emulator figure: {source} does not match its checksum: skipped (run again to rebuild it)"
+    wrong = problem(source)
+    if wrong is not None:
+        return [], f"emulator figure: {source} {wrong}: skipped (run again to rebuild it)"
     with xr.open_dataset(source) as indices:
         if "held_out" not in indices:
             return [], "emulator figure needs [analysis] method = \"pce\": skipped"

@@ -9,7 +9,7 @@ import numpy as np
 import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, ParameterError, default_eps_Y
-from solver.fracture import yield_strains
+from solver.fracture import above_yield_strain, yield_strains
 from solver.breaking import breaking_values
 from solver.outputs import BREAKING_INFO, SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
@@ -74,6 +74,9 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
     elif np.any(eps > result.answered_eps_Y):
         raise ParameterError(f"eps_Y = {eps.max():g} is above {result.answered_eps_Y:g}, the largest the run "
                              f"answered (end = 'answered')")
+    if eps_Y is None and p.fracture == "break":    # ice that breaks: defined up to its yield strain
+        eps = np.unique(np.r_[eps[eps <= p.yield_strain], p.yield_strain])
+    above_yield_strain(p, eps)
     for name, values in onset_from_records(result.tension_record, eps).items():
         data[name] = (("eps_Y",), values, {**_attrs(*CRACK_INFO[name]), **asked_attributes(name, result.outputs, answered)})
     for record, (_, _, follows) in TENSION_RECORDS.items():     # the event records, one table each

@@ -23,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import xarray as xr
 
-from solver import EPS_Y_INFO, crack_onset as _from_record, default_eps_Y
+from solver import EPS_Y_INFO, ParameterError, crack_onset as _from_record, default_eps_Y
+from solver.fracture import yield_strains
 
 from .casefile import ragged_offsets, tension_records
 from solver.outputs import TENSION_RECORDS, onset_names
@@ -62,6 +63,16 @@ def eps_Y_coord(eps_Y) -> tuple:
     return ("eps_Y", np.asarray(eps_Y, dtype=float), {"long_name": long_name, "units": units})
 
 
+def breaking_yield_strain(ds) -> float | None:
+    """The smallest yield_strain of the cases of a study.nc or batch file whose ice breaks (None:
+    none does, or the file predates breaking)."""
+    if "fracture" not in ds or "yield_strain" not in ds:
+        return None
+    fracture, strain = xr.broadcast(ds["fracture"], ds["yield_strain"])
+    breaks = np.asarray(fracture.values).astype(str) == "break"
+    return float(np.min(np.asarray(strain.values, dtype=float)[breaks])) if breaks.any() else None
+
+
 def crack_onset(source, eps_Y=None) -> xr.Dataset:
     """Crack onset time and place on both surfaces, plate-wide and within the impact zone, for a
     list of yield strains.
@@ -76,18 +87,29 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
     xarray.Dataset with ``crack_onset_time`` [s], ``crack_onset_x`` [m], their ``_lower``
     versions and their ``impact_zone_`` versions (the impact zone's), over the source's case dimensions (a study's grid keys, or ``case``) and eps_Y.
     """
-    eps = np.sort(np.atleast_1d(np.asarray(default_eps_Y() if eps_Y is None else eps_Y, dtype=float)))
-    if eps.ndim != 1 or not np.all((eps > 0) & (eps < 1)):
-        raise ValueError("eps_Y must be yield strains in (0, 1)")
+    try:
+        eps = None if eps_Y is None else np.sort(yield_strains(eps_Y).reshape(-1))
+    except ParameterError:
+        eps = None
+    if eps_Y is not None and (eps is None or not np.all(eps < 1)):
+        raise ValueError(f"eps_Y must be yield strains in (0, 1), got {eps_Y!r}")
     if isinstance(source, (str, Path)):
         with xr.open_dataset(source) as ds:
             return crack_onset(ds.load(), eps)
     ds = source
+    if eps is None:                     # the default; where ice breaks, up to its yield strain
+        eps, top = default_eps_Y(), breaking_yield_strain(ds)
+        eps = eps if top is None else np.unique(np.r_[eps[eps <= top], top])
     level = ds.attrs.get("answered_eps_Y")
     if level is not None and eps.max() > float(level):
         raise ValueError(f"eps_Y = {eps.max():g} is above {float(level):g}, the largest yield strain this study's "
                          f"runs answered ([output] end = \"answered\"): its records end there; run the study with a "
                          f"larger eps_Y, or without end = \"answered\"")
+    top = breaking_yield_strain(ds)
+    if top is not None and eps.max() > top:
+        raise ValueError(f"eps_Y = {eps.max():g} is above yield_strain = {top:g}, where the ice of a case here breaks "
+                         f"(fracture = \"break\"): its tension never passes it, so crack onset is defined for "
+                         f"eps_Y <= {top:g}")
     missing = [name for name in ("tension_record_count", *TENSION_RECORD_INFO) if name not in ds]
     if missing:
         raise ValueError(f"no tension record in this dataset ({missing[0]} is missing): a study.nc "

@@ -12,8 +12,8 @@ import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError, Parameters, Settings
 from solver.outputs import OBSERVED
-from solver.parameters import (CHOICES, COUPLED_KEYS, NOT_MONOTONE, TIME_SCALE_KEYS, outside_physical_range,
-                               time_scale_of)
+from solver.parameters import (CHOICES, COUPLED_KEYS, MAX_PARTS, NOT_MONOTONE, TIME_SCALE_KEYS,
+                               outside_physical_range, time_scale_of)
 from solver.keys import BREAKING_KEYS
 from solver.settings import NAMED_SETTINGS, check_combination
 
@@ -47,7 +47,25 @@ def break_slots(study) -> int:
                 raise StudyError(f"{key} is read only by a run that breaks, and no case of the study does: "
                                  f"give fracture = \"break\" in [base], [grid] or [[cases]]")
         return 0
-    return max(int(m) for m in key_values(study, "max_parts") if isinstance(m, (int, float))) - 1
+    # (a value that is no whole number in 2..MAX_PARTS is refused with its case: solver.parameters)
+    sizes = [min(int(m), MAX_PARTS) for m in key_values(study, "max_parts")
+             if isinstance(m, (int, float)) and not isinstance(m, bool) and math.isfinite(m) and m >= 2]
+    return max(sizes, default=2) - 1
+
+
+def breaking_yield_strain(study) -> float | None:
+    """The smallest yield_strain of a case whose ice breaks (None: no case breaks): its tension
+    never passes it, so the study's crack onsets are defined up to it."""
+    base_fracture = study.base.get("fracture", Parameters().fracture)
+    base_strain = study.base.get("yield_strain", Parameters().yield_strain)
+    if study.case_list and study.case_list != [{}]:
+        pairs = [(entry.get("fracture", base_fracture), entry.get("yield_strain", base_strain))
+                 for entry in study.case_list]
+    else:
+        pairs = [(f, y) for f in study.grid.get("fracture", [base_fracture])
+                 for y in study.grid.get("yield_strain", [base_strain])]
+    strains = [float(y) for f, y in pairs if f == "break" and isinstance(y, (int, float)) and not isinstance(y, bool)]
+    return min(strains) if strains else None
 
 
 def check_ranges(study) -> None:

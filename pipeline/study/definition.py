@@ -33,12 +33,12 @@ from pathlib import Path
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
-from solver.outputs import CRACK_ONSET_TIMES, OBSERVED, ONSET_RECORD, RECORDS
+from solver.outputs import BREAKING_INFO, CRACK_ONSET_TIMES, OBSERVED, ONSET_RECORD, RECORDS
 
 from ..common.errors import StudyError
 from .analysis import Analysis, check_analysis
 from .case import Case, coordinate_times
-from .consistency import body_masses, break_slots, check_grid_values, key_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
+from .consistency import body_masses, break_slots, breaking_yield_strain, check_grid_values, key_values, check_outputs_read, check_ranges, longest_stage_in_t_sc
 from .design import Design, check_design, design_cases, design_size
 from .identity import case_id, grid_case_ids, grid_label, make_case, resolve_sample, wider_output
 from .search import EVENTS, Search, check_bracket, check_search, search_points
@@ -236,6 +236,11 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
     if output.outputs == READ:
         study.output = output = replace(output, outputs=_read(study))
     study.output = output = replace(output, break_slots=break_slots(study))
+    study.output = output = _eps_Y_of_breaking_ice(study, output)
+    breaking = sorted(set(output.outputs or ()) & set(BREAKING_INFO))
+    if breaking and not output.break_slots:
+        raise StudyError(f"[output] outputs: {breaking[0]} is an output of ice that breaks, and no case of the study "
+                         f"does: give fracture = \"break\" in [base], [grid] or [[cases]]")
     if (not output.end_given and output.outputs is not None and set(output.outputs) <= set(ONSET_RECORD)
             and not output.break_slots):               # (a run that breaks runs to its end)
         study.output = output = replace(output, end="answered")     # the answers: nothing read changes
@@ -257,6 +262,25 @@ def load_study_text(text: str, name: str, path: Path | None = None, max_cases: i
         check_ranges(study)
     expand(study)
     return study
+
+
+def _eps_Y_of_breaking_ice(study, output):
+    """Where some case's ice breaks, its tension never passes its yield_strain, so crack onset is
+    defined up to the smallest (breaking_yield_strain): the default [output] eps_Y stops there
+    (and holds it: crack onset at it is the first break on its surface); an eps_Y the study reads
+    above it is refused in one line. Returns the Output."""
+    top = breaking_yield_strain(study)
+    if top is None:
+        return output
+    if not output.eps_Y_given:
+        output = replace(output, eps_Y=tuple(sorted({e for e in output.eps_Y if e <= top} | {top})))
+        study.output = output
+    above = [e for e in study.eps_Y_read() if e > top]
+    if above:
+        raise StudyError(f"eps_Y = {max(above):g} is above yield_strain = {top:g}, where the ice of a case breaks "
+                         f"(fracture = \"break\"): its tension never passes it, so crack onset is defined for "
+                         f"eps_Y <= {top:g}")
+    return output
 
 
 def _tables(text: str, path: Path) -> dict:

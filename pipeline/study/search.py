@@ -219,13 +219,16 @@ class Target:
             return scan_values(search)
         return [_middle(self.lo, self.hi, search.log)]
 
-    def learn(self, outcomes: dict, search: dict) -> None:
-        """The outcomes of this round's runs (value -> True/False, or None: the run failed)."""
+    def learn(self, outcomes: dict, search: dict, why: dict | None = None) -> None:
+        """The outcomes of this round's runs (value -> True/False, or None: the run gave no answer,
+        why[value] saying how it ended)."""
         for value, happened in outcomes.items():
             if value not in self.values:
                 self.values.append(value)
             if happened is None:
-                self.status, self.message = "failed", f"the run at {search.key} = {value:g} failed"
+                reason = (why or {}).get(value)
+                self.status, self.message = "failed", f"the run at {search.key} = {value:g} " + (
+                    f"gave no answer: {reason}" if reason else "failed")
                 return
         if self.at_lo is None:                   # the scan: the first interval where the event changes
             values = sorted(outcomes)

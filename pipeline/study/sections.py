@@ -151,7 +151,9 @@ class Output:
     whether the table says how far a case runs (without it, a study whose outputs are crack onsets
     only ends each run at its answer: load_study_text); break_slots: the breaks stored per case
     along break_number, max_parts - 1 of the largest max_parts of a case that breaks (0: none
-    breaks, the breaking outputs are not stored), set by the study from its cases."""
+    breaks, the breaking outputs are not stored), set by the study from its cases; eps_Y_given:
+    whether the table lists eps_Y (the default list stops at the smallest yield_strain of ice
+    that breaks: load_study_text)."""
 
     times: dict
     fields: tuple
@@ -164,6 +166,7 @@ class Output:
     answer_eps_Y: float | None = None
     end_given: bool = True
     break_slots: int = 0
+    eps_Y_given: bool = True
 
 
 def check_output(out) -> Output:
@@ -215,7 +218,7 @@ def check_output(out) -> Output:
     outputs = _check_outputs(out.get("outputs"), result["end"])
     return Output(times=result["times"], fields=tuple(fields), x_points=result["x_points"],
                   eps_Y=tuple(result["eps_Y"]), end=result["end"], records=result["records"], outputs=outputs,
-                  end_given="end" in out)
+                  end_given="end" in out, eps_Y_given="eps_Y" in out)
 
 
 #: [output] outputs = "read": each case computes what the study reads (Study.outputs_read)

@@ -2,6 +2,7 @@
 the copy a results directory holds of the study it ran (status and show read it)."""
 from __future__ import annotations
 
+import hashlib
 import math
 import os
 import time
@@ -71,9 +72,11 @@ def find_study(name_or_path: str, studies_dir: Path = Path("studies")) -> Path:
     return path
 
 
-def load_study(path: Path, max_cases: int | None = None) -> Study:
+def load_study(path: Path, max_cases: int | None = None, name: str | None = None) -> Study:
     """Read and validate a study file; expand its cases. ``max_cases``: refuse a design of
-    more cases before building them (the command line's --yes limit)."""
+    more cases before building them (the command line's --yes limit). The study is named by the
+    file (or ``name``), and a results directory's copy (keep_study_copy) by its header: running
+    the copy runs its study as it ran, under its name."""
     path = Path(path)
     try:
         text = path.read_bytes().decode("utf-8")
@@ -81,7 +84,11 @@ def load_study(path: Path, max_cases: int | None = None) -> Study:
         raise StudyError(f"cannot read {path}: {err.strerror}") from None
     except UnicodeDecodeError as err:
         raise StudyError(f"{path}: not UTF-8 text (byte {err.start}); a study file is TOML") from None
-    return load_study_text(text, path.stem, path, max_cases)
+    name = name or path.stem
+    if text.startswith(_COPY_HEADER):        # a results directory's copy (keep_study_copy): its study, as it ran
+        header, _, text = text.partition("\n")
+        name = _header_name(header) or name
+    return load_study_text(text, name, path, max_cases)
 
 
 #: the copy of its study a run keeps in the results directory (status and show read it)
@@ -92,14 +99,17 @@ _COPY_HEADER = "# floe-impact keeps this copy of the study it ran here: name = "
 
 
 def keep_study_copy(study: Study, out_dir: Path) -> None:
-    """Write out_dir/study.toml (a header line naming the study, then its text byte for byte)
-    unless it holds that already; atomically, never through a symbolic link."""
+    """Write out_dir/study.toml (a header line naming the study and the file it came from, then
+    its text byte for byte) unless it holds that study already (the same name and text: a run of
+    the copy itself keeps it as it is); atomically, never through a symbolic link."""
     target = Path(out_dir) / STUDY_COPY
     data = (f"{_COPY_HEADER}{study.name!r}, from {study.path}\n" + study.text).encode()
     try:
-        if not target.is_symlink() and target.is_file() and target.read_bytes() == data:
-            return
-    except OSError:
+        if not target.is_symlink() and target.is_file():
+            header, _, text = target.read_bytes().decode("utf-8").partition("\n")
+            if _header_name(header) == study.name and text == study.text:
+                return
+    except (OSError, UnicodeDecodeError):
         pass
     tmp = target.with_name(f".{STUDY_COPY}.tmp-{os.getpid()}-{time.monotonic_ns()}")
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
@@ -135,17 +145,23 @@ def _header_name(header: str) -> str | None:
     return quoted[1:-1] if len(quoted) >= 2 and quoted[0] == quoted[-1] and quoted[0] in "'\"" else None
 
 
+def study_identity(text: str) -> str:
+    """A study's identity: the SHA-256 of its text as it ran (what its copy holds after the
+    header). The files a study writes beside study.nc record it (pipeline.store.sealed)."""
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def copy_identity(out_dir: Path) -> str | None:
+    """The identity of the study whose copy a results directory holds (None: it holds none)."""
+    try:
+        text = (Path(out_dir) / STUDY_COPY).read_bytes().decode("utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
+    if text.startswith(_COPY_HEADER):
+        text = text.partition("\n")[2]
+    return study_identity(text)
+
+
 def load_study_copy(out_dir: Path) -> Study:
     """The study a results directory was run with, from its copy (see keep_study_copy)."""
-    path = Path(out_dir) / STUDY_COPY
-    try:
-        text = path.read_bytes().decode("utf-8")
-    except OSError as err:
-        raise StudyError(f"cannot read {path}: {err.strerror}") from None
-    except UnicodeDecodeError:
-        raise StudyError(f"{path}: not UTF-8 text") from None
-    name = Path(out_dir).name
-    if text.startswith(_COPY_HEADER):
-        header, _, text = text.partition("\n")
-        name = _header_name(header) or name
-    return load_study_text(text, name, path)
+    return load_study(Path(out_dir) / STUDY_COPY, name=Path(out_dir).name)
