@@ -62,7 +62,8 @@ test-portable: setup  ## the numerics-bearing tests as on other CPUs: numpy with
 
 test-cluster: setup  ## a one-node SLURM from Debian's packages (root; installed if missing), then the tests marked cluster: studies through --cluster slurm (a job cancelled, workers retiring, a Ctrl-C), a killed dask worker, a stand-in PBS
 	tests/cluster/slurm.sh up
-	$(PY) -m pytest -q -m cluster --durations=5 tests/test_batch_system.py tests/test_cluster.py; status=$$?; \
+	$(PY) -m pytest -q -m cluster --durations=5 tests/test_batch_system.py tests/test_cluster.py \
+		tests/test_slurm_teardown.py; status=$$?; \
 	tests/cluster/slurm.sh down; exit $$status
 
 test-slow: setup  ## only the long tests (marked slow)

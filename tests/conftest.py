@@ -30,6 +30,21 @@ def pytest_configure(config):
             helper.wait()
 
 
+#: the time limits of tests by marker [s] (pytest-timeout; the default, 300 s, is pyproject.toml's):
+#: a long run, and a study on a batch system that waits for its jobs; a test's own
+#: @pytest.mark.timeout wins
+TIME_LIMITS = {"slow": 1800, "cluster": 900}
+
+
+def pytest_collection_modifyitems(config, items):
+    """Slow and cluster tests get their longer time limits (TIME_LIMITS)."""
+    for item in items:
+        if item.get_closest_marker("timeout") is None:
+            limits = [TIME_LIMITS[m] for m in TIME_LIMITS if item.get_closest_marker(m) is not None]
+            if limits:
+                item.add_marker(pytest.mark.timeout(max(limits)))
+
+
 def relative_l2(a, b):
     """||a - b|| / ||b|| over all entries."""
     return float(np.linalg.norm(np.asarray(a) - np.asarray(b)) / np.linalg.norm(b))
