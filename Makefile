@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
+.PHONY: help setup docs docs-check study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -27,6 +27,9 @@ $(VENV)/.docs-installed: $(VENV)/.installed pyproject.toml
 
 docs: $(VENV)/.docs-installed  ## build the docs site (Sphinx, the gallery run at full settings) -> docs/_build/html; warnings are errors
 	cd docs && ../$(PY) -m sphinx -W --keep-going -b html -d _build/doctrees . _build/html
+
+docs-check: $(VENV)/.docs-installed  ## the docs site as CI builds it: warnings are errors, the gallery's scripts not run (make test runs each one: tests/test_gallery.py) -> docs/_build/check
+	cd docs && ../$(PY) -m sphinx -W --keep-going -b html -D plot_gallery=0 -d _build/doctrees-check . _build/check
 
 study: setup  ## run a study: make study STUDY=speed_sweep [ARGS="--workers 1"]
 	@$(PY) -m pipeline run studies/$(STUDY).toml $(ARGS); status=$$?; \

@@ -144,7 +144,8 @@ def run_study(study, out=None, workers: int = 2, scheduler: str | None = None, *
     _check_arguments(workers=workers, jobs=jobs, batch_seconds=batch_seconds, scheduler=scheduler,
                      cluster=cluster, tls=tls, rerun_failed=rerun_failed, plots=plots, force=force, quiet=quiet)
     study = load(study, name)
-    out_dir = Path(out) if out is not None else Path("results") / study.name
+    from .study.study_files import default_results
+    out_dir = Path(out) if out is not None else default_results(study)
     refuse_if_locked(out_dir)
     options = RunOptions(workers=workers, scheduler=scheduler, tls=tls, cluster=cluster, jobs=jobs,
                          batch_seconds=batch_seconds,

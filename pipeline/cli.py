@@ -80,14 +80,14 @@ def _parser():
 
 
 def command_run(args) -> int:
-    from .study.study_files import find_study, load_study
+    from .study.study_files import default_results, find_study, load_study
     check()                                           # a Ctrl-C during the imports
     study = load_study(find_study(args.study), max_cases=None if args.yes else LARGE_STUDY)
     check()
     if study.n_cases > LARGE_STUDY and not args.yes:
         raise StudyError(f"the study has {study.n_cases} cases (more than {LARGE_STUDY}); "
                          f"add --yes to run it")
-    out_dir = Path(args.out) if args.out else Path("results") / study.name
+    out_dir = Path(args.out) if args.out else default_results(study)
     tls = (args.tls_ca_file, args.tls_cert, args.tls_key)
     # the environment's scheduler is a default: --cluster, given on the line, chooses the jobs instead
     scheduler = args.scheduler or (None if args.cluster else os.environ.get("DASK_SCHEDULER_ADDRESS") or None)
@@ -135,7 +135,8 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
     """The study and its results directory, from a study name or file (results/<name> unless
     --out), or from a results directory alone (through the copy of the study a run keeps
     there); a name whose studies/<name>.toml is gone falls back on results/<name>."""
-    from .study.study_files import STUDY_COPY, find_study, load_study, load_study_copy, study_copy_name
+    from .study.study_files import (STUDY_COPY, default_results, find_study, load_study, load_study_copy,
+                                    study_copy_name)
     given = Path(name_or_path)
     if given.is_dir():
         if not (given / STUDY_COPY).is_file():
@@ -149,9 +150,7 @@ def study_and_results(name_or_path: str, out: str | None) -> tuple:
         if given.suffix or not (fallback / STUDY_COPY).is_file():
             raise
         return load_study_copy(fallback), fallback
-    out_dir = Path(out) if out else Path("results") / study.name
-    if not out and given.name == STUDY_COPY and study_copy_name(given.parent) == study.name:
-        out_dir = given.parent                      # a results directory's own copy: its results are there
+    out_dir = Path(out) if out else default_results(study)
     held = study_copy_name(out_dir)
     if held is not None and held != study.name:       # status would list its cases as pending, show draw into it
         raise StudyError(f"{out_dir} holds the results of study {held!r}, not of {study.name!r}: give that "

@@ -158,3 +158,19 @@ def test_a_breakthrough_search_reads_the_breakthrough():
     assert target.status == "failed"
     assert target.message == ("the run at V = 2 gave no answer: it ended parts_limit before it broke through (the "
                               "plate would break into more than max_parts = 2 parts)")
+
+
+def test_a_crack_onset_search_on_ice_that_breaks_finds_the_speed(tmp_path):
+    """A crack-onset search at the yield strain of ice that breaks there (it exited "no crossing"
+    when crack onset at eps_Y = yield_strain was NaN for ice that broke): found, and the speed
+    found makes the ice break within the run, the bracket's lower end does not."""
+    search = {"key": "V", "bracket": [0.5, 8.0], "log": True, "event": "crack_onset_lower", "eps_Y": [8e-5],
+              "tolerance": 0.1, "scan": 3}
+    study = {"base": {"Nmod": 12, "duration": 1e-3, "fracture": "break"}, "search": search, "output": OUTPUT}
+    found = pipeline.run_study(study, out=tmp_path / "search", name="search", workers=1, plots=False, quiet=True)
+    assert set(np.asarray(found["search_status"].values).ravel()) == {"found"}
+    lo, hi = (float(found[f"critical_V_{end}"].values.ravel()[0]) for end in ("lower", "upper"))
+    assert 0.5 < lo < hi <= lo * 1.1 + 1e-12
+    for V, breaks in ((lo, False), (hi, True)):
+        r = solve(Parameters(**{**study["base"], "V": V}), Settings(), fields=(), t_end=1e-3, times=[0.0, 1e-3])
+        assert (r.extra["breaking"]["break_count"] > 0) is breaks

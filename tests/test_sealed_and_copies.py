@@ -3,8 +3,8 @@ search.nc) names the study that wrote it, so one copied in from another study wi
 refused in one line, as a damaged one is, and a missing record is said as such; the copy of its
 study a results directory keeps runs as the study it is (its name, its directory, nothing
 rewritten); the dry run counts a study's break slots."""
-import os
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -76,13 +76,15 @@ def test_running_the_kept_copy_runs_the_study_as_it_ran(tmp_path):
     before = {name: (out / name).stat().st_mtime_ns for name in ("study.nc", STUDY_COPY)}
     text = copy.read_bytes()
     assert load_study(copy).name == "grid"
-    for _ in range(2):
-        code, _, err = run_cli("run", copy, "--workers", "1")
+    for _ in range(2):                     # (from another directory: results/ there stays empty)
+        code, _, err = run_cli("run", copy, "--workers", "1", cwd=tmp_path)
         assert code == 0, err
         assert "4 already done" in err and "wrote" not in err, err
+    ds = pipeline.run_study(copy, workers=1, plots=False, quiet=True)       # the same from Python
+    assert ds.attrs["study_name"] == "grid" and int(ds.attrs["cases_ok"]) == 4
     assert copy.read_bytes() == text and text.count(b"# floe-impact keeps this copy") == 1
     assert {name: (out / name).stat().st_mtime_ns for name in before} == before
-    assert not (tmp_path / "results").exists() and not (out.parent / "results").exists()
+    assert not (tmp_path / "results").exists() and not (Path.cwd() / "results" / "grid").exists()
 
 
 def test_the_dry_run_counts_the_break_slots(tmp_path):

@@ -145,6 +145,15 @@ def _header_name(header: str) -> str | None:
     return quoted[1:-1] if len(quoted) >= 2 and quoted[0] == quoted[-1] and quoted[0] in "'\"" else None
 
 
+def default_results(study: Study) -> Path:
+    """Where a study's results go unless told: results/<name>, or, for the copy a results
+    directory keeps (keep_study_copy) run as a study, that directory."""
+    path = Path(study.path)
+    if path.name == STUDY_COPY and study_copy_name(path.parent) == study.name:
+        return path.parent
+    return Path("results") / study.name
+
+
 def study_identity(text: str) -> str:
     """A study's identity: the SHA-256 of its text as it ran (what its copy holds after the
     header). The files a study writes beside study.nc record it (pipeline.store.sealed)."""
