@@ -4,8 +4,11 @@ Runs fifteen cases that cover the solver's paths at the paper's rule (the refere
 case that bottoms out, one that crushes the layer, located crack onsets, finite depth, a fixed
 step, DOP853, a light free body to its separation, a heavy one, an off-centre body, viscoelastic
 ice and layer, a wedge, a flat-bottomed power-law body, rk4 on shallow water with a located crack
-onset), eight at the Gauss rule (the default) and a free floe under each rule (off centre, a
-wedge, under the Gauss rule), every setting pinned by value,
+onset), eight at the Gauss rule (the default), a free floe under each rule (off centre, a
+wedge, under the Gauss rule), and five runs in which the ice breaks (its cascade on walls, a
+cascade ended at max_parts, a dropped body across the breaks to its separation, off centre on the
+whole plate, DOP853; each break's time, place, surface, parts, penetration and removed energy
+compared beside every array), every setting pinned by value,
 in a git worktree of the base revision and in the working tree, each in its own process, and
 compares every output array (fields, amplitudes, series, diagnostics, tension and contact
 records) exactly. Exit 0 when all are identical; else 1, with one line per difference. For a
@@ -79,6 +82,21 @@ try:
     cases["gauss floe off_centre wedge"] = (Parameters(**FLOE, x0=0.7, deadrise=10.0), gauss, {})
 except Exception:
     pass
+# ice that breaks (a tree from before it has none): on walls through its cascade, to the part cap,
+# a dropped body across the breaks to its separation, off centre on the whole plate, and DOP853
+try:
+    BREAK = dict(fracture="break")
+    cases["gauss breaking walls"] = (Parameters(Nmod=20, **BREAK), gauss, {"t_end": 2e-3})
+    cases["gauss breaking to the part cap"] = (Parameters(Nmod=16, max_parts=4, **BREAK), gauss, {"t_end": 3e-3})
+    cases["gauss breaking dropped body"] = (Parameters(Nmod=20, body_mass=100.0, **BREAK), gauss,
+                                            {"until_separation": True, "t_end": 3e-3})
+    cases["gauss breaking off centre"] = (Parameters(Nmod=16, x0=0.5, **BREAK), gauss, {"t_end": 2e-3})
+    cases["gauss breaking dop853"] = (Parameters(Nmod=12, **BREAK), S(**dict(GAUSS, integrator="dop853")),
+                                      {"t_end": 1e-3})
+except Exception:
+    pass
+#: what each break reports, in every tree that breaks
+BREAK_KEYS = ("time", "x", "surface", "parts", "broken_through", "penetration", "removed_energy")
 out = {}
 for name, (p, s, kw) in cases.items():
     if s is None:
@@ -96,6 +114,13 @@ for name, (p, s, kw) in cases.items():
          **{"diagnostic " + k: v for k, v in r.diagnostics.items()}}
     if "located_crack_onset" in r.extra:
         d["located"] = np.concatenate([np.concatenate(v) for v in r.extra["located_crack_onset"].values()])
+    if "breaks" in r.extra:
+        d["body_position"], d["removed_energy"] = r.body_position, r.extra["removed_energy"]
+        for k, event in enumerate(r.extra["breaks"]):
+            for key in BREAK_KEYS:
+                value = event.get(key, float("nan"))
+                d[f"break {k} {key}"] = value if not isinstance(value, str) else ("upper", "lower").index(value)
+        d.update({"breaking " + k: v for k, v in r.extra["breaking"].items()})
     out[name] = d
 pickle.dump(out, open(sys.argv[1], "wb"))
 """

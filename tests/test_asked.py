@@ -132,10 +132,19 @@ def test_anything_else_asked_runs_to_the_end():
     (dict(outputs=["crack_onset_time"], end="answered"), "needs eps_Y"),
     (dict(end="answered"), "needs the outputs asked"),
     (dict(outputs=["crack_onset_time"], eps_Y=[8e-5], end="soon"), "end must be one of"),
+    (dict(outputs=["crack_onset_time"], eps_Y=[-8e-5], end="answered"), r"eps_Y must be .* got \[-8e-05\]"),
+    (dict(outputs=["crack_onset_time"], eps_Y=[float("nan")], end="answered"), "eps_Y must be"),
+    (dict(outputs=["crack_onset_time"], eps_Y="8e-5", end="answered"), "eps_Y must be .* got '8e-5'"),
+    (dict(outputs="crack_onset_time", eps_Y=[8e-5], end="answered"), "outputs must be a list of names, got the "
+                                                                       "string 'crack_onset_time'"),
+    (dict(fields="strain"), "fields must be a list of names, got the string 'strain'"),
+    (dict(locate_eps_Y=["abc"]), "eps_Y must be"),
+    (dict(outputs=["breakthrough_time"]), "breakthrough_time is an output of a run that breaks"),
 ])
 def test_a_bad_request_is_one_line(kwargs, message):
-    with pytest.raises(ParameterError, match=message):
-        solve(Parameters(Nmod=4), S, fields=(), **kwargs)
+    with pytest.raises(ParameterError, match=message) as err:
+        solve(Parameters(Nmod=4), S, **{"fields": (), **kwargs})
+    assert "\n" not in str(err.value)
 
 
 def test_the_reference_integrator_honours_the_observers_asked():

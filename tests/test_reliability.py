@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from helpers import ROOT, run_process as run_cli
+from helpers import ROOT, run_cli as run_here, run_process as run_cli
 
 
 def _snapshot(directory):
@@ -26,8 +26,10 @@ def _hold_lock(out):
 
 
 def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
+    """The refused runner is a process of its own, as a user's second command is; the runs before
+    and after it are this process's (helpers.run_cli: no Python start-up of their own)."""
     out = tmp_path / "study"
-    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_here("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err
     sorted((out / "batches").glob("*.nc"))[0].unlink()   # work left to do
     holder = _hold_lock(out)
@@ -43,7 +45,7 @@ def test_second_runner_refused_then_lock_taken_after_holder_killed(tmp_path):
     finally:
         holder.send_signal(signal.SIGKILL)
         holder.wait()
-    code, _, err = run_cli("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
+    code, _, err = run_here("run", "studies/regression_small.toml", "--out", out, "--workers", "1", "--no-plots")
     assert code == 0, err                                # no manual unlock needed
     assert "4 cases, 1 to run, 3 already done" in err
 
