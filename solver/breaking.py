@@ -2,7 +2,7 @@ r"""A run in which the ice breaks (docs/model.md, "Breaking into parts"): :func:
 
 The run goes in stages. Each stage integrates the plate as it is (unbroken, then broken at the
 breaks so far) and ends where either surface's tension first reaches the yield strain eps_Y,
-located on true sub-steps of the integrator (solver.loop._locate_break). There the plate breaks
+located on true sub-steps of the integrator (solver.ending). There the plate breaks
 through its thickness: the next stage runs on the parts (solver.model.parts), from the state
 carried across the new break (w and w_t projected in the stiffness and the mass). A free edge
 carries no moment, so a break cannot reach eps_Y again where it is: the cascade goes on elsewhere
@@ -15,13 +15,13 @@ case at N = 30, broken at 1.18 m at 1.62 ms, has 8.7e-5 at 0.93 m just after the
 eps_Y = 8e-5, though the tension there was below eps_Y before it (away from the edge the exact
 strain is continuous in time). The overshoot travels off on the fastest modes within a quarter of
 their period (2e-5 s there). So a surface breaks only once its tension at the nodes has been below
-eps_Y since the stage began (solver.loop: the surfaces are "armed"); the tension records keep the
+eps_Y since the stage began (solver.ending: the surfaces are "armed"); the tension records keep the
 tension the stages reach from there on.
 
 The stages are joined into one Result on the run's output times: the fields, the series (the
-work and the dissipated energy summed over the stages), the diagnostics (maxima from the joined
-tension records, counts summed, each stage's energy residual against the whole run's work),
-the records and the breaks. The energy identity of the whole run is
+work and the dissipated energy summed over the stages), the diagnostics (each by the join
+solver.outputs declares for it: maxima from the joined tension records, the largest force with
+its time, counts summed, ...), the records and the breaks. The energy identity of the whole run is
 
     E_plate + E_layer + D + R = W,
 
@@ -43,7 +43,7 @@ import math
 import numpy as np
 
 from . import layout as kn
-from .outputs import SERIES
+from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
 from .run import Result, checked_breaks, run_case, cosines_to_kernel
 
@@ -154,13 +154,6 @@ def _removed(energy) -> float:
     return (energy["before"] + energy["layer_before"]) - (energy["after"] + energy["layer_after"])
 
 
-#: the diagnostics joined as the largest over the stages, each with its x and time slots
-_LARGEST = ("max_force", "max_compression", "contact_extent", "max_contact_intervals")
-#: the tension records' diagnostics (value, x, time) joined from the joined records
-_FROM_RECORDS = {"upper": "max_strain", "lower": "max_strain_lower", "impact_zone_upper": "impact_zone_max_strain",
-                 "impact_zone_lower": "impact_zone_max_strain_lower"}
-
-
 def joined_record(records):
     """One running-maximum tension record from the stages' (solver.fracture's rows): a later
     stage's rows where they pass the largest value so far, the first of them starting a new
@@ -204,61 +197,74 @@ def _joined_series(case, stages):
                 amplitudes[name][at] = getattr(stage, name)[stage.valid]
         work += stage.diagnostics["work"]
         dissipated += stage.diagnostics["dissipated_energy"]
-    return fields, series, amplitudes, removed_series, valid, work, dissipated
+    return fields, series, amplitudes, removed_series, valid
 
 
-def _joined_diagnostics(stages, records, work):
-    """The whole run's diagnostics from its stages' (module docstring)."""
-    results = [stage for _, stage in stages]
-    last = results[-1]
-    d = dict(last.diagnostics)
-    for name in _LARGEST:
-        best = max(results, key=lambda r: np.nan_to_num(r.diagnostics[name], nan=-np.inf))
-        for key in (name, name + "_time", name + "_x"):
-            if key in d:
-                d[key] = best.diagnostics[key]
-    for record, name in _FROM_RECORDS.items():
-        rec = records.get(record)
-        if rec is not None and rec.size:
-            d[name], d[name + "_x"], d[name + "_time"] = rec[-1, kn.R_VALUE], rec[-1, kn.R_X], rec[-1, kn.R_T]
-    upper, lower = d["max_strain"], d["max_strain_lower"]
-    if np.isfinite(upper) or np.isfinite(lower):
-        side = "max_strain" if np.nan_to_num(upper, nan=-1.0) >= np.nan_to_num(lower, nan=-1.0) else "max_strain_lower"
-        d["max_abs_strain"], d["max_abs_strain_x"], d["max_abs_strain_time"] = d[side], d[side + "_x"], d[side + "_time"]
-    d["energy_rejections"] = sum(r.diagnostics["energy_rejections"] for r in results)
-    # each stage's residual is against its own energy scale (the energy it starts with plus its
-    # largest work): against the whole run's, the largest work so far, summed (a bound)
+#: a record row's column by the name a join gives it (solver.outputs.JOINS)
+_COLUMNS = {"value": kn.R_VALUE, "x": kn.R_X, "time": kn.R_T}
+
+
+def _largest_stage(results, name):
+    """The first stage whose diagnostic ``name`` is largest (NaN counts as none)."""
+    return max(results, key=lambda r: np.nan_to_num(r.diagnostics[name], nan=-np.inf))
+
+
+def _residual(results, name):
+    """A residual over the whole run (solver.outputs.JOINS["residual"]): each stage's is against
+    its own energy scale (the energy it starts with plus its largest work); against the whole
+    run's, the largest work so far, summed (a bound). NaN stays NaN (a free body's, for the
+    paper's body)."""
+    value = results[-1].diagnostics[name]
+    if np.isnan(value):
+        return value
     before, scale = 0.0, 0.0
     for r in results:
         carried = (r.extra["break_energy"]["after"] + r.extra["break_energy"]["layer_after"]
                    if "break_energy" in r.extra else 0.0)
         scale = max(scale, before + r.extra["energy_scale"] - carried)
         before += r.diagnostics["work"]
-    for name in ("energy_residual", "body_energy_residual"):
-        if not np.isnan(d[name]):        # (a free body's: NaN for the paper's body)
-            d[name] = sum(r.diagnostics[name] * r.extra["energy_scale"] for r in results) / scale if scale > 0 else 0.0
-    # a free body's stop and deepest penetration are carried from stage to stage (solver.control's
-    # body_start); its separation is the first a stage found
-    separated = [r for r in results if np.isfinite(r.diagnostics["separation_time"])]
-    if separated:
-        d["separation_time"] = separated[0].diagnostics["separation_time"]
-        d["separation_speed"] = separated[0].diagnostics["separation_speed"]
-    d["work"] = work
-    d["dissipated_energy"] = sum(r.diagnostics["dissipated_energy"] for r in results)
-    for name in ("error_estimate", "error_estimate_time", "error_estimate_modes", "error_estimate_quadrature"):
-        d[name] = max((r.diagnostics[name] for r in results), key=lambda v: np.nan_to_num(v, nan=-np.inf))
+    return sum(r.diagnostics[name] * r.extra["energy_scale"] for r in results) / scale if scale > 0 else 0.0
+
+
+def joined_diagnostics(results, records) -> dict:
+    """The whole run's diagnostics from its stages' Results, each by its declared join
+    (solver.outputs.DIAGNOSTIC_JOINS, in the order they are declared: a "larger" join reads
+    values joined before it); records: the joined tension records."""
+    last, d = results[-1], {}
+    for name, (kind, *args) in DIAGNOSTIC_JOINS.items():
+        if kind == "record":
+            rec = records.get(args[0])
+            d[name] = rec[-1, _COLUMNS[args[1]]] if rec is not None and rec.size else last.diagnostics[name]
+        elif kind == "larger":
+            upper, lower = d[args[0]], d[args[1]]
+            if np.isfinite(upper) or np.isfinite(lower):
+                side = args[0] if np.nan_to_num(upper, nan=-1.0) >= np.nan_to_num(lower, nan=-1.0) else args[1]
+                d[name] = d[side + args[2]]
+            else:
+                d[name] = last.diagnostics[name]
+        elif kind in ("largest", "with"):
+            d[name] = _largest_stage(results, args[0] if args else name).diagnostics[name]
+        elif kind == "sum":
+            d[name] = sum(r.diagnostics[name] for r in results)
+        elif kind == "first":
+            found = [r for r in results if np.isfinite(r.diagnostics[args[0]])]
+            d[name] = (found[0] if found else last).diagnostics[name]
+        elif kind == "residual":
+            d[name] = _residual(results, name)
+        else:                                              # "last"
+            d[name] = last.diagnostics[name]
     return d
 
 
 def _joined(p, s, case, stages, events, status, message, full):
     """The stages as one Result (module docstring)."""
-    fields, series, amplitudes, removed_series, valid, work, _ = _joined_series(case, stages)
+    fields, series, amplitudes, removed_series, valid = _joined_series(case, stages)
     results = [stage for _, stage in stages]
     last = results[-1]
     names = results[0].tension_record.keys()
     records = {name: joined_record([r.tension_record[name] for r in results]) for name in names}
     contacts = np.vstack([r.contact_record for r in results])
-    diagnostics = _joined_diagnostics(stages, records, work)
+    diagnostics = joined_diagnostics(results, records)
     through = [e for e in events if e["broken_through"]]
     extra = {"stages": results, "breaks": events, "removed_energy": removed_series, "full_plate": full,
              "breaking": {"first_break_time": events[0]["time"] if events else math.nan,

@@ -12,7 +12,8 @@ from .compile.parallel_compile import claiming
 from .control import make_control
 from .diagnostics import Outputs, Records
 from .fracture import compile_crack_onset
-from .loop import Energies, Observers, StepEnds, Trial, ending_event, judge_step, new_state, new_workspace, observe_step
+from .ending import break_inside_step, ending_event
+from .loop import Energies, Observers, StepEnds, Trial, judge_step, new_state, new_workspace, observe_step
 from .model.assemble import Tables
 from .observe.tension import Dense
 from .parameters import Parameters
@@ -61,7 +62,8 @@ def helper_jobs():
         (observe_step, (model, observers, state, state, carried, f8, f8, ends, records, diag)),
         (take_step, (i8, model, typeof(Coefficients(np.empty((1, 1), np.complex128), np.empty((1, 1)))), work,
                      start, carried, f8, f8, f8, state)),
-        (ending_event, (model, ws, control, start, carried, f8, f8, state, types.boolean, diag)),
+        (ending_event, (model, ws, control, start, carried, f8, f8, state, diag)),
+        (break_inside_step, (model, ws, control, start, carried, f8, f8, state, diag)),
         (judge_step, (types.boolean, model, control, _field(state, "z"), state, a1, a1,
                       types.NamedTuple((i8, f8, i8, f8, f8, f8, f8), Trial), types.NamedUniTuple(f8, 3, Energies), diag)),
     ]

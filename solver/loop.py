@@ -3,7 +3,7 @@ r"""The integration loop: step, judge, locate, observe, shift (docs/model.md, "N
 Each pass of :func:`integrate` records the outputs due at the current time, tries one step
 (solver.step) of the size the step policy chooses (solver.control), judges it (finite, its local
 error, the energy identity), locates an event that ends the run inside it on true sub-steps
-(bottoming; a break, where the run breaks the plate: solver.breaking), and then calls the
+(bottoming; a break, where the run breaks the plate: solver.ending), and then calls the
 observers at one fixed point, on the step's two end states and its dense output: the tension
 records, the impact zone's maxima, levels of tension located for verification, the contact
 intervals, a free body's stop and separation (solver.observe). The two states swap roles at the
@@ -20,17 +20,16 @@ import numpy as np
 from .arrays import copy_into
 from .control import (SMOOTH_EXPONENT, History, Samples, energy_allowance, error_ratio, grown_step, next_step,
                       remember_step, smoothness_ratio)
-from .cubic import cubic_max, hermite
 from .diagnostics import (Counts, Records, Residuals, bottomed_at, failed_at, finish_diagnostics, record_output,
                           running_maxima, start_diagnostics)
+from .ending import BOTTOMING, BREAK, NO_EVENT, arm_breaks, break_inside_step, ending_event, gap_at
 from .compile.jit import kernel
-from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_BREAK_SURFACE, D_BREAK_T, D_BREAK_X, D_DISSIPATED,
-                     D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
+from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_DISSIPATED, D_ENERGY_JUMPS, D_H_MAX, D_H_MIN, D_MAX_CONTACTS,
                      D_MAX_DELTA, D_MAX_DELTA_T, D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_STOP_T,
                      D_T_REACHED, ENERGY_VIOLATION, ETD34, FAIL_BOTTOMED, FAIL_ENERGY_JUMP, FAIL_FIXED_STEP,
                      FAIL_MAX_STEPS, FAIL_NONFINITE, FAIL_STEP_UNDERFLOW, LAYER_BOTTOMED_OUT, N_REC, NONFINITE,
                      OK, SEPARATED, STEP_LIMIT, STOPPED)
-from .model.basis import global_peak, node_strain
+from .model.basis import node_strain
 from .model.body import body_coefficients, body_position, body_residual, body_speed, start_body
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at, node_energy
@@ -39,7 +38,7 @@ from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, a
 from .observe.body import observe_body
 from .observe.contacts import Snapshot, contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
-from .observe.events import event_value, locate_event, value_after
+from .observe.events import locate_event
 from .observe.layer_maxima import LayerEnds, finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import Rows, SurfaceRows, append_row
 from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, DenseStates, StepStrains, dense_due, global_state,
@@ -58,11 +57,6 @@ from .step import G_ROW, Carried, Coefficients, Start, State, StepWork, Stepper,
 #: the last accepted step's forcing (control.History)
 Workspace = namedtuple("Workspace", "work sub stepper tension contact zone gap0 gap1 value peaks0 fixed maxima dense "
                                     "crossed history armed")
-#: an event that ends the run inside an accepted step (ending_event): its kind (NO_EVENT,
-#: BOTTOMING, BREAK), and the cut step s with the force F, jmax and the work W at its end
-EventCut = namedtuple("EventCut", "kind s F jmax W")
-NO_EVENT, BOTTOMING, BREAK = 0, 1, 2
-
 #: the observers' work and which of them run: TensionWork, ContactWork, the tension peaks at the
 #: step's start, ZoneWork, DenseMaxima, and the observers asked (Control.observers, observe.asked)
 Observers = namedtuple("Observers", "tension contact peaks0 zone dense asked")
@@ -170,18 +164,6 @@ def initial_state(model, ws, cur, t, a0, adot0, records, diag):
                                                  n_c, zone.upper, zone.n_upper, zone.lower, zone.n_lower)
 
 
-@kernel
-def _copy_state(source, target):
-    """target's arrays = source's (all but eps, which the caller recomputes)."""
-    for to, of in ((target.forcing, source.forcing), (target.a, source.a), (target.adot, source.adot),
-                   (target.delta, source.delta), (target.yb, source.yb), (target.errb, source.errb),
-                   (target.acc, source.acc)):
-        copy_into(to, of, of.shape[0])
-    for n in range(source.z.shape[0]):
-        target.z[n] = source.z[n]
-        target.err[n] = source.err[n]
-
-
 @kernel(inline="llvm")
 def _finite_state(st, w_new, z, yb):
     if not (st == 0 and math.isfinite(w_new)):
@@ -249,24 +231,12 @@ def judge_step(adaptive, model, control, z0, new, gap0, scratch, trial, energies
     return ACCEPT, h_step, ratio, resid_new, OK, 0
 
 
-@kernel(inline="llvm")
-def _gap_at(model, t, z, a, adot, yb, delta, jm, gap):
-    """a, a' of a state (its arrays z, a, adot, yb, delta) from its z, and its gap (gap_peak) into
-    gap."""
-    plate = model.plate
-    for n in range(z.shape[0]):
-        a[n] = mode_a(z[n], n, plate)
-        adot[n] = mode_adot(z[n], a[n], n, plate)
-    gap_peak(model, body_position(model.body, t, yb), body_speed(model.body, yb), delta, jm, a, adot, gap)
-
-
-@kernel(inline="llvm")
-def _may_bottom(model, control, gap0, gap1, h):
-    """The gap may close to bottom_gap inside the step: at its end, or by the cubic Hermite of the
-    largest delta and its rate between the ends."""
-    level = 1.0 - control.bottom_gap
-    c0, c1, c2, c3 = hermite(gap0[0], gap1[0], gap0[1], gap1[1], h)
-    return model.layer.K > 0.0 and (gap1[0] >= level or cubic_max(c0, c1, c2, c3)[0] >= level)
+@kernel(inline="llvm", nrt=True)
+def _cut_step(model, cut, t, new, e0, rows):
+    """An accepted step cut at an event (an EventCut, solver.ending): its length, end time, force,
+    jmax and work there, its dense output's rows (the sub-step's) and the energy residual there."""
+    return cut.s, t + cut.s, cut.F, cut.jmax, cut.W, rows, _residual(model, new.z, new.delta, new.acc, cut.jmax,
+                                                                     cut.W, e0)[1]
 
 
 @kernel(inline="llvm")
@@ -299,88 +269,6 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
                 if found:
                     out.level_t[s, i] = t + 0.5 * (lo + hi)
                     out.level_x[s, i] = ws.value[2]
-
-
-@kernel(inline="llvm", nrt=True)
-def _locate_break(ws, level, start, carried, t, h, upper, lower):
-    """The first time in the accepted step [t, t + h] at which the tension of a surface that may
-    reach the break level in it (upper, lower) does, located on true sub-steps as the levels are
-    (from each surface's peak at t, ws.peaks0): (s, F, jmax, W, place, surface), surface -1
-    where neither did; ws.sub then holds the state at t + s (the last sub-step below the level)."""
-    first, surface = h, -1
-    for s in range(2):
-        if upper if s == 0 else lower:
-            lo, hi, F, jm, w, found = locate_event(ws.stepper, 1.0 - 2.0 * s, level, start, carried, t, h,
-                                                   ws.peaks0[s], ws.sub, ws.value)
-            if found and (surface < 0 or lo < first):
-                first, surface = lo, s
-    F, jm, w = 0.0, 0, 0.0
-    if surface >= 0:             # the earlier surface's state, again (the other's search may have run last)
-        _, F, jm, w = value_after(ws.stepper, 1.0 - 2.0 * surface, level, start, carried, t, first, ws.sub, ws.value)
-    return first, F, jm, w, ws.value[2], surface
-
-
-@kernel(inline="llvm")
-def _peak_reaches(model, eps, a, sign, level):
-    """Whether the tension sign * eps, at its peak over the continuous plate, reaches level."""
-    return global_peak(eps, sign, model.basis, model.plate.modes[STRAIN], a)[0] >= level
-
-
-@kernel(nrt=True)
-def ending_event(model, ws, control, start, carried, t, h, new, after, diag):
-    """An event that ends the run inside the accepted step [t, t + h], located on true sub-steps:
-    before the observers (after False) the layer bottoming out, else a break where an armed
-    surface's peak tension reaches control.break_level at the step's end; after them (after True)
-    a break only the peak inside the step reached (the adapter then drops the tension records'
-    rows past it), and the surfaces armed once below the level. Where one is, new holds the state
-    at the cut step's end, its strain, and ws.gap1 its gap. Returns an EventCut."""
-    level, tw, armed = control.break_level, ws.tension, ws.armed
-    if not after and _may_bottom(model, control, ws.gap0, ws.gap1, h):
-        s_b, _, F, jm, w, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, start, carried, t, h,
-                                               ws.gap0, ws.sub, ws.value)
-        if found:                    # (where the interpolant's crossing was not real, the step stays)
-            copy_into(ws.gap1, ws.value, 3)
-            _copy_state(ws.sub, new)
-            node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
-            return EventCut(BOTTOMING, s_b, F, jm, w)
-    if level == math.inf:
-        return EventCut(NO_EVENT, h, 0.0, 0, 0.0)
-    if after:
-        upper = armed[0] > 0.0 and tw.track[STEP_BEST, 0] >= level
-        lower = armed[1] > 0.0 and tw.track[STEP_BEST + 1, 0] >= level
-    else:
-        upper = armed[0] > 0.0 and _peak_reaches(model, new.eps, new.a, 1.0, level)
-        lower = armed[1] > 0.0 and _peak_reaches(model, new.eps, new.a, -1.0, level)
-        for s in range(2):
-            copy_into(ws.peaks0[s], tw.track[PEAKS + s], 4)
-    s_b, F, jm, w, x_b, surface = _locate_break(ws, level, start, carried, t, h, upper, lower)
-    if surface < 0:
-        if after:
-            arm_breaks(model, armed, new.eps, new.a, level)
-        return EventCut(NO_EVENT, h, 0.0, 0, 0.0)
-    _copy_state(ws.sub, new)
-    node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], new.a, new.eps)
-    _gap_at(model, t + s_b, new.z, new.a, new.adot, new.yb, new.delta, jm, ws.gap1)
-    diag[D_BREAK_T], diag[D_BREAK_X], diag[D_BREAK_SURFACE] = t + s_b, x_b, float(surface)
-    return EventCut(BREAK, s_b, F, jm, w)
-
-
-@kernel(nrt=True)
-def break_value(model, sign, t, state, out):
-    """A break's event value at a state: the peak of sign * eps over the continuous plate, out[:]
-    = (value, rate, x) (observe.events.event_value: what _locate_break locates, for the DOP853
-    reference's own search on its dense output)."""
-    return event_value(model, sign, t, 0, state, out)
-
-
-@kernel(inline="llvm")
-def arm_breaks(model, armed, eps, a, level):
-    """A surface is armed to break (armed[s] 1, from 0 in a new workspace) once its peak tension
-    is below the break level: the state carried across a break overshoots next to the new free
-    edge (solver.breaking)."""
-    for s in range(2):
-        if not _peak_reaches(model, eps, a, 1.0 - 2.0 * s, level):
-            armed[s] = 1.0
 
 
 @kernel(inline="llvm", nrt=True)
@@ -505,13 +393,12 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                 break
             continue
         # ----- an event ends the run inside the step: the layer bottoming out, or a break
-        _gap_at(model, t_new, new.z, new.a, new.adot, new.yb, new.delta, jm5, gap1)
+        gap_at(model, t_new, new.z, new.a, new.adot, new.yb, new.delta, jm5, gap1)
         h_eff, reached = h_step, step_work.rows
-        cut = ending_event(model, ws, control, start, carried, t, h_step, new, False, diag)
+        cut = ending_event(model, ws, control, start, carried, t, h_step, new, diag)
         if cut.kind != NO_EVENT:              # the state is the search's last sub-step
-            bottomed, broke, h_eff, t_new, F5, jm5, w_new = cut.kind == BOTTOMING, cut.kind == BREAK, cut.s, \
-                t + cut.s, cut.F, cut.jmax, cut.W
-            reached, resid_new = stepper.work.rows, _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)[1]
+            bottomed, broke = cut.kind == BOTTOMING, cut.kind == BREAK
+            h_eff, t_new, F5, jm5, w_new, reached, resid_new = _cut_step(model, cut, t, new, e0, stepper.work.rows)
         # ----- accepted: observers on [t, t + h_eff], then the states swap
         steps += 1
         if not bottomed:
@@ -523,10 +410,10 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
                                                StepEnds(jmax, jm5, F5, Dense(cur.z, cur.forcing, reached[2], new.forcing)),
                                                records, diag)
         if not (bottomed or broke or control.break_level == math.inf):   # a break the peak reached only inside the step
-            cut = ending_event(model, ws, control, start, carried, t, h_eff, new, True, diag)
+            cut = break_inside_step(model, ws, control, start, carried, t, h_eff, new, diag)
             if cut.kind == BREAK:
-                broke, h_eff, t_new, F5, jm5, w_new = True, cut.s, t + cut.s, cut.F, cut.jmax, cut.W
-                reached, resid_new = stepper.work.rows, _residual(model, new.z, new.delta, new.acc, jm5, w_new, e0)[1]
+                broke = True
+                h_eff, t_new, F5, jm5, w_new, reached, resid_new = _cut_step(model, cut, t, new, e0, stepper.work.rows)
         # exact crossings of the levels, for verification: after the observers (the search's
         # sub-steps overwrite the scratch the dense output reads)
         if asks_levels:

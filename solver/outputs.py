@@ -13,84 +13,115 @@ reach the lower surface's at the upper's slot + 3, and its zone edge flag at the
 from collections import namedtuple
 from pathlib import Path
 
-#: one diagnostic: the kernel's slot name, the stored name, units, long name, a position on the plate
-Diagnostic = namedtuple("Diagnostic", "slot name units long_name position", defaults=(False,))
+#: one diagnostic: the kernel's slot name, the stored name, units, long name, a position on the plate,
+#: and how a run in stages (one that breaks: solver.breaking) joins its stages' values into the
+#: run's: one of JOINS (a stored diagnostic must say; tests/test_outputs.py holds it)
+Diagnostic = namedtuple("Diagnostic", "slot name units long_name position join", defaults=(False, None))
+
+#: how a diagnostic of a run in stages is joined from its stages' (solver.breaking.joined_diagnostics):
+#: kind -> what it means; a join is (kind, *arguments)
+JOINS = {
+    "record": "from the stages' tension records joined as one running maximum (record name, column "
+              "'value', 'x' or 'time' of its last row); the last stage's where the record is empty",
+    "larger": "of the larger of two diagnostics already joined (their names, and the suffix of this one: '', "
+              "'_x' or '_time')",
+    "largest": "the largest over the stages (NaN counts as none; the first stage of equal ones)",
+    "with": "the value of the stage where the named diagnostic is largest (its place, time or flag)",
+    "sum": "summed over the stages",
+    "first": "of the first stage where the named diagnostic is finite; the last stage's where none is",
+    "last": "the last stage's: carried from stage to stage, or only a run's last stage can have it",
+    "residual": "each stage's residual times its energy scale, summed, over the whole run's scale (the "
+                "largest of the energy each stage starts with plus the work before it and its own)",
+}
 
 DIAGNOSTICS = (
     Diagnostic("MAX_UPPER", "max_strain", "1", "largest tensile strain on the upper surface, plate-wide (at a wall, "
-               "a walled plate's confinement; impact_zone_max_strain is the impact's own)"),
+               "a walled plate's confinement; impact_zone_max_strain is the impact's own)",
+               join=("record", "upper", "value")),
     Diagnostic("MAX_UPPER_X", "max_strain_x", "m", "position of max_strain (centred impact: x >= 0, mirrored at -x; "
-               "off centre: signed)", position=True),
-    Diagnostic("MAX_UPPER_T", "max_strain_time", "s", "time of max_strain"),
+               "off centre: signed)", position=True, join=("record", "upper", "x")),
+    Diagnostic("MAX_UPPER_T", "max_strain_time", "s", "time of max_strain", join=("record", "upper", "time")),
     Diagnostic("MAX_LOWER", "max_strain_lower", "1", "largest tensile strain on the lower surface (max of -strain), "
-               "plate-wide"),
+               "plate-wide", join=("record", "lower", "value")),
     Diagnostic("MAX_LOWER_X", "max_strain_lower_x", "m", "position of max_strain_lower (centred impact: x >= 0; off "
-               "centre: signed)", position=True),
-    Diagnostic("MAX_LOWER_T", "max_strain_lower_time", "s", "time of max_strain_lower"),
-    Diagnostic("MAX_ABS", "max_abs_strain", "1", "largest strain magnitude, plate-wide"),
+               "centre: signed)", position=True, join=("record", "lower", "x")),
+    Diagnostic("MAX_LOWER_T", "max_strain_lower_time", "s", "time of max_strain_lower",
+               join=("record", "lower", "time")),
+    Diagnostic("MAX_ABS", "max_abs_strain", "1", "largest strain magnitude, plate-wide",
+               join=("larger", "max_strain", "max_strain_lower", "")),
     Diagnostic("MAX_ABS_X", "max_abs_strain_x", "m", "position of max_abs_strain (centred impact: x >= 0; off "
-               "centre: signed)", position=True),
-    Diagnostic("MAX_ABS_T", "max_abs_strain_time", "s", "time of max_abs_strain"),
+               "centre: signed)", position=True, join=("larger", "max_strain", "max_strain_lower", "_x")),
+    Diagnostic("MAX_ABS_T", "max_abs_strain_time", "s", "time of max_abs_strain",
+               join=("larger", "max_strain", "max_strain_lower", "_time")),
     Diagnostic("ZONE_UPPER", "impact_zone_max_strain", "1", "largest tensile strain on the upper surface within the "
-               "impact zone (the contact's farthest reach from the body's centre so far plus impact_zone_margin)"),
+               "impact zone (the contact's farthest reach from the body's centre so far plus impact_zone_margin)",
+               join=("record", "impact_zone_upper", "value")),
     Diagnostic("ZONE_UPPER_X", "impact_zone_max_strain_x", "m", "position of impact_zone_max_strain (centred impact: "
-               "x >= 0; off centre: signed)", position=True),
-    Diagnostic("ZONE_UPPER_T", "impact_zone_max_strain_time", "s", "time of impact_zone_max_strain"),
+               "x >= 0; off centre: signed)", position=True, join=("record", "impact_zone_upper", "x")),
+    Diagnostic("ZONE_UPPER_T", "impact_zone_max_strain_time", "s", "time of impact_zone_max_strain",
+               join=("record", "impact_zone_upper", "time")),
     Diagnostic("ZONE_LOWER", "impact_zone_max_strain_lower", "1", "largest tensile strain on the lower surface "
-               "within the impact zone"),
+               "within the impact zone", join=("record", "impact_zone_lower", "value")),
     Diagnostic("ZONE_LOWER_X", "impact_zone_max_strain_lower_x", "m", "position of impact_zone_max_strain_lower "
-               "(centred impact: x >= 0; off centre: signed)", position=True),
-    Diagnostic("ZONE_LOWER_T", "impact_zone_max_strain_lower_time", "s", "time of impact_zone_max_strain_lower"),
+               "(centred impact: x >= 0; off centre: signed)", position=True,
+               join=("record", "impact_zone_lower", "x")),
+    Diagnostic("ZONE_LOWER_T", "impact_zone_max_strain_lower_time", "s", "time of impact_zone_max_strain_lower",
+               join=("record", "impact_zone_lower", "time")),
     Diagnostic("ZONE_UPPER_EDGE", "impact_zone_max_strain_at_edge", "1", "1 where impact_zone_max_strain sits at the "
-               "impact zone's edge (the tension still rose outward), 0 where it is a peak inside the zone"),
+               "impact zone's edge (the tension still rose outward), 0 where it is a peak inside the zone",
+               join=("with", "impact_zone_max_strain")),
     Diagnostic("ZONE_LOWER_EDGE", "impact_zone_max_strain_lower_at_edge", "1", "1 where impact_zone_max_strain_lower "
-               "sits at the impact zone's edge, 0 where it is a peak inside the zone"),
+               "sits at the impact zone's edge, 0 where it is a peak inside the zone",
+               join=("with", "impact_zone_max_strain_lower")),
     Diagnostic("CONTACT_EXTENT", "contact_extent", "m", "farthest distance from the body's centre that a point in "
-               "contact (delta > 0) reached over the run"),
+               "contact (delta > 0) reached over the run", join=("largest",)),
     Diagnostic("MAX_CONTACTS", "max_contact_intervals", "1", "largest number of disjoint contact intervals on -L..L, "
-               "intervals that open and close within a step included"),
+               "intervals that open and close within a step included", join=("largest",)),
     Diagnostic("MAX_FORCE", "max_force", "N m-1", "largest force on the body per unit width, located inside the steps "
-               "(inf: the layer bottomed out, where the model's force is unbounded)"),
-    Diagnostic("MAX_FORCE_T", "max_force_time", "s", "time of max_force"),
+               "(inf: the layer bottomed out, where the model's force is unbounded)", join=("largest",)),
+    Diagnostic("MAX_FORCE_T", "max_force_time", "s", "time of max_force", join=("with", "max_force")),
     Diagnostic("MAX_DELTA", "max_compression", "1", "largest relative compression delta of the layer over the "
-               "continuous plate, located inside the steps"),
-    Diagnostic("MAX_DELTA_T", "max_compression_time", "s", "time of max_compression"),
+               "continuous plate, located inside the steps", join=("largest",)),
+    Diagnostic("MAX_DELTA_T", "max_compression_time", "s", "time of max_compression", join=("with", "max_compression")),
     Diagnostic("BOTTOM_T", "bottoming_time", "s", "time at which the layer's gap first closed to bottoming_gap "
-               "(default 1e-3) of its thickness, anywhere on the plate (NaN: it never did)"),
+               "(default 1e-3) of its thickness, anywhere on the plate (NaN: it never did)", join=("last",)),
     Diagnostic("BOTTOM_X", "bottoming_x", "m", "position where the gap first closed (centred impact: x >= 0, "
-               "mirrored at -x; off centre: signed)", position=True),
+               "mirrored at -x; off centre: signed)", position=True, join=("last",)),
     Diagnostic("BOTTOM_SPEED", "bottoming_closing_speed", "m s-1", "speed at which the gap was closing at bottoming, "
-               "he d(delta)/dt"),
-    Diagnostic("ENERGY_JUMPS", "energy_rejections", "1", "steps rejected because the energy identity jumped"),
+               "he d(delta)/dt", join=("last",)),
+    Diagnostic("ENERGY_JUMPS", "energy_rejections", "1", "steps rejected because the energy identity jumped",
+               join=("sum",)),
     Diagnostic("ENERGY_RESIDUAL", "energy_residual", "1", "max over time of |E_plate + E_layer + D - W| divided by "
-               "the largest work W over the run (the final work for the paper's body)"),
-    Diagnostic("WORK", "work", "J m-1", "work done by the body on the ice up to the time reached, int F U dt"),
+               "the largest work W over the run (the final work for the paper's body)", join=("residual",)),
+    Diagnostic("WORK", "work", "J m-1", "work done by the body on the ice up to the time reached, int F U dt",
+               join=("sum",)),
     Diagnostic("DISSIPATED", "dissipated_energy", "J m-1", "energy dissipated in the viscoelastic ice and layer up "
-               "to the time reached (0: elastic)"),
+               "to the time reached (0: elastic)", join=("sum",)),
     Diagnostic("STOP_T", "stop_time", "s", "first time a free body's speed reached zero (NaN: never, or the paper's "
-               "body at constant speed)"),
+               "body at constant speed)", join=("last",)),
     Diagnostic("MAX_PENETRATION", "max_penetration", "m", "deepest penetration s of a free body, at a zero of its "
-               "speed"),
+               "speed", join=("last",)),
     Diagnostic("SEPARATION_T", "separation_time", "s", "time a free body left the ice moving up after it had stopped "
-               "(NaN: it did not)"),
+               "(NaN: it did not)", join=("first", "separation_time")),
     Diagnostic("SEPARATION_SPEED", "separation_speed", "m s-1", "upward speed of a free body when it left the ice "
-               "(rebound speed)"),
+               "(rebound speed)", join=("first", "separation_time")),
     Diagnostic("BODY_RESIDUAL", "body_energy_residual", "1", "max over time of |M (U^2 - V^2)/2 - M body_g s + W| "
-               "divided by the largest work W: the free body's own energy balance (NaN for the paper's body)"),
+               "divided by the largest work W: the free body's own energy balance (NaN for the paper's body)",
+               join=("residual",)),
     # computed by solve() from the outputs (no slot): how short a free floe's run is against the time
     # the open water needs to respond, and estimates of the relative L2 strain error
     Diagnostic(None, "gravity_time_ratio", "1", "time reached over sqrt(L/g), the gravity-wave time of a free floe: "
-               "phi = 0 on the open water outside it holds for values << 1 (NaN: the walled plate)"),
+               "phi = 0 on the open water outside it holds for values << 1 (NaN: the walled plate)", join=("last",)),
     Diagnostic(None, "error_estimate", "1", "estimated relative L2 strain error over the output times: "
-               "error_estimate_time + error_estimate_modes + error_estimate_quadrature"),
+               "error_estimate_time + error_estimate_modes + error_estimate_quadrature", join=("largest",)),
     Diagnostic(None, "error_estimate_time", "1", "time-integration part (etd34: difference from a companion run at "
                "10x the tolerance / (10^0.6 - 1); rk4: summed local error estimates; dop853: NaN, it returns no "
-               "error estimates, and so is error_estimate)"),
+               "error estimates, and so is error_estimate)", join=("largest",)),
     Diagnostic(None, "error_estimate_modes", "1", "modal part: strain carried by the top quarter of the retained "
-               "modes"),
+               "modes", join=("largest",)),
     Diagnostic(None, "error_estimate_quadrature", "1", "quadrature part: 4 x energy_residual (the paper's rule: both "
                "are the O(dx^2) interpolation error of f; the Gauss rule keeps the energy identity to the time "
-               "error, so there it is a second measure of the time part)"),
+               "error, so there it is a second measure of the time part)", join=("largest",)),
     # the kernel's own bookkeeping (no stored name): the Result's time_reached, steps, ... and its
     # status message
     Diagnostic("T_REACHED", None, "s", "time the integration reached"),
@@ -114,6 +145,9 @@ DIAGNOSTICS = (
 #: the kernel's slots in order (D_<slot> = the index), and the slots that hold positions on the plate
 SLOTS = tuple(row.slot for row in DIAGNOSTICS if row.slot is not None)
 POSITION_SLOTS = tuple(SLOTS.index(row.slot) for row in DIAGNOSTICS if row.position)
+
+#: diagnostic name -> its join across a run's stages (JOINS), in the order they are stored
+DIAGNOSTIC_JOINS = {row.name: row.join for row in DIAGNOSTICS if row.name is not None}
 
 #: diagnostic name -> (long_name, units, kernel slot or None), in the order they are stored
 DIAGNOSTIC_INFO = {row.name: (row.long_name, row.units, None if row.slot is None else SLOTS.index(row.slot))

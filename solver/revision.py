@@ -44,11 +44,14 @@ a run that breaks counts the whole plate's parts right (the centre's break and a
 break (crack onset at eps_Y = yield_strain is the break, it was NaN), each break's energy split
 into the plate's and the layer's; DOP853's energy residuals taken at every step's end from the
 energy it starts with (a later stage's were taken at the output times from the first one's:
-6.7e-2 where the identity held to 1.5e-12); no run of the kernels that does not break changed).
+6.7e-2 where the identity held to 1.5e-12); no run of the kernels that does not break changed);
+breaking 3 (2026-12-06: a run that breaks takes each diagnostic by the join solver.outputs declares
+for it: the impact zone's at-edge flags are the stage's whose zone maximum is the run's, not the
+last stage's; no other value changed, make bit-for-bit BASE=f0ab5a4 on five breaking runs).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
 #: "smoothness": of etd34's adaptive runs under the smoothness control (in addition); "breaking":
 #: of the runs in which the ice breaks (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 2}
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 3}

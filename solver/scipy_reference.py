@@ -31,7 +31,8 @@ import numpy as np
 from . import layout as kn
 from .diagnostics import Run, largest_tension
 from .keys import ParameterError
-from .loop import (Observers, StepEnds, break_value, initial_state, new_records, new_state, new_workspace, observe_step,
+from .ending import break_value
+from .loop import (Observers, StepEnds, initial_state, new_records, new_state, new_workspace, observe_step,
                    state_at)
 from .model.body import body_accel, body_residual, start_body
 from .model.contact import count_contacts, gap_peak
@@ -284,7 +285,7 @@ def state_series(tab, t, a, adot, body=(np.nan, np.nan)) -> np.ndarray:
 def _break(system, armed, level, t_old, t_new, dense):
     """The first time in the step at which an armed surface's peak tension over x reaches the
     break level (brentq on the dense output, bracketed on 8 points), as (t, x, surface), or None;
-    a surface is armed once its peak is below the level at a step's end (solver.loop.arm_breaks)."""
+    a surface is armed once its peak is below the level at a step's end (solver.ending.arm_breaks)."""
     from scipy.optimize import brentq
     model, N, found = system.model, system.N, None
     state, value = new_state(N, system.tab.xq.size), np.empty(3)

@@ -4,7 +4,7 @@ import numpy as np
 
 import solver.layout as kn
 from solver import DIAGNOSTIC_INFO, Parameters, Settings, solve
-from solver.outputs import DIAGNOSTICS, POSITION_SLOTS, SLOTS
+from solver.outputs import DIAGNOSTIC_JOINS, DIAGNOSTICS, JOINS, POSITION_SLOTS, RECORDS, SLOTS
 
 
 def test_the_layout_is_the_table():
@@ -67,3 +67,33 @@ def test_the_series_and_record_layouts_are_their_tables():
     for row in SERIES:
         if row.attribute:
             assert getattr(r, row.attribute).shape == r.times.shape
+
+
+def test_every_stored_diagnostic_declares_its_join_across_stages():
+    """A run in stages (one that breaks) joins each stored diagnostic by the rule its row declares
+    (solver.outputs.JOINS): a new diagnostic without one fails here, not silently as the last
+    stage's value. Each join names what it reads: a record and its column, diagnostics declared
+    before it ("larger"), or a diagnostic ("with", "first")."""
+    names = [row.name for row in DIAGNOSTICS if row.name is not None]
+    assert list(DIAGNOSTIC_JOINS) == names
+    for position, (name, join) in enumerate(DIAGNOSTIC_JOINS.items()):
+        assert join is not None and join[0] in JOINS, name
+        kind, *args = join
+        if kind == "record":
+            assert args[0] in RECORDS and args[1] in ("value", "x", "time"), name
+        elif kind == "larger":
+            assert all(a in names[:position] for a in args[:2]) and args[2] in ("", "_x", "_time"), name
+            assert all(a + args[2] in names[:position] for a in args[:2]), name
+        elif kind in ("with", "first"):
+            assert len(args) == 1 and args[0] in names, name
+        else:
+            assert not args, name
+    # a maximum's place, time and flags go with it: "with" names a maximum (the largest over the
+    # stages, or a record's value), and a record's place and time come from its value's record
+    for name, (kind, *args) in DIAGNOSTIC_JOINS.items():
+        if kind == "with":
+            assert DIAGNOSTIC_JOINS[args[0]][0] == "largest" or DIAGNOSTIC_JOINS[args[0]][-1] == "value", name
+        if kind in ("record", "larger") and name.endswith(("_x", "_time")):
+            tail = "_x" if name.endswith("_x") else "_time"
+            base = DIAGNOSTIC_JOINS[name[:-len(tail)]]
+            assert (kind, *args) == ((*base[:2], tail[1:]) if kind == "record" else (*base[:3], tail)), name

@@ -44,7 +44,8 @@ def test_the_helpers_subtrees_are_those_integrate_calls(monkeypatch):
     monkeypatch.setattr(loop.integrate.link_dispatcher, "_cache", NullCache())
     loop.integrate.link_dispatcher.compile(argtypes)
     jobs = first_compile.helper_jobs()
-    assert [function.__name__ for function, _ in jobs] == ["observe_step", "take_step", "ending_event", "judge_step"]
+    assert [function.__name__ for function, _ in jobs] == ["observe_step", "take_step", "ending_event", "break_inside_step",
+                                                           "judge_step"]
     for function, job in jobs:
         assert job in function.link_dispatcher.overloads, function.__name__
 
