@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs docs-check study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
+.PHONY: help setup docs docs-check architecture-numbers study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -81,6 +81,9 @@ bench: setup  ## benchmarks -> results/bench/solver.md, results/bench/study.md
 
 variables-table: setup  ## rewrite docs/variables.md from a real study.nc (tests/test_variables.py checks it)
 	$(PY) -m pipeline.common.variables
+
+architecture-numbers: setup  ## rewrite docs/architecture.md's numbers of the code's shape from the source (tests/test_architecture.py checks them)
+	$(PY) tests/architecture_numbers.py --write
 
 layout-slots: setup  ## rewrite solver/layout.py's D_*, R_*, S_* slots from the tables of solver/outputs.py
 	$(PY) -m solver.outputs

@@ -50,16 +50,15 @@ def main() -> None:
             continue
         r = solve(p, Settings(error_estimate=False), fields=(), times=np.linspace(0, p.duration, 11))
         for stage in r.extra.get("stages", []):
-            energy = stage.extra.get("break_energy")
+            energy = stage.end.carried
             if energy is None:
                 continue
             breaks += 1
-            plate = energy["before"] - energy["after"]
-            layer = energy["layer_before"] - energy["layer_after"]
+            plate, layer = energy.plate_removed, energy.layer_removed
             plate_negative += plate < 0
             if plate + layer < 0:
                 adding.append(i)
-                relative.append(-(plate + layer) / (energy["before"] + energy["layer_before"]))
+                relative.append(-(plate + layer) / (energy.plate_before + energy.layer_before))
                 print(f"{i:4d} adds {-(plate + layer):.3g} J/m, {relative[-1]:.2e} of the energy before (plate "
                       f"{plate:.3g}, layer {layer:.3g}) {kw}", flush=True)
     print(f"{breaks} breaks; {len(adding)} in {len(set(adding))} cases added energy (worst "

@@ -20,6 +20,7 @@ from .statuses import STATUS_INFO
 from .fracture import EPS_Y_INFO, PAPER_EPS_Y, crack_onset, default_eps_Y
 from .parameters import PARAMETER_INFO, ParameterError, Parameters
 from .settings import INTEGRATORS, SETTING_INFO, Settings
+from .spec import BodyState, RunState, StageEnd
 
 try:
     __version__ = _version("floe-impact")
@@ -28,6 +29,6 @@ except _NotInstalled:                           # a source tree that was not ins
 
 __all__ = [
     "DIAGNOSTIC_INFO", "EPS_Y_INFO", "FIELD_INFO", "FIELDS", "INTEGRATORS", "PAPER_EPS_Y",
-    "PARAMETER_INFO", "SETTING_INFO", "STATUS_INFO", "ParameterError", "Parameters", "Result",
-    "Settings", "compile_kernels", "crack_onset", "default_eps_Y", "solve",
+    "PARAMETER_INFO", "SETTING_INFO", "STATUS_INFO", "BodyState", "ParameterError", "Parameters", "Result",
+    "RunState", "Settings", "StageEnd", "compile_kernels", "crack_onset", "default_eps_Y", "solve",
 ]

@@ -39,13 +39,15 @@ the contact reached 0.216 m in studies/breakthrough.toml at hi = 0.1, V = 10 m/s
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
 from . import layout as kn
 from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
-from .run import Result, checked_breaks, run_case, cosines_to_kernel
+from .run import Result, checked_breaks, cosines_to_kernel, run_case
+from .spec import Begin, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
 PARTS_LIMIT, WALL_BREAK = "parts_limit", "wall_break"
@@ -56,16 +58,6 @@ RESTART_STEP = 0.1
 #: a break located within this fraction of L of the plate's centre is at the centre (the peak's
 #: place there is found to round-off)
 CENTRE_SNAP = 1e-9
-
-
-def _checked(case, initial):
-    """What a breaking run refuses beyond its parameters' own checks (solver.parameters), or
-    ParameterError naming it."""
-    if any(v is not None for v in initial):
-        raise ParameterError("fracture = 'break' starts from the unbroken plate at rest at first touch "
-                             "(no initial amplitudes, velocities or breaks)")
-    if case.end != "stage":
-        raise ParameterError("fracture = 'break' runs to t_end, or to a free body's separation (end = 'stage')")
 
 
 def _restart_step(stages):
@@ -93,65 +85,58 @@ def broken_through(breaks, x0, full) -> bool:
     return bool(np.any(b > 0.0))
 
 
-def solve_breaking(p, s, case, initial):
-    """The run of ``case`` (solver.run.Case) in which the plate breaks where its tension first
-    reaches p.yield_strain, and again on its parts, to at most p.max_parts parts (module docstring).
-    Returns the stages joined into one Result: extra["breaks"] (each break's time [s], x [m],
-    surface, parts after it, energy removed [J m-1], and its plate's and layer's parts), extra["full_plate"]
-    (whether the kernels ran the whole plate; else the half plate of a centred impact), extra["stages"] (each stage's Result),
-    extra["removed_energy"] (T,) [J m-1], extra["breaking"] (first_break_time, break_count,
-    parts, breakthrough_time, breakthrough_penetration)."""
-    _checked(case, initial)
-    yield_strain, max_parts = p.yield_strain, p.max_parts
-    full = p.off_centre if case.full_plate is None else bool(case.full_plate)
+def solve_breaking(p, s, spec: RunSpec) -> Result:
+    """The run of ``spec`` (solver.spec.RunSpec, from the unbroken plate at rest) in which the plate
+    breaks where its tension first reaches p.yield_strain, and again on its parts, to at most
+    p.max_parts parts (module docstring): run a stage; while it ended at a break, carry its end
+    (Result.end) across and run the next. Returns the stages joined into one Result:
+    extra["breaks"] (each break's time [s], x [m], surface, parts after it, energy removed [J m-1],
+    and its plate's and layer's parts), extra["full_plate"] (whether the kernels ran the whole
+    plate; else the half plate of a centred impact), extra["stages"] (each stage's Result),
+    extra["removed_energy"] (T,) [J m-1], extra["breaking"] (first_break_time, break_count, parts,
+    breakthrough_time, breakthrough_penetration)."""
+    if spec.asked.end != "stage":
+        raise ParameterError("fracture = 'break' runs to t_end, or to a free body's separation (end = 'stage')")
+    yield_strain, max_parts, full, times = p.yield_strain, p.max_parts, spec.full_plate, spec.window.times
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
-    state, breaks, t0 = (zeros, zeros.copy(), None, None), [], case.t_start
+    begin, breaks, t0 = Begin(zeros, zeros.copy()), [], spec.window.t_start
     stages, events, status, message = [], [], None, ""
     while True:
-        later = case.times >= t0 if not stages else case.times > t0
+        later = times >= t0 if not stages else times > t0
         kernel_breaks = checked_breaks(p, s, breaks, full) if breaks else None
-        stage = run_case(p, s, case._replace(times=case.times[later], t_start=t0, a0=state[0], v0=state[1],
-                                         from_breaks=state[2], breaks=kernel_breaks, full_plate=full,
-                                         break_level=float(yield_strain),
-                                         h_init=_restart_step(stages), body=state[3]))
+        stage = run_case(p, s, replace(spec, window=replace(spec.window, times=times[later], t_start=t0), begin=begin,
+                                       breaks=kernel_breaks, break_level=float(yield_strain),
+                                       first_step=_restart_step(stages)))
         stages.append((later, stage))
-        if "break_energy" in stage.extra:
-            energy = stage.extra["break_energy"]
-            events[-1].update(removed_energy=_removed(energy), removed_plate_energy=energy["before"] - energy["after"],
-                              removed_layer_energy=energy["layer_before"] - energy["layer_after"])
-        if stage.status != "ok" or "break" not in stage.extra:
+        end = stage.end
+        if end.carried is not None:
+            events[-1].update(removed_energy=end.carried.removed, removed_plate_energy=end.carried.plate_removed,
+                              removed_layer_energy=end.carried.layer_removed)
+        if stage.status != "ok" or end.broke is None:
             break
-        where = stage.extra["break"]
-        x_b = 0.0 if abs(where["x"]) < CENTRE_SNAP * p.L and not p.off_centre else where["x"]
+        where = end.broke
+        x_b = 0.0 if abs(where.x) < CENTRE_SNAP * p.L and not p.off_centre else where.x
         if abs(x_b) >= p.L * (1.0 - CENTRE_SNAP) or x_b in breaks:
             status = WALL_BREAK
             place = "a wall" if x_b not in breaks else "a break (a free edge's tension is 0: a basis too coarse)"
             message = (f"the tension reached yield_strain = {yield_strain:g} at {place} (x = {x_b:.6g} m, t = "
-                       f"{where['time']:.6g} s, {where['surface']} surface), where breaking is not built; data up "
+                       f"{where.time:.6g} s, {where.surface} surface), where breaking is not built; data up "
                        f"to then is valid")
             break
         new_breaks = sorted(breaks + [x_b])
         if whole_plate_parts(new_breaks, full) > max_parts:
             status = PARTS_LIMIT
             message = (f"the plate would break into more than max_parts = {max_parts} parts at t = "
-                       f"{where['time']:.6g} s (x = {x_b:.6g} m, {where['surface']} surface); data up to then is valid")
+                       f"{where.time:.6g} s (x = {x_b:.6g} m, {where.surface} surface); data up to then is valid")
             break
-        a, adot, _, body = stage.extra["final_state"]
-        events.append({"time": where["time"], "x": x_b, "surface": where["surface"],
+        body = end.state.body
+        events.append({"time": where.time, "x": x_b, "surface": where.surface,
                        "parts": whole_plate_parts(new_breaks, full),
                        "broken_through": broken_through(new_breaks, p.x0, full),
-                       "penetration": p.V * where["time"] if body is None else body[0]})
+                       "penetration": p.V * where.time if body is None else body.penetration})
         breaks, t0 = new_breaks, stage.time_reached
-        state = (a, adot, kernel_breaks, body)
-    return _joined(p, s, case, stages, events, status, message, full)
-
-
-def _removed(energy) -> float:
-    """The energy a break removed [J m-1]: the plate's and the layer's before it minus after. The
-    plate's part is never negative (the carry is a projection in the plate's own energies); the
-    layer's has either sign (the projection moves w under the body), so a break can add energy
-    to the layer, and in all (docs/model.md, "The energy identity through the breaks")."""
-    return (energy["before"] + energy["layer_before"]) - (energy["after"] + energy["layer_after"])
+        begin = Begin(end.state.amplitudes, end.state.velocities, kernel_breaks, body)
+    return _joined(p, s, spec, stages, events, status, message, full)
 
 
 def joined_record(records):
@@ -169,11 +154,11 @@ def joined_record(records):
     return np.vstack(rows) if rows else np.empty((0, kn.N_REC))
 
 
-def _joined_series(case, stages):
+def _joined_series(spec, stages):
     """The fields, series and amplitudes over the run's output times from the stages' (the
     amplitudes are the unbroken plate's: NaN after the first break, where the modes are the
     parts'), the work and dissipated energy summed over the stages, and the removed energy R."""
-    T, first = case.times.size, stages[0][1]
+    T, first = spec.window.times.size, stages[0][1]
     fields = {name: np.full((T,) + v.shape[1:], np.nan) for name, v in first.fields.items()}
     series = {row.attribute: np.full(T, np.nan) for row in SERIES if row.attribute is not None}
     amplitudes = {name: np.full((T,) + getattr(first, name).shape[1:], np.nan)
@@ -181,8 +166,8 @@ def _joined_series(case, stages):
     removed_series, valid = np.full(T, np.nan), np.zeros(T, bool)
     work = dissipated = removed = 0.0
     for i, (rows, stage) in enumerate(stages):
-        if "break_energy" in stage.extra:             # the stage starts at a break
-            removed += _removed(stage.extra["break_energy"])
+        if stage.end.carried is not None:             # the stage starts at a break
+            removed += stage.end.carried.removed
         at = np.flatnonzero(rows)[stage.valid]
         valid[at] = True
         for name in fields:
@@ -219,11 +204,10 @@ def _residual(results, name):
         return value
     before, scale = 0.0, 0.0
     for r in results:
-        carried = (r.extra["break_energy"]["after"] + r.extra["break_energy"]["layer_after"]
-                   if "break_energy" in r.extra else 0.0)
-        scale = max(scale, before + r.extra["energy_scale"] - carried)
+        carried = r.end.carried.after if r.end.carried is not None else 0.0
+        scale = max(scale, before + r.end.energy_scale - carried)
         before += r.diagnostics["work"]
-    return sum(r.diagnostics[name] * r.extra["energy_scale"] for r in results) / scale if scale > 0 else 0.0
+    return sum(r.diagnostics[name] * r.end.energy_scale for r in results) / scale if scale > 0 else 0.0
 
 
 def joined_diagnostics(results, records) -> dict:
@@ -256,9 +240,9 @@ def joined_diagnostics(results, records) -> dict:
     return d
 
 
-def _joined(p, s, case, stages, events, status, message, full):
+def _joined(p, s, spec, stages, events, status, message, full):
     """The stages as one Result (module docstring)."""
-    fields, series, amplitudes, removed_series, valid = _joined_series(case, stages)
+    fields, series, amplitudes, removed_series, valid = _joined_series(spec, stages)
     results = [stage for _, stage in stages]
     last = results[-1]
     names = results[0].tension_record.keys()
@@ -271,10 +255,11 @@ def _joined(p, s, case, stages, events, status, message, full):
                           "break_count": len(events), "parts": events[-1]["parts"] if events else 1,
                           "breakthrough_time": through[0]["time"] if through else math.nan,
                           "breakthrough_penetration": through[0]["penetration"] if through else math.nan}}
-    if case.locate_eps_Y is not None and np.size(case.locate_eps_Y):
+    locate = spec.asked.locate_eps_Y
+    if locate is not None and np.size(locate):
         located = {}
         for surface in ("upper", "lower"):
-            t = np.full(np.size(case.locate_eps_Y), np.nan)
+            t = np.full(np.size(locate), np.nan)
             x = t.copy()
             for r in results:
                 rt, rx = r.extra["located_crack_onset"][surface]
@@ -284,7 +269,7 @@ def _joined(p, s, case, stages, events, status, message, full):
         extra["located_crack_onset"] = located
     if status is None:
         status, message = last.status, last.message
-    return Result(parameters=p, settings=s, times=case.times, x=case.x, fields=fields, **amplitudes, **series,
+    return Result(parameters=p, settings=s, times=spec.window.times, x=spec.asked.x, fields=fields, **amplitudes, **series,
                   valid=valid, diagnostics=diagnostics, status=status, message=message,
                   time_reached=last.time_reached, steps=sum(r.steps for r in results),
                   rejected_steps=sum(r.rejected_steps for r in results),
@@ -292,7 +277,7 @@ def _joined(p, s, case, stages, events, status, message, full):
                   smallest_step=min(r.smallest_step for r in results),
                   largest_step=max(r.largest_step for r in results), wall_time=sum(r.wall_time for r in results),
                   tension_record=records, contact_record=contacts, extra=extra, outputs=last.outputs,
-                  end_reason="end" if status == "ok" else status)
+                  end_reason="end" if status == "ok" else status, end=last.end)
 
 
 def breaking_values(result, slots: int) -> dict:

@@ -22,8 +22,9 @@ from .model.assemble import Tables
 from .observe.asked import ENDS
 from .outputs import BREAKING_INFO, FIELD_INFO, FIELDS
 from .parameters import Parameters, ParameterError
-from .run import Case, Result, checked_breaks, cosines_to_kernel, run_case
+from .run import Result, checked_breaks, cosines_to_kernel, run_case
 from .settings import Settings, check_combination
+from .spec import Asked, Begin, BodyState, RunSpec, RunState, Window
 
 __all__ = ["Result", "compile_kernels", "solve", "Tables", "integrate"]
 
@@ -80,8 +81,8 @@ def _checked(parameters, settings, times, fields, x, t_end, t_start, initial, un
         raise ParameterError(f"until_separation must be true or false, got {until_separation!r}")
     check_combination(p, s)
     if p.free_body and t_start > 0 and not body_given:
-        raise ParameterError("a free body's run starts at first touch (t_start = 0), or from its state at "
-                             "t_start in initial_state (a, a', breaks, body)")
+        raise ParameterError("a free body's run starts at first touch (t_start = 0), or from a run's end with "
+                             "the body's state (start = result.end.state)")
     if until_separation and not p.free_body:
         raise ParameterError("until_separation needs a free body (a finite body_mass): the paper's body "
                              "moves down at V for ever")
@@ -97,7 +98,7 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
           fields=("deflection", "strain", "layer_pressure"), x=None, t_end=None,
           initial_amplitudes=None, initial_velocities=None, t_start=0.0, locate_eps_Y=(),
           until_separation=False, full_plate=None, outputs=None, eps_Y=None, end="stage", breaks=None,
-          initial_state=None, break_strain=None) -> Result:
+          start=None, break_strain=None) -> Result:
     """Integrate one impact case.
 
     Parameters
@@ -133,15 +134,15 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         "Breaking into parts"; x > 0 on the half plate of a centred impact, and the break at -x
         with it): the run is on the parts' wet modes (amplitudes as a floe's), and initial
         amplitudes and velocities, the unbroken plate's state at t_start, are carried across
-        the break (``extra["break_energy"]``: the plate's energy before and after [J m-1]).
-    initial_state : (a, adot, breaks, body): the state at t_start in the kernel's own form, of the
-        plate broken at ``breaks`` (``[]``: unbroken), and a free body's (s [m], U [m/s], its
-        first stop's time [s] and deepest penetration [m] before t_start; None for the paper's
-        body), as a run's ``extra["final_state"]`` gives it; carried across to ``breaks`` where
-        the run's plate is broken at more places. Instead of initial_amplitudes and
-        initial_velocities (which are the symmetric cosines' only).
+        the break (``result.end.carried``: the plate's and the layer's energy before and after
+        [J m-1]).
+    start : a :class:`solver.RunState`, the state the run starts from at its ``time`` (instead of
+        t_start, initial_amplitudes and initial_velocities): a run's end, ``result.end.state``,
+        in the kernel's own form, of the plate broken at its ``breaks``, with a free body's
+        :data:`solver.BodyState`; carried across to ``breaks`` where the run's plate is broken
+        at more places.
     break_strain : the run ends where either surface's tension first reaches it, located on
-        true sub-steps (``extra["break"]``: time, x, surface; ``extra["final_state"]`` the state
+        true sub-steps (``result.end.broke``: time, x, surface; ``result.end.state`` the state
         there): one stage of a run that breaks. Default None: no such end. A whole run that
         breaks is ``Parameters(fracture="break", yield_strain=..., max_parts=...)``: the plate
         breaks where and when its tension first reaches yield_strain, and again on its parts
@@ -171,38 +172,40 @@ def solve(parameters: Parameters | None = None, settings: Settings | None = None
         raise ParameterError(f"end must be one of {', '.join(repr(e) for e in ENDS)}, got {end!r}")
     eps_Y = None if eps_Y is None else tuple(yield_strains(eps_Y).tolist())
     locate_eps_Y = tuple(yield_strains(locate_eps_Y).tolist()) if np.size(locate_eps_Y) else ()
-    body_given = initial_state is not None and len(initial_state) > 3 and initial_state[3] is not None
+    if start is not None:
+        if not isinstance(start, RunState):
+            raise ParameterError(f"start must be a solver.RunState (a run's end: result.end.state), got "
+                                 f"{type(start).__name__}")
+        if t_start != 0.0 or initial_amplitudes is not None or initial_velocities is not None:
+            raise ParameterError("give the initial state as start (a RunState, its time the run's start) or as "
+                                 "t_start, initial_amplitudes and initial_velocities, not both")
+        t_start = start.time
+    body_given = start is not None and start.body is not None
     p, s, times, x, t_end, a0, v0 = _checked(parameters, settings, times, fields, x, t_end, t_start,
                                              (initial_amplitudes, initial_velocities), until_separation, full_plate,
                                              body_given)
     breaking = sorted(set(outputs or ()) & set(BREAKING_INFO))
     if breaking and p.fracture != "break":
         raise ParameterError(f"outputs: {breaking[0]} is an output of a run that breaks (fracture = 'break')")
+    full = p.off_centre if full_plate is None else bool(full_plate)
+    window, asked = Window(times, float(t_start), t_end), Asked(tuple(fields), x, outputs, eps_Y, end, locate_eps_Y)
     if p.fracture == "break":
-        _checked_breaking(p, locate_eps_Y, eps_Y, initial_state=initial_state, initial_amplitudes=initial_amplitudes,
+        _checked_breaking(p, locate_eps_Y, eps_Y, start=start, initial_amplitudes=initial_amplitudes,
                           initial_velocities=initial_velocities, breaks=breaks, break_strain=break_strain,
                           t_start=None if t_start == 0 else t_start)
-        return solve_breaking(p, s, Case(times, tuple(fields), x, t_end, float(t_start), None, None, None,
-                                         None, full_plate, until_separation, outputs, eps_Y, end,
-                                         locate_eps_Y, math.inf),
-                              (initial_amplitudes, initial_velocities, breaks))
+        return solve_breaking(p, s, RunSpec(window, asked, Begin(cosines_to_kernel(a0, full), cosines_to_kernel(v0, full)),
+                                            full, until_separation=until_separation))
     kernel_breaks = checked_breaks(p, s, breaks, full_plate)
-    full = p.off_centre if full_plate is None else bool(full_plate)
     if break_strain is not None and not (math.isfinite(break_strain) and break_strain > 0):
         raise ParameterError(f"break_strain must be a positive strain, got {break_strain!r}")
-    if initial_state is not None:
-        if initial_amplitudes is not None or initial_velocities is not None:
-            raise ParameterError("give the initial state as initial_state or as initial_amplitudes and "
-                                 "initial_velocities, not both")
-        a0, v0, from_breaks, *body = initial_state
-        from_breaks = checked_breaks(p, s, from_breaks, full_plate) if len(from_breaks) else None
-        body = _checked_body(p, body[0] if body else None)
+    if start is not None:
+        begin = Begin(np.asarray(start.amplitudes, float), np.asarray(start.velocities, float),
+                      checked_breaks(p, s, start.breaks, full_plate) if len(start.breaks) else None,
+                      _checked_body(p, start.body))
     else:
-        a0, v0, from_breaks, body = cosines_to_kernel(a0, full), cosines_to_kernel(v0, full), None, None
-    return run_case(p, s, Case(times, tuple(fields), x, t_end, float(t_start), np.asarray(a0, float),
-                           np.asarray(v0, float), from_breaks, kernel_breaks, full, until_separation, outputs, eps_Y,
-                           end, locate_eps_Y, math.inf if break_strain is None else float(break_strain),
-                           body=body))
+        begin = Begin(cosines_to_kernel(a0, full), cosines_to_kernel(v0, full))
+    return run_case(p, s, RunSpec(window, asked, begin, full, kernel_breaks, until_separation,
+                                  math.inf if break_strain is None else float(break_strain)))
 
 
 def _names(what, names) -> tuple:
@@ -232,15 +235,15 @@ def _checked_breaking(p, locate_eps_Y, eps_Y, **unread):
 
 
 def _checked_body(p, body):
-    """A free body's state at t_start in initial_state, (s, U, stop time, deepest penetration)
-    (NaN: no stop yet), as a run's extra["final_state"] gives it; None for the paper's body."""
+    """A free body's BodyState at the start (its stop time and deepest penetration NaN: no stop
+    yet), as a run's end.state gives it; None for the paper's body."""
     if body is None:
         return None
     values = tuple(float(v) for v in body)
     if not p.free_body or len(values) != 4 or not all(math.isfinite(v) for v in values[:2]):
-        raise ParameterError("initial_state's body is a free body's (s [m], U [m/s], stop time [s], deepest "
-                             "penetration [m]), as extra['final_state'] gives it")
-    return values
+        raise ParameterError("start.body is a free body's BodyState (penetration [m], speed [m/s], stop time [s], "
+                             "deepest penetration [m]), as result.end.state gives it")
+    return BodyState(*values)
 
 
 def compile_kernels() -> None:

@@ -26,6 +26,7 @@ from .outputs import DIAGNOSTIC_INFO, OBSERVED, POSITION_SLOTS, RECORDS, SERIES,
 from .fracture import above_yield_strain, crack_onset, thin_record, yield_strains
 from .parameters import Parameters, ParameterError
 from .settings import Settings
+from .spec import Begin, BodyState, Break, CarriedEnergy, RunSpec, RunState, StageEnd
 from .scipy_reference import integrate_dop853, state_series
 from .statuses import status_message
 
@@ -73,6 +74,8 @@ class Result:
     outputs: frozenset = None          # the outputs asked (None: every one); the others are NaN or empty
     end_reason: str = "end"            # "end" (t_end), "answered" (its answers final: solve's end), or the status
     answered_eps_Y: float = math.inf   # crack onsets are final up to this yield strain (inf: the whole run)
+    end: StageEnd = None               # how the run ended: its state there, the break it ended at, the energy
+    #                                    carried into it across a break, its energy scale (solver.spec)
 
     @property
     def ok(self) -> bool:
@@ -163,14 +166,15 @@ def checked_breaks(p, s, breaks, full_plate):
     return b + p.L if full else b
 
 
-def _across_break(p, s, tab, case):
-    """The kernel's initial wet amplitudes and rates of the broken plate (tab) from the state
-    case.a0, case.v0 of the plate before the break, in the kernel's form: the unbroken plate's
-    cosines (solver.model.parts.carry_state) or the parts of a plate broken at fewer places
-    (carry_parts); and the plate's energy before and after [J m-1]."""
-    wet, a, adot = tab.floe["wet"], case.a0, case.v0
-    old = Tables(p, s.subintervals, tab.full_plate, s.quadrature, s.quadrature_density, breaks=case.from_breaks)
-    if case.from_breaks is None:
+def _across_break(p, s, tab, spec):
+    """The kernel's initial wet amplitudes and rates of the broken plate (tab) from the state the
+    run begins from (spec.begin) on the plate before the break, in the kernel's form: the unbroken
+    plate's cosines (solver.model.parts.carry_state) or the parts of a plate broken at fewer places
+    (carry_parts); and the CarriedEnergy (the plate's and the layer's before and after) [J m-1]."""
+    begin = spec.begin
+    wet, a, adot = tab.floe["wet"], begin.amplitudes, begin.velocities
+    old = Tables(p, s.subintervals, tab.full_plate, s.quadrature, s.quadrature_density, breaks=begin.breaks)
+    if begin.breaks is None:
         if a.shape != (p.Nmod * (2 if tab.full_plate else 1),) or a.shape != adot.shape:
             raise ParameterError("the unbroken plate's initial state must be the kernel's cosines' amplitudes and "
                                  "rates")
@@ -178,7 +182,7 @@ def _across_break(p, s, tab, case):
         b, bdot = parts.carry_state(p, wet, a, adot)
         before = sum(parts.cosine_state_energy(p, domain, mirror, a, adot))
     else:
-        if not set(case.from_breaks) < set(case.breaks) or a.shape != old.omega.shape or adot.shape != a.shape:
+        if not set(begin.breaks) < set(spec.breaks) or a.shape != old.omega.shape or adot.shape != a.shape:
             raise ParameterError("a broken plate's state carries only to the same plate broken at more places, "
                                  "as the kernel's amplitudes and rates of its wet modes")
         scale = old.floe["scale"][:-1]
@@ -189,10 +193,11 @@ def _across_break(p, s, tab, case):
     scale = tab.floe["scale"]                             # (the last wet mode is the null one)
     a_new, adot_new = np.append(b, 0.0) * scale, np.append(bdot, 0.0) * scale
     # the layer's energy too (w at the nodes moves by what the projection leaves out)
-    body = (math.nan, math.nan) if case.body is None else case.body[:2]
-    layer = [state_series(t, case.t_start, x, xdot, body)[kn.S_E_LAYER]
-             for t, x, xdot in ((old, case.a0, case.v0), (tab, a_new, adot_new))]
-    return a_new, adot_new, {"before": before, "after": after, "layer_before": layer[0], "layer_after": layer[1]}
+    body = (math.nan, math.nan) if begin.body is None else begin.body[:2]
+    t_start = spec.window.t_start
+    layer = [state_series(t, t_start, x, xdot, body)[kn.S_E_LAYER]
+             for t, x, xdot in ((old, a, adot), (tab, a_new, adot_new))]
+    return a_new, adot_new, CarriedEnergy(before, after, layer[0], layer[1])
 
 
 def _reached_at_break(tab, s, diag, final, level, records, level_t, level_x, levels):
@@ -298,17 +303,6 @@ INTEGRATORS = {"etd34": Integrator(_kernel_loop(ETD34), False, True, True),
                "dop853": Integrator(integrate_dop853, False, False, False)}
 
 
-#: one run as run_case takes it, its inputs checked: output times, fields and x, the window, the
-#: initial state in the kernel's form (a, adot) of the plate broken at from_breaks (None:
-#: unbroken; kernel coordinates), the breaks of the plate it runs on (None: unbroken), the full
-#: plate, the free body's end, the outputs asked, the levels to locate, and the break level (inf:
-#: none), the first step [s] (None: the first touch's, short), and a free body at t_start
-#: (solver.control.Control.body_start: s, U, its first stop's time and deepest penetration
-#: before; None: at first touch)
-Case = namedtuple("Case", "times fields x t_end t_start a0 v0 from_breaks breaks full_plate until_separation "
-                          "outputs eps_Y end locate_eps_Y break_level h_init body", defaults=(None, None))
-
-
 def cosines_to_kernel(amplitudes, full):
     """The unbroken plate's amplitudes in the kernel's order from those of the symmetric cosines
     cos(lambda_n x) (solver.model.assemble.Tables.to_kernel, without building the tables)."""
@@ -320,124 +314,185 @@ def cosines_to_kernel(amplitudes, full):
     return out
 
 
-def run_case(p, s, case: Case) -> Result:
-    """One run of a checked case (solve's body): the Model, the kernels, and the Result."""
-    times, fields, x, t_end, t_start = case.times, case.fields, case.x, case.t_end, case.t_start
-    locate_eps_Y = case.locate_eps_Y
-    until_separation, outputs, eps_Y, end = case.until_separation, case.outputs, case.eps_Y, case.end
-    kernel_breaks = case.breaks
-    broken = kernel_breaks is not None
-    observers, answer, asked = plan_outputs(outputs, eps_Y, end, floe=p.edges == "free" or broken)
-    if case.break_level < math.inf:                  # the break is located on the tension's observer
-        observers |= BITS["tension"]
-    tab = Tables(p, s.subintervals, case.full_plate, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
-    extra = {}
-    a0, v0 = case.a0, case.v0
-    if tab.floe is not None and not broken:          # a free floe starts at rest (solve checks it)
-        a0, v0 = np.zeros(tab.omega.size), np.zeros(tab.omega.size)
-    if broken and (case.from_breaks is None or not np.array_equal(case.from_breaks, kernel_breaks)):
-        a0, v0, extra["break_energy"] = _across_break(p, s, tab, case)     # the state across the break
-    elif a0.shape != (tab.omega.size,) or v0.shape != (tab.omega.size,) or (case.from_breaks is None) == broken:
-        raise ParameterError(f"the initial state must be the kernel's {tab.omega.size} amplitudes and rates "
-                             f"of the plate the run is on")
-    N = tab.lam.size                                 # the kernel's modes: 2 Nmod on the full plate
+def run_case(p, s, spec: RunSpec) -> Result:
+    """One run of a checked RunSpec (solve's body, each stage of a run that breaks, and the error
+    estimate's companion run), in named steps: what it observes (_plan), the tables of its plate,
+    the state it begins from (_begun: at rest, a given state, or carried across a break), its
+    control (_control), the kernels (_kernels), what they recorded (_recorded), the diagnostics
+    and the fields, and the Result with the run's end (StageEnd)."""
+    observers, answer, asked = _plan(p, spec)
+    tab = Tables(p, s.subintervals, spec.full_plate, s.quadrature, s.quadrature_density, breaks=spec.breaks)
+    a0, v0, carried = _begun(p, s, tab, spec)
     integrator = INTEGRATORS[s.integrator]
-    if integrator.paper_step:
-        fixed = s.rk4_step_fraction * 2 * np.pi / tab.omega[-1]
-    else:
-        fixed = s.fixed_step * p.time_scale
-    T = times.size
-    out_a = np.full((T, N), np.nan)
-    out_adot = np.full((T, N), np.nan)
-    series = np.full((T, kn.N_SERIES), np.nan)
-    diag = np.full(kn.N_DIAG, np.nan)
-    # first step: short enough that the tension (~ t^3.5 from first touch) crossed inside it is
-    # far below any yield strain of interest; later steps grow at most 10% a step from it
-    h_init = case.h_init or min(1e-6 * (t_end - t_start), 1e-5 * p.time_scale)
-    h_max = HMAX_FRACTION * 2 * np.pi / p.contact_frequency
-    levels = np.ascontiguousarray(np.atleast_1d(np.asarray(locate_eps_Y, dtype=float)))
-    level_t = np.full((2, levels.size), np.nan)
-    level_x = np.full((2, levels.size), np.nan)
-    control = make_control(float(t_start), float(t_end), s.tolerance, fixed, h_init, 1e-13 * t_end, h_max,
-                           s.max_steps, s.bottoming_gap, until_separation, s.impact_zone_margin, observers, answer,
-                           s.error_control == "smoothness", case.break_level,
-                           (math.nan,) * 4 if case.body is None else case.body)
-    final = np.full((2, N + 1), np.nan)
-    started = _time.perf_counter()
-    code, n_out, rec, fail = integrator.run(tab, control, times, a0, v0, levels,
-                                            Outputs(out_a, out_adot, series, diag, level_t, level_x, final))
-    raw = zip(RECORDS, ((rec.upper, rec.n_upper), (rec.lower, rec.n_lower), (rec.zone_upper, rec.n_zone_upper),
-                        (rec.zone_lower, rec.n_zone_lower)))
-    # the record as stored: nodes the Hermite pieces reproduce to 1e-7 of the time are dropped
-    records = {name: r[:n][thin_record(r[:n])] for name, (r, n) in raw}
-    t_break = float(diag[kn.D_BREAK_T])
-    if not math.isnan(t_break):            # the observers saw the whole step the break is in: not past it
-        records = {name: r[r[:, kn.R_T] <= t_break] for name, r in records.items()}
-    contact_record = rec.contacts[:rec.n_contacts].copy()
-    # under the Gauss rule a death between nodes may be placed after its step (solver.observe.
-    # contacts._between_nodes): not after the run's end
-    contact_record[:, 0] = np.minimum(contact_record[:, 0], diag[kn.D_T_REACHED])
-    wall = _time.perf_counter() - started
-    for rec in records.values():
-        rec[:, kn.R_X] += tab.origin                     # kernel coordinates -> x on the plate
-
-    status = kn.STATUS_NAMES[code]
+    control = _control(p, s, spec, tab, integrator, observers, answer)
+    ran = _kernels(integrator, tab, control, spec, a0, v0)
+    diag, T = ran.outputs.diag, spec.window.times.size
+    records, contact_record = _recorded(tab, s, spec, ran)
+    status = kn.STATUS_NAMES[ran.code]
     t_reached = float(diag[kn.D_T_REACHED])
-    out_err = series[:, kn.S_ERR]
-    valid = np.arange(T) < n_out
-    diag[list(POSITION_SLOTS)] += tab.origin        # kernel coordinates -> x on the plate
-    level_x += tab.origin
-    for s_, i in enumerate((kn.D_ZONE_UPPER, kn.D_ZONE_LOWER)):
-        if not np.isfinite(diag[i]):                 # the zone was empty (the walls' margins cover the plate)
-            diag[i:i + 3] = np.nan
-            diag[kn.D_ZONE_UPPER_EDGE + s_] = np.nan
-    if not math.isnan(t_break):
-        records = _reached_at_break(tab, s, diag, final, case.break_level, records, level_t, level_x, levels)
-    field_values = _field_values(p, tab, fields, x, out_a, out_adot, series, valid)
+    valid = np.arange(T) < ran.n_out
+    field_values = _field_values(p, tab, spec.asked.fields, spec.asked.x, ran.outputs.a, ran.outputs.adot,
+                                 ran.outputs.series, valid)
     diagnostics = {name: float(diag[i]) for name, (_, _, i) in DIAGNOSTIC_INFO.items() if i is not None}
     diagnostics["gravity_time_ratio"] = t_reached / math.sqrt(p.L / p.g) if p.edges == "free" else math.nan
     answered = not math.isnan(diag[kn.D_ANSWERED_T])
     if asked is not None:                           # what no output asked reads: not reported
         records, contact_record = _only_asked(asked, diagnostics, records, contact_record)
-    companion = None
-    if s.error_estimate and integrator.companion and s.fixed_step == 0 and n_out > 0:
-        looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
-        # (the companion runs to the time reached, no break of its own: its outputs are the same times')
-        other = run_case(p, looser, case._replace(times=times[valid], fields=(), locate_eps_Y=(), break_level=math.inf,
-                                              a0=a0, v0=v0, from_breaks=kernel_breaks,      # (carried once)
-                                              t_end=t_reached if answered or not math.isnan(t_break) else t_end))
-        companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
-                     else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
-        extra["error_estimate_wall_time"] = other.wall_time
-    if s.error_estimate:                  # without local estimates (dop853) its time part is NaN
-        diagnostics.update(error_estimates(out_a[valid], tab.strain_coef, diagnostics["energy_residual"],
-                                           companion=companion, exponent=TOLERANCE_EXPONENT[s.error_control],
-                                           accumulated=out_err[valid] if integrator.local_errors else None))
-    else:
-        diagnostics.update({name: np.nan for name in ("error_estimate", "error_estimate_time",
-                                                       "error_estimate_modes", "error_estimate_quadrature")})
-    message = status_message(p, s, status, diagnostics, diag, t_end, fixed, fail, tab.full_plate)
-    body = (final[0, N], final[1, N], diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION]) if p.free_body else None
-    extra["energy_scale"] = float(diag[kn.D_ENERGY_SCALE])     # what the energy residuals are relative to
-    extra["final_state"] = (final[0, :N], final[1, :N], [] if kernel_breaks is None else
-                            list(kernel_breaks + tab.origin), body)
-    if not math.isnan(t_break):
-        extra["break"] = {"time": t_break, "x": float(diag[kn.D_BREAK_X]),
-                          "surface": ("upper", "lower")[int(diag[kn.D_BREAK_SURFACE])]}
-    if levels.size:
-        extra["located_crack_onset"] = {"upper": (level_t[0], level_x[0]), "lower": (level_t[1], level_x[1])}
-    sym_a, anti_a = tab.from_kernel(out_a)
-    sym_v, anti_v = tab.from_kernel(out_adot)
+    extra = _error_estimated(p, s, spec, tab, integrator, ran, Begin(a0, v0, spec.breaks, spec.begin.body),
+                             diagnostics, answered)
+    message = status_message(p, s, status, diagnostics, diag, spec.window.t_end, control.fixed_step, ran.fail,
+                             tab.full_plate)
+    if ran.levels.size:
+        extra["located_crack_onset"] = {"upper": (ran.outputs.level_t[0], ran.outputs.level_x[0]),
+                                        "lower": (ran.outputs.level_t[1], ran.outputs.level_x[1])}
+    sym_a, anti_a = tab.from_kernel(ran.outputs.a)
+    sym_v, anti_v = tab.from_kernel(ran.outputs.adot)
+    series = ran.outputs.series
     return Result(
-        parameters=p, settings=s, times=times, x=x, fields=field_values,
+        parameters=p, settings=s, times=spec.window.times, x=spec.asked.x, fields=field_values,
         amplitudes=sym_a, velocities=sym_v, antisymmetric_amplitudes=anti_a, antisymmetric_velocities=anti_v,
         **{row.attribute: series[:, i] for i, row in enumerate(SERIES) if row.attribute is not None},
         valid=valid, diagnostics=diagnostics, status=status, message=message,
         time_reached=t_reached, steps=int(diag[kn.D_STEPS]), rejected_steps=int(diag[kn.D_REJECTED]),
         forcing_evaluations=int(diag[kn.D_RHS]), smallest_step=float(diag[kn.D_H_MIN]),
-        largest_step=float(diag[kn.D_H_MAX]), wall_time=wall, tension_record=records,
+        largest_step=float(diag[kn.D_H_MAX]), wall_time=ran.wall, tension_record=records,
         contact_record=contact_record, extra=extra, outputs=None if asked is None else frozenset(asked),
         end_reason="answered" if answered and status == "ok" else "end" if status == "ok" else status,
-        answered_eps_Y=max(answer) if answered else math.inf)
+        answered_eps_Y=max(answer) if answered else math.inf, end=_stage_end(p, tab, spec, ran, carried))
 
 
+def _plan(p, spec):
+    """(the observers' bits, Control.answer, the outputs asked or None) for what the run is asked
+    (solver.observe.asked); a run that can break locates its break on the tension's observer."""
+    asked = spec.asked
+    observers, answer, outputs = plan_outputs(asked.outputs, asked.eps_Y, asked.end,
+                                              floe=p.edges == "free" or spec.breaks is not None)
+    if spec.break_level < math.inf:
+        observers |= BITS["tension"]
+    return observers, answer, outputs
+
+
+def _begun(p, s, tab, spec):
+    """The kernel's amplitudes and rates at the run's start, and the CarriedEnergy where its state
+    was carried across a break (None where not): a free floe at rest; a state carried onto a plate
+    broken at more places than the one it was on; else the state given, of the plate run on."""
+    begin, broken = spec.begin, spec.breaks is not None
+    a0, v0 = begin.amplitudes, begin.velocities
+    if tab.floe is not None and not broken:          # a free floe starts at rest (solve checks it)
+        a0, v0 = np.zeros(tab.omega.size), np.zeros(tab.omega.size)
+    if broken and (begin.breaks is None or not np.array_equal(begin.breaks, spec.breaks)):
+        return _across_break(p, s, tab, spec)        # the state across the break
+    if a0.shape != (tab.omega.size,) or v0.shape != (tab.omega.size,) or (begin.breaks is None) == broken:
+        raise ParameterError(f"the initial state must be the kernel's {tab.omega.size} amplitudes and rates "
+                             f"of the plate the run is on")
+    return a0, v0, None
+
+
+def _control(p, s, spec, tab, integrator, observers, answer):
+    """The run's Control (solver.control): the window, the step policy (a fixed step: rk4's the
+    paper's fraction of the fastest mode's period, or Settings.fixed_step in t_sc; the first
+    step short enough that the tension, ~ t^3.5 from first touch, crossed inside it is far below
+    any yield strain of interest, later steps growing at most 10 % a step from it; the largest
+    a tenth of the contact's period), the observers, the answered end, the break level and a free
+    body's start."""
+    window = spec.window
+    if integrator.paper_step:
+        fixed = s.rk4_step_fraction * 2 * np.pi / tab.omega[-1]
+    else:
+        fixed = s.fixed_step * p.time_scale
+    h_init = spec.first_step or min(1e-6 * (window.t_end - window.t_start), 1e-5 * p.time_scale)
+    h_max = HMAX_FRACTION * 2 * np.pi / p.contact_frequency
+    body = spec.begin.body
+    return make_control(float(window.t_start), float(window.t_end), s.tolerance, fixed, h_init, 1e-13 * window.t_end,
+                        h_max, s.max_steps, s.bottoming_gap, spec.until_separation, s.impact_zone_margin, observers,
+                        answer, s.error_control == "smoothness", spec.break_level,
+                        (math.nan,) * 4 if body is None else body)
+
+
+#: what the kernels gave back: their status code, the output times filled, the Records, a
+#: failure's words (DOP853's), the Outputs they filled, the levels located, the wall time [s]
+Ran = namedtuple("Ran", "code n_out records fail outputs levels wall")
+
+
+def _kernels(integrator, tab, control, spec, a0, v0) -> Ran:
+    """The integration (solver.loop.integrate, or DOP853) into fresh Outputs."""
+    T, N = spec.window.times.size, tab.lam.size      # the kernel's modes: 2 Nmod on the full plate
+    levels = np.ascontiguousarray(np.atleast_1d(np.asarray(spec.asked.locate_eps_Y, dtype=float)))
+    outputs = Outputs(np.full((T, N), np.nan), np.full((T, N), np.nan), np.full((T, kn.N_SERIES), np.nan),
+                      np.full(kn.N_DIAG, np.nan), np.full((2, levels.size), np.nan), np.full((2, levels.size), np.nan),
+                      np.full((2, N + 1), np.nan))
+    started = _time.perf_counter()
+    code, n_out, records, fail = integrator.run(tab, control, spec.window.times, a0, v0, levels, outputs)
+    return Ran(code, n_out, records, fail, outputs, levels, _time.perf_counter() - started)
+
+
+def _recorded(tab, s, spec, ran):
+    """The tension records as stored (nodes the Hermite pieces reproduce to 1e-7 of the time
+    dropped; none past a break the run ended at, whose step the observers saw whole; closed at
+    the break's level: _reached_at_break) and the contact record, in x on the plate; the
+    diagnostics' positions and the located levels' places moved there too."""
+    rec, diag, out = ran.records, ran.outputs.diag, ran.outputs
+    raw = zip(RECORDS, ((rec.upper, rec.n_upper), (rec.lower, rec.n_lower), (rec.zone_upper, rec.n_zone_upper),
+                        (rec.zone_lower, rec.n_zone_lower)))
+    records = {name: r[:n][thin_record(r[:n])] for name, (r, n) in raw}
+    t_break = float(diag[kn.D_BREAK_T])
+    if not math.isnan(t_break):
+        records = {name: r[r[:, kn.R_T] <= t_break] for name, r in records.items()}
+    contact_record = rec.contacts[:rec.n_contacts].copy()
+    # under the Gauss rule a death between nodes may be placed after its step (solver.observe.
+    # contacts._between_nodes): not after the run's end
+    contact_record[:, 0] = np.minimum(contact_record[:, 0], diag[kn.D_T_REACHED])
+    for r in records.values():
+        r[:, kn.R_X] += tab.origin                   # kernel coordinates -> x on the plate
+    diag[list(POSITION_SLOTS)] += tab.origin
+    out.level_x[...] += tab.origin
+    for s_, i in enumerate((kn.D_ZONE_UPPER, kn.D_ZONE_LOWER)):
+        if not np.isfinite(diag[i]):                 # the zone was empty (the walls' margins cover the plate)
+            diag[i:i + 3] = np.nan
+            diag[kn.D_ZONE_UPPER_EDGE + s_] = np.nan
+    if not math.isnan(t_break):
+        records = _reached_at_break(tab, s, diag, out.final, spec.break_level, records, out.level_t, out.level_x,
+                                    ran.levels)
+    return records, contact_record
+
+
+def _error_estimated(p, s, spec, tab, integrator, ran, begun, diagnostics, answered) -> dict:
+    """The error estimate's diagnostics into diagnostics (solver.error_estimate), with its
+    companion run at ten times the tolerance from the state the run began with (begun: already
+    carried, so carried once) to the time reached, on the same output times, with no break of
+    its own; returns the Result's extra (the companion's wall time)."""
+    extra, companion, valid = {}, None, np.arange(spec.window.times.size) < ran.n_out
+    diag = ran.outputs.diag
+    if s.error_estimate and integrator.companion and s.fixed_step == 0 and ran.n_out > 0:
+        looser = replace(s, tolerance=min(10 * s.tolerance, 0.5), error_estimate=False)
+        t_reached, t_break = float(diag[kn.D_T_REACHED]), float(diag[kn.D_BREAK_T])
+        window = replace(spec.window, times=spec.window.times[valid],
+                         t_end=t_reached if answered or not math.isnan(t_break) else spec.window.t_end)
+        other = run_case(p, looser, replace(spec, window=window, asked=replace(spec.asked, fields=(), locate_eps_Y=()),
+                                            begin=begun, break_level=math.inf))
+        companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
+                     else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
+        extra["error_estimate_wall_time"] = other.wall_time
+    if s.error_estimate:                  # without local estimates (dop853) its time part is NaN
+        out_err = ran.outputs.series[:, kn.S_ERR]
+        diagnostics.update(error_estimates(ran.outputs.a[valid], tab.strain_coef, diagnostics["energy_residual"],
+                                           companion=companion, exponent=TOLERANCE_EXPONENT[s.error_control],
+                                           accumulated=out_err[valid] if integrator.local_errors else None))
+    else:
+        diagnostics.update({name: np.nan for name in ("error_estimate", "error_estimate_time",
+                                                       "error_estimate_modes", "error_estimate_quadrature")})
+    return extra
+
+
+def _stage_end(p, tab, spec, ran, carried) -> StageEnd:
+    """How the run ended (a StageEnd): its state at the time reached (a free body's too), the
+    break it ended at, the energy carried into it, its energy scale."""
+    diag, final, N = ran.outputs.diag, ran.outputs.final, tab.lam.size
+    body = BodyState(final[0, N], final[1, N], diag[kn.D_STOP_T], diag[kn.D_MAX_PENETRATION]) if p.free_body \
+        else None
+    state = RunState(float(diag[kn.D_T_REACHED]), final[0, :N], final[1, :N],
+                     () if spec.breaks is None else tuple(spec.breaks + tab.origin), body)
+    t_break = float(diag[kn.D_BREAK_T])
+    broke = None if math.isnan(t_break) else Break(t_break, float(diag[kn.D_BREAK_X]),
+                                                   ("upper", "lower")[int(diag[kn.D_BREAK_SURFACE])])
+    return StageEnd(state, broke, carried, float(diag[kn.D_ENERGY_SCALE]))

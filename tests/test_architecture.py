@@ -8,6 +8,8 @@ from pathlib import Path
 
 import pytest
 
+from architecture_numbers import numbers, page_block
+
 ROOT = Path(__file__).resolve().parents[1]
 #: the loop is the one kernel allowed to be about a page
 LOOP = ("loop.py", "integrate")
@@ -441,3 +443,11 @@ def test_the_reference_integrator_runs_the_kernels_observers():
         "DENSE", "DENSE_SWITCH", "Dense"}
     assert not {name for _, name in imported} & {"global_peak", "field_sum", "node_strain", "hermite", "cubic_max",
                                                   "observe_zone", "observe_body", "observe_tensions"}
+
+
+def test_the_pages_numbers_are_the_codes():
+    """docs/architecture.md's numbers of the code's shape (the sizes of solve, run_case, the loop,
+    the largest kernel and file, the keys of a Result's extra, the imports inside functions) are
+    those tests/architecture_numbers.py reads from the source now: make architecture-numbers
+    rewrites them after a change."""
+    assert page_block() == numbers(), "docs/architecture.md's numbers are stale: run make architecture-numbers"

@@ -27,22 +27,27 @@ def test_a_stage_ends_where_the_tension_reaches_the_break_strain():
     time and place the unbroken run locates for that level (locate_eps_Y, the same search on the
     same steps: within 1e-9 of the time), on the surface that reaches it first (the lower, at the
     centre, under the body); its tension record ends there, at eps_Y (the observers saw the
-    step only up to the break), and extra["final_state"] is the state there."""
+    step only up to the break), and its end (result.end) is the break and the state there, from
+    which a run goes on as solve(..., start=result.end.state) (what a run that breaks does)."""
     p, s = Parameters(Nmod=20), Settings(quadrature="gauss")
     whole = solve(p, s, fields=(), t_end=1e-3, locate_eps_Y=[EPS_Y])
     stage = solve(p, s, fields=(), t_end=1e-3, break_strain=EPS_Y)
     t_lower, x_lower = (v[0] for v in whole.extra["located_crack_onset"]["lower"])
     t_upper = whole.extra["located_crack_onset"]["upper"][0][0]
     assert t_lower < t_upper
-    where = stage.extra["break"]
-    assert where["surface"] == "lower" and where["time"] == pytest.approx(t_lower, rel=1e-9)
-    assert where["x"] == pytest.approx(x_lower, abs=1e-9 * p.L) and abs(where["x"]) < 1e-9
-    assert stage.time_reached == where["time"] and stage.status == "ok"
+    where = stage.end.broke
+    assert where.surface == "lower" and where.time == pytest.approx(t_lower, rel=1e-9)
+    assert where.x == pytest.approx(x_lower, abs=1e-9 * p.L) and abs(where.x) < 1e-9
+    assert stage.time_reached == where.time and stage.status == "ok"
     last = stage.tension_record["lower"][-1]
-    assert last[0] == pytest.approx(where["time"], rel=1e-12) and last[1] == pytest.approx(EPS_Y, rel=1e-9)
-    assert np.all(stage.tension_record["upper"][:, 0] <= where["time"])
-    a, adot, breaks, body = stage.extra["final_state"]
-    assert breaks == [] and a.shape == adot.shape == (20,) and np.all(np.isfinite(a))
+    assert last[0] == pytest.approx(where.time, rel=1e-12) and last[1] == pytest.approx(EPS_Y, rel=1e-9)
+    assert np.all(stage.tension_record["upper"][:, 0] <= where.time)
+    state = stage.end.state
+    assert state.time == where.time and state.breaks == () and state.body is None and stage.end.carried is None
+    assert state.amplitudes.shape == state.velocities.shape == (20,) and np.all(np.isfinite(state.amplitudes))
+    # the run goes on from its end, broken there: the carry keeps the plate's energy or less
+    on = solve(p, s, fields=(), t_end=1.2e-3, times=[state.time, 1.2e-3], start=state, breaks=[0.0])
+    assert on.status == "ok" and on.end.carried.plate_removed >= 0.0 and on.end.state.breaks == (0.0,)
 
 
 def test_dop853_breaks_at_the_same_time_and_place():
@@ -52,11 +57,11 @@ def test_dop853_breaks_at_the_same_time_and_place():
     ours = solve(p, Settings(quadrature="gauss", tolerance=1e-10), fields=(), t_end=1e-3, break_strain=EPS_Y)
     dop = solve(p, Settings(quadrature="gauss", integrator="dop853", tolerance=1e-12), fields=(), t_end=1e-3,
                 break_strain=EPS_Y)
-    assert dop.extra["break"]["surface"] == ours.extra["break"]["surface"] == "lower"
-    assert dop.extra["break"]["time"] == pytest.approx(ours.extra["break"]["time"], rel=1e-7)
-    assert abs(dop.extra["break"]["x"] - ours.extra["break"]["x"]) < 1e-6 * p.L
-    np.testing.assert_allclose(dop.extra["final_state"][0], ours.extra["final_state"][0],
-                               atol=1e-6 * np.max(np.abs(ours.extra["final_state"][0])))
+    assert dop.end.broke.surface == ours.end.broke.surface == "lower"
+    assert dop.end.broke.time == pytest.approx(ours.end.broke.time, rel=1e-7)
+    assert abs(dop.end.broke.x - ours.end.broke.x) < 1e-6 * p.L
+    np.testing.assert_allclose(dop.end.state.amplitudes, ours.end.state.amplitudes,
+                               atol=1e-6 * np.max(np.abs(ours.end.state.amplitudes)))
 
 
 def test_the_energy_identity_holds_through_the_breaks(breaking_run):
@@ -201,10 +206,11 @@ def test_what_a_breaking_run_refuses():
     assert p.yield_strain == EPS_Y and p.max_parts == 16          # the paper's eps_Y, 16 parts
     with pytest.raises(ParameterError, match="gauss"):
         solve(p, Settings(quadrature="paper"), fields=())
-    state = (np.zeros(10), np.zeros(10), [])
+    from solver import RunState
+    state = RunState(0.0, np.zeros(10), np.zeros(10))
     for kw, match in ((dict(breaks=[1.0]), "breaks is not read"),
                       (dict(initial_amplitudes=np.zeros(10)), "initial_amplitudes is not read"),
-                      (dict(initial_state=state), "initial_state is not read"),
+                      (dict(start=state), "start is not read"),
                       (dict(break_strain=1e-4), "break_strain is not read"),
                       (dict(t_start=1e-4, times=[1e-4, 2e-4], t_end=2e-4), "t_start is not read"),
                       (dict(end="answered", eps_Y=[EPS_Y], outputs=("crack_onset_time",)), "end = 'stage'"),
@@ -218,8 +224,8 @@ def test_what_a_breaking_run_refuses():
 
 
 def test_a_dropped_body_goes_on_across_the_breaks():
-    """A free body's penetration and speed are carried across each break (extra["final_state"]'s
-    body, solver.control's body_start), and with them its first stop: a body of 100 kg/m at 5 m/s
+    """A free body's penetration and speed are carried across each break (its end's BodyState,
+    solver.control's body_start), and with them its first stop: a body of 100 kg/m at 5 m/s
     breaks the reference case's ice through at 0.648 ms, stops at 1.26 ms, 4.27 mm deep, and
     leaves the ice moving up at 2.11 ms (measured 2026-11-29). Through its three breaks the
     body's own balance M (U^2 - V^2) / 2 - M g s + W = 0 holds at every step within 1e-8 of the

@@ -216,7 +216,7 @@ def test_a_broken_plate_runs_as_dop853_on_the_same_equations(state_at_break, pla
     beyond the contact, where the outer part's edge rises into the layer between two nodes:
     1.0e-7 (8.2e-7 at 1e-10). The energy identity holds on the parts, DOP853's to 1e-13 (1e-7 at
     0.3 m before the contact intervals were found part by part), etd34's to 1e-8; the break's own
-    energy (extra["break_energy"]) falls, never rises."""
+    energy (result.end.carried) falls, never rises."""
     p, a, v = state_at_break
     times = np.linspace(0.4e-3, 3.4e-3, 7)
     kw = dict(times=times, fields=("strain",), t_start=times[0], t_end=times[-1], initial_amplitudes=a,
@@ -227,8 +227,8 @@ def test_a_broken_plate_runs_as_dop853_on_the_same_equations(state_at_break, pla
     strain = dop.fields["strain"]
     assert np.max(np.abs(ours.fields["strain"] - strain)) < bound * np.max(np.abs(strain))
     assert dop.diagnostics["energy_residual"] < 1e-12 and ours.diagnostics["energy_residual"] < 1e-8
-    energy = ours.extra["break_energy"]
-    assert energy["after"] <= energy["before"]
+    energy = ours.end.carried
+    assert energy.plate_after <= energy.plate_before
 
 
 def test_what_a_broken_plate_refuses():
@@ -260,8 +260,8 @@ def test_a_plate_broken_at_its_centre_is_the_same_on_the_half_and_the_whole_plat
     assert half.status == whole.status == "ok"
     strain = half.fields["strain"]
     assert np.max(np.abs(whole.fields["strain"] - strain)) < 1e-7 * np.max(np.abs(strain))
-    for key in ("before", "after"):
-        assert whole.extra["break_energy"][key] == pytest.approx(half.extra["break_energy"][key], rel=1e-9)
+    for key in ("plate_before", "plate_after"):
+        assert getattr(whole.end.carried, key) == pytest.approx(getattr(half.end.carried, key), rel=1e-9)
 
 
 @pytest.mark.slow   # 7 s here (the parts' modes up to 8 lambda_N): make test-slow
