@@ -114,13 +114,17 @@ for name, (p, s, kw) in cases.items():
          **{"diagnostic " + k: v for k, v in r.diagnostics.items()}}
     if "located_crack_onset" in r.extra:
         d["located"] = np.concatenate([np.concatenate(v) for v in r.extra["located_crack_onset"].values()])
-    if "breaks" in r.extra:
-        d["body_position"], d["removed_energy"] = r.body_position, r.extra["removed_energy"]
-        for k, event in enumerate(r.extra["breaks"]):
+    typed = getattr(r, "breaking", None)               # (Result.breaking from 2026-12-06; extra's before)
+    if typed is not None or "breaks" in r.extra:
+        events = [dataclasses.asdict(e) for e in typed.breaks] if typed is not None else r.extra["breaks"]
+        d["body_position"] = r.body_position
+        d["removed_energy"] = typed.removed_energy if typed is not None else r.extra["removed_energy"]
+        for k, event in enumerate(events):
             for key in BREAK_KEYS:
                 value = event.get(key, float("nan"))
                 d[f"break {k} {key}"] = value if not isinstance(value, str) else ("upper", "lower").index(value)
-        d.update({"breaking " + k: v for k, v in r.extra["breaking"].items()})
+        d.update({"breaking " + k: (getattr(typed, k) if typed is not None else r.extra["breaking"][k])
+                  for k in ("first_break_time", "break_count", "parts", "breakthrough_time", "breakthrough_penetration")})
     out[name] = d
 pickle.dump(out, open(sys.argv[1], "wb"))
 """

@@ -49,7 +49,7 @@ def main() -> None:
         except ParameterError:
             continue
         r = solve(p, Settings(error_estimate=False), fields=(), times=np.linspace(0, p.duration, 11))
-        for stage in r.extra.get("stages", []):
+        for stage in r.breaking.stages if r.breaking is not None else ():
             energy = stage.end.carried
             if energy is None:
                 continue

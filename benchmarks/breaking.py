@@ -48,7 +48,7 @@ def measure(N, t_end, rounds):
         for name, run in runs.items():
             wall, result = _timed(run)
             integration = result.wall_time + sum(r.extra.get("error_estimate_wall_time", 0.0)
-                                                 for r in result.extra.get("stages", [result]))
+                                                 for r in (result.breaking.stages if result.breaking else [result]))
             samples[name].append((wall, integration, result))
     medians = {name: (statistics.median(w for w, _, _ in v), statistics.median(i for _, i, _ in v))
                for name, v in samples.items()}
@@ -69,14 +69,14 @@ def main():
     for N in args.modes:
         medians, result = measure(N, args.t_end, args.rounds)
         (un, un_int), (br, br_int) = medians["unbroken"], medians["breaking"]
-        summary = result.extra["breaking"]
+        summary = result.breaking
         lines.append(f"| {N} | {un:.3f} | {br:.3f} | {br / un:.1f} | {un_int:.3f} | {br_int:.3f} | {br_int / un_int:.1f} "
-                     f"| {summary['break_count']} | {1e3 * summary['first_break_time']:.5f} "
-                     f"| {1e3 * summary['breakthrough_time']:.5f} | {result.status} |")
+                     f"| {summary.break_count} | {1e3 * summary.first_break_time:.5f} "
+                     f"| {1e3 * summary.breakthrough_time:.5f} | {result.status} |")
         lines.append("")
-        for event in result.extra["breaks"]:
-            lines.append(f"    N = {N}: {1e3 * event['time']:.5f} ms at x = {event['x']:.4f} m, {event['surface']}, "
-                         f"{event['parts']} parts, removed {event['removed_energy']:.4g} J/m")
+        for event in result.breaking.breaks:
+            lines.append(f"    N = {N}: {1e3 * event.time:.5f} ms at x = {event.x:.4f} m, {event.surface}, "
+                         f"{event.parts} parts, removed {event.removed_energy:.4g} J/m")
         lines.append("")
     text = "\n".join(lines) + "\n"
     out = ROOT / "results" / "bench" / "breaking.md"

@@ -54,12 +54,12 @@ def main() -> None:
         r = solve(p, Settings(error_estimate=False), fields=(), times=np.linspace(0.0, p.duration, 31),
                   until_separation=p.free_body)
         ok = r.valid
-        balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.extra["removed_energy"] - r.work
+        balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.breaking.removed_energy - r.work
         rel = float(np.max(np.abs(balance[ok])) / np.max(np.abs(r.work[ok]))) if ok.any() else float("nan")
         bad = r.status not in MODEL_STATUSES or not rel < 1e-5
         flagged += bad
         worst = max(worst, rel) if rel == rel else worst
-        print(f"{i:3d} {r.status:18s} breaks {r.extra['breaking']['break_count']:2d}  identity {rel:.1e}  "
+        print(f"{i:3d} {r.status:18s} breaks {r.breaking.break_count:2d}  identity {rel:.1e}  "
               f"{time.perf_counter() - started:5.2f} s  {p}{'  <<<' if bad else ''}")
         if bad:
             print("     ", r.message)

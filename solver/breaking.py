@@ -25,7 +25,7 @@ its time, counts summed, ...), the records and the breaks. The energy identity o
 
     E_plate + E_layer + D + R = W,
 
-R(t) the energy the breaks before t removed (extra["removed_energy"], over the output times):
+R(t) the energy the breaks before t removed (Result.breaking.removed_energy, over the output times):
 what the projection onto the parts' modes leaves out, E_plate + E_layer before a break minus
 after it.
 
@@ -47,7 +47,7 @@ from . import layout as kn
 from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
 from .run import Result, checked_breaks, cosines_to_kernel, run_case
-from .spec import Begin, RunSpec
+from .spec import Begin, Breaking, BreakEvent, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
 PARTS_LIMIT, WALL_BREAK = "parts_limit", "wall_break"
@@ -89,12 +89,10 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
     """The run of ``spec`` (solver.spec.RunSpec, from the unbroken plate at rest) in which the plate
     breaks where its tension first reaches p.yield_strain, and again on its parts, to at most
     p.max_parts parts (module docstring): run a stage; while it ended at a break, carry its end
-    (Result.end) across and run the next. Returns the stages joined into one Result:
-    extra["breaks"] (each break's time [s], x [m], surface, parts after it, energy removed [J m-1],
-    and its plate's and layer's parts), extra["full_plate"] (whether the kernels ran the whole
-    plate; else the half plate of a centred impact), extra["stages"] (each stage's Result),
-    extra["removed_energy"] (T,) [J m-1], extra["breaking"] (first_break_time, break_count, parts,
-    breakthrough_time, breakthrough_penetration)."""
+    (Result.end) across and run the next. Returns the stages joined into one Result, its breaks in
+    ``Result.breaking`` (solver.spec.Breaking: each break, the energy removed over the output times,
+    the stages' own Results, the plate the kernels ran; its first break, count, parts and
+    breakthrough)."""
     if spec.asked.end != "stage":
         raise ParameterError("fracture = 'break' runs to t_end, or to a free body's separation (end = 'stage')")
     yield_strain, max_parts, full, times = p.yield_strain, p.max_parts, spec.full_plate, spec.window.times
@@ -249,12 +247,8 @@ def _joined(p, s, spec, stages, events, status, message, full):
     records = {name: joined_record([r.tension_record[name] for r in results]) for name in names}
     contacts = np.vstack([r.contact_record for r in results])
     diagnostics = joined_diagnostics(results, records)
-    through = [e for e in events if e["broken_through"]]
-    extra = {"stages": results, "breaks": events, "removed_energy": removed_series, "full_plate": full,
-             "breaking": {"first_break_time": events[0]["time"] if events else math.nan,
-                          "break_count": len(events), "parts": events[-1]["parts"] if events else 1,
-                          "breakthrough_time": through[0]["time"] if through else math.nan,
-                          "breakthrough_penetration": through[0]["penetration"] if through else math.nan}}
+    extra = {}
+    breaking = Breaking(tuple(BreakEvent(**event) for event in events), removed_series, tuple(results), full)
     locate = spec.asked.locate_eps_Y
     if locate is not None and np.size(locate):
         located = {}
@@ -277,40 +271,4 @@ def _joined(p, s, spec, stages, events, status, message, full):
                   smallest_step=min(r.smallest_step for r in results),
                   largest_step=max(r.largest_step for r in results), wall_time=sum(r.wall_time for r in results),
                   tension_record=records, contact_record=contacts, extra=extra, outputs=last.outputs,
-                  end_reason="end" if status == "ok" else status, end=last.end)
-
-
-def breaking_values(result, slots: int) -> dict:
-    """What a run reports of its breaking (solver.outputs.BREAKING_OUTPUTS): :func:`break_table`
-    of its breaks over its output times (a run that does not break has none)."""
-    return break_table(result.extra.get("breaks", []), result.extra.get("breaking"), result.times, result.valid,
-                       slots)
-
-
-def break_table(events, summary, times, valid, slots: int) -> dict:
-    """The breaking outputs as arrays from a run's breaks (extra["breaks"]) and their summary
-    (extra["breaking"]; None: the run did not break): name -> a float (along "case"), an array
-    of ``slots`` floats (along "break": the breaks in the order they happened, NaN after them;
-    breaks beyond ``slots`` are counted but not listed) or one value per output time (along "t":
-    NaN where ``valid`` is not). Without breaks: no break, one part, no breakthrough."""
-    if summary is None:
-        summary = {"first_break_time": math.nan, "break_count": 0, "parts": 1, "breakthrough_time": math.nan,
-                   "breakthrough_penetration": math.nan}
-    out = {"first_break_time": summary["first_break_time"], "break_count": float(summary["break_count"]),
-           "part_count": float(summary["parts"]), "breakthrough_time": summary["breakthrough_time"],
-           "breakthrough_penetration": summary["breakthrough_penetration"],
-           "removed_energy": float(sum(e.get("removed_energy", 0.0) for e in events))}
-    columns = {"break_time": "time", "break_x": "x", "break_surface": "surface", "break_part_count": "parts",
-               "break_removed_energy": "removed_energy"}
-    for name, key in columns.items():
-        values = np.full(slots, np.nan)
-        for k, event in enumerate(events[:slots]):
-            value = event.get(key, math.nan)
-            values[k] = ("upper", "lower").index(value) if key == "surface" else value
-        out[name] = values
-    times = np.asarray(times, dtype=float)
-    parts = np.ones(times.size)
-    for event in events:                              # an output at a break's time is still before it
-        parts[times > event["time"]] = event["parts"]
-    out["part_count_over_time"] = np.where(valid, parts, np.nan)
-    return out
+                  end_reason="end" if status == "ok" else status, end=last.end, breaking=breaking)

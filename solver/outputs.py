@@ -10,8 +10,11 @@ position on the plate (solve moves it from the kernel's coordinates to x). The t
 strain maxima (value, x, time) are consecutive, each surface's after the upper's: the kernels
 reach the lower surface's at the upper's slot + 3, and its zone edge flag at the upper's + 1.
 """
+import math
 from collections import namedtuple
 from pathlib import Path
+
+import numpy as np
 
 #: one diagnostic: the kernel's slot name, the stored name, units, long name, a position on the plate,
 #: and how a run in stages (one that breaks: solver.breaking) joins its stages' values into the
@@ -260,7 +263,7 @@ def records_kept(asked) -> frozenset:
                      or any(ONSET_RECORD[name] == record for name in asked if name in ONSET_RECORD))
 
 
-#: what a run that breaks reports beyond every run's outputs (solver.breaking.breaking_values;
+#: what a run that breaks reports beyond every run's outputs (breaking_values below;
 #: docs/model.md, "Breaking into parts"): the stored name, units, long name, and along what:
 #: "case" one value, "break" one per break in the order they happened (NaN past the run's
 #: breaks), "t" one per output time. Stored in a study where some case has fracture = "break".
@@ -286,6 +289,41 @@ BREAKING_OUTPUTS = (
     BreakingOutput("part_count_over_time", "1", "parts of the whole plate at each output time", "t"),
 )
 BREAKING_INFO = {row.name: (row.long_name, row.units, row.along) for row in BREAKING_OUTPUTS}
+
+
+def breaking_values(result, slots: int) -> dict:
+    """What a run reports of its breaking (BREAKING_OUTPUTS): :func:`break_table` of its breaks
+    (Result.breaking; a run that does not break has none) over its output times."""
+    return break_table(result.breaking.breaks if result.breaking is not None else (), result.times, result.valid,
+                       slots)
+
+
+def break_table(events, times, valid, slots: int) -> dict:
+    """The breaking outputs as arrays from a run's breaks (solver.spec.BreakEvent, in the order they
+    happened): name -> a float (along "case"), an array of ``slots`` floats (along "break": the
+    breaks in order, NaN after them; breaks beyond ``slots`` are counted but not listed) or one
+    value per output time (along "t": NaN where ``valid`` is not). Without breaks: no break, one
+    part, no breakthrough."""
+    through = next((e for e in events if e.broken_through), None)
+    out = {"first_break_time": events[0].time if events else math.nan, "break_count": float(len(events)),
+           "part_count": float(events[-1].parts if events else 1),
+           "breakthrough_time": through.time if through else math.nan,
+           "breakthrough_penetration": through.penetration if through else math.nan,
+           "removed_energy": float(sum(e.removed_energy for e in events if not math.isnan(e.removed_energy)))}
+    columns = {"break_time": "time", "break_x": "x", "break_surface": "surface", "break_part_count": "parts",
+               "break_removed_energy": "removed_energy"}
+    for name, key in columns.items():
+        values = np.full(slots, np.nan)
+        for k, event in enumerate(events[:slots]):
+            value = getattr(event, key)
+            values[k] = ("upper", "lower").index(value) if key == "surface" else value
+        out[name] = values
+    times = np.asarray(times, dtype=float)
+    parts = np.ones(times.size)
+    for event in events:                              # an output at a break's time is still before it
+        parts[times > event.time] = event.parts
+    out["part_count_over_time"] = np.where(valid, parts, np.nan)
+    return out
 
 
 #: every output a run can be asked for by name (the fields have solve's own argument)

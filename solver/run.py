@@ -26,7 +26,7 @@ from .outputs import DIAGNOSTIC_INFO, OBSERVED, POSITION_SLOTS, RECORDS, SERIES,
 from .fracture import above_yield_strain, crack_onset, thin_record, yield_strains
 from .parameters import Parameters, ParameterError
 from .settings import Settings
-from .spec import Begin, BodyState, Break, CarriedEnergy, RunSpec, RunState, StageEnd
+from .spec import Begin, BodyState, Break, Breaking, CarriedEnergy, RunSpec, RunState, StageEnd
 from .scipy_reference import integrate_dop853, state_series
 from .statuses import status_message
 
@@ -76,6 +76,8 @@ class Result:
     answered_eps_Y: float = math.inf   # crack onsets are final up to this yield strain (inf: the whole run)
     end: StageEnd = None               # how the run ended: its state there, the break it ended at, the energy
     #                                    carried into it across a break, its energy scale (solver.spec)
+    breaking: Breaking = None          # a run that breaks (fracture = "break"): its breaks, the energy they
+    #                                    removed over time, its stages (solver.spec.Breaking); None: it does not
 
     @property
     def ok(self) -> bool:

@@ -5,7 +5,8 @@ Result (``Result.end``), which is what a run that breaks carries from one stage 
 
 Public: :class:`RunState` (a run's state at a time, where a run ends and another can start:
 ``solve(parameters, settings, start=result.end.state, breaks=[...])``) and :class:`BodyState` (a
-free body's part of it). The rest is the solver's own.
+free body's part of it); :class:`Breaking` and :class:`BreakEvent`, what a run that breaks
+reports of its breaks (``Result.breaking``). The rest is the solver's own.
 """
 from __future__ import annotations
 
@@ -139,3 +140,63 @@ class RunSpec:
     until_separation: bool = False
     break_level: float = math.inf
     first_step: float | None = None
+
+
+@dataclass(frozen=True)
+class BreakEvent:
+    """One break of a run that breaks (docs/model.md, "The run that breaks"): its time [s], place
+    x [m] on the plate (on the half plate of a centred impact it stands for -x too), surface
+    ("upper" or "lower"), the whole plate's parts after it, whether it broke the body through,
+    the body's penetration then [m], and the energy it removed [J m-1] with its plate's part
+    (never negative) and its layer's (either sign)."""
+
+    time: float
+    x: float
+    surface: str
+    parts: int
+    broken_through: bool
+    penetration: float
+    removed_energy: float = math.nan
+    removed_plate_energy: float = math.nan
+    removed_layer_energy: float = math.nan
+
+
+@dataclass(frozen=True)
+class Breaking:
+    """What a run that breaks reports of its breaks (``Result.breaking``; None for a run that does
+    not break): the breaks in the order they happened, the energy they removed up to each output
+    time [J m-1] (NaN where the run did not reach it), each stage's own Result, and whether the
+    kernels ran the whole plate (else the half plate of a centred impact). Its summary is read
+    from the breaks."""
+
+    breaks: tuple
+    removed_energy: np.ndarray
+    stages: tuple
+    full_plate: bool
+
+    @property
+    def first_break_time(self) -> float:
+        """Time of the first break [s] (NaN: none)."""
+        return self.breaks[0].time if self.breaks else math.nan
+
+    @property
+    def break_count(self) -> int:
+        return len(self.breaks)
+
+    @property
+    def parts(self) -> int:
+        """Parts of the whole plate at the end of the run."""
+        return self.breaks[-1].parts if self.breaks else 1
+
+    @property
+    def breakthrough(self):
+        """The break that broke the body through (a break on each side of its centre), or None."""
+        return next((e for e in self.breaks if e.broken_through), None)
+
+    @property
+    def breakthrough_time(self) -> float:
+        return self.breakthrough.time if self.breakthrough else math.nan
+
+    @property
+    def breakthrough_penetration(self) -> float:
+        return self.breakthrough.penetration if self.breakthrough else math.nan

@@ -352,28 +352,28 @@ def assert_breaking_consistent(result):
     above it: a run that breaks refuses a larger eps_Y)."""
     import pytest
     from solver.breaking import whole_plate_parts
-    p, events, summary = result.parameters, result.extra["breaks"], result.extra["breaking"]
-    full = result.extra["full_plate"]
-    times = [e["time"] for e in events]
+    p, events, summary = result.parameters, result.breaking.breaks, result.breaking
+    full = result.breaking.full_plate
+    times = [e.time for e in events]
     assert times == sorted(times)
-    assert summary["break_count"] == len(events)
-    assert [e["parts"] for e in events] == [whole_plate_parts([e["x"] for e in events[:k + 1]], full)
+    assert summary.break_count == len(events)
+    assert [e.parts for e in events] == [whole_plate_parts([e.x for e in events[:k + 1]], full)
                                             for k in range(len(events))]
-    assert summary["parts"] == (events[-1]["parts"] if events else 1)
-    assert summary["first_break_time"] == (times[0] if events else summary["first_break_time"])
-    through = [e["time"] for e in events if e["broken_through"]]
-    assert (np.isnan(summary["breakthrough_time"]) if not through else summary["breakthrough_time"] == through[0])
-    made = [e for e in events if "removed_energy" in e]           # (a break the run ended at removes none)
+    assert summary.parts == (events[-1].parts if events else 1)
+    assert summary.first_break_time == (times[0] if events else summary.first_break_time)
+    through = [e.time for e in events if e.broken_through]
+    assert (np.isnan(summary.breakthrough_time) if not through else summary.breakthrough_time == through[0])
+    made = [e for e in events if not np.isnan(e.removed_energy)]      # (a break the run ended at removes none)
     for e in made:
-        assert e["removed_plate_energy"] >= -1e-12 * abs(e["removed_energy"] + 1.0)
-        assert e["removed_energy"] == pytest.approx(e["removed_plate_energy"] + e["removed_layer_energy"], rel=1e-12,
+        assert e.removed_plate_energy >= -1e-12 * abs(e.removed_energy + 1.0)
+        assert e.removed_energy == pytest.approx(e.removed_plate_energy + e.removed_layer_energy, rel=1e-12,
                                                     abs=1e-12)
     ok = result.valid
     if made and ok.any():
-        assert result.extra["removed_energy"][ok][-1] == pytest.approx(sum(e["removed_energy"] for e in made),
+        assert result.breaking.removed_energy[ok][-1] == pytest.approx(sum(e.removed_energy for e in made),
                                                                         rel=1e-12, abs=1e-12)
     for surface in ("upper", "lower"):
-        on = [e["time"] for e in events if e["surface"] == surface]
+        on = [e.time for e in events if e.surface == surface]
         onset, _ = result.crack_onset([p.yield_strain], surface)
         if on:
             assert onset[0] <= on[0] * (1 + 1e-12) and onset[0] == pytest.approx(on[0], rel=1e-9), surface

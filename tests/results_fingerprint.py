@@ -88,8 +88,8 @@ def _digest(result) -> str:
     arrays += [np.array([v for k, v in sorted(result.diagnostics.items())], dtype=float)]
     for located in result.extra.get("located_crack_onset", {}).values():
         arrays += list(located)
-    for event in result.extra.get("breaks", []):          # a run that breaks: each break
-        arrays.append([event["time"], event["x"], event["parts"], event.get("removed_energy", np.nan)])
+    for event in result.breaking.breaks if result.breaking is not None else ():   # a run that breaks: each break
+        arrays.append([event.time, event.x, event.parts, event.removed_energy])
     for a in arrays:
         h.update(np.ascontiguousarray(np.asarray(a, dtype=float)).tobytes())
     return h.hexdigest()[:24]

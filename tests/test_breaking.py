@@ -69,13 +69,13 @@ def test_the_energy_identity_holds_through_the_breaks(breaking_run):
     the projection onto the parts' modes leaves out): within 1e-7 of the work (each stage's own
     residual is 1e-8); each break removes energy, none adds it."""
     p, r = breaking_run
-    assert r.status == "ok" and len(r.extra["breaks"]) >= 2
+    assert r.status == "ok" and len(r.breaking.breaks) >= 2
     ok = r.valid
-    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.extra["removed_energy"] - r.work
+    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.breaking.removed_energy - r.work
     assert np.max(np.abs(balance[ok])) < 1e-7 * np.max(r.work[ok])
-    removed = [e["removed_energy"] for e in r.extra["breaks"]]
+    removed = [e.removed_energy for e in r.breaking.breaks]
     assert all(0.0 < e < 0.5 * np.max(r.work[ok]) for e in removed)
-    assert r.extra["removed_energy"][ok][-1] == pytest.approx(sum(removed), rel=1e-12)
+    assert r.breaking.removed_energy[ok][-1] == pytest.approx(sum(removed), rel=1e-12)
     assert r.diagnostics["energy_residual"] < 1e-7
 
 
@@ -87,20 +87,20 @@ def test_the_cascade(breaking_run):
     eps_Y (a free edge carries no moment); the amplitudes of the unbroken modes end at the first
     break, the fields go on."""
     p, r = breaking_run
-    breaks = r.extra["breaks"]
-    times = [e["time"] for e in breaks]
-    assert times == sorted(times) and breaks[0]["x"] == 0.0 and breaks[0]["surface"] == "lower"
-    assert [e["parts"] for e in breaks] == list(range(2, 2 + 2 * len(breaks), 2))   # the centre's: 2, then 2 a break
-    assert breaks[1]["surface"] == "upper" and breaks[1]["broken_through"]
-    summary = r.extra["breaking"]
-    assert summary["breakthrough_time"] == breaks[1]["time"]
-    assert summary["breakthrough_penetration"] == pytest.approx(p.V * breaks[1]["time"], rel=1e-12)
-    assert summary["first_break_time"] == breaks[0]["time"] and summary["break_count"] == len(breaks)
+    breaks = r.breaking.breaks
+    times = [e.time for e in breaks]
+    assert times == sorted(times) and breaks[0].x == 0.0 and breaks[0].surface == "lower"
+    assert [e.parts for e in breaks] == list(range(2, 2 + 2 * len(breaks), 2))   # the centre's: 2, then 2 a break
+    assert breaks[1].surface == "upper" and breaks[1].broken_through
+    summary = r.breaking
+    assert summary.breakthrough_time == breaks[1].time
+    assert summary.breakthrough_penetration == pytest.approx(p.V * breaks[1].time, rel=1e-12)
+    assert summary.first_break_time == breaks[0].time and summary.break_count == len(breaks)
     for surface in ("upper", "lower"):
         assert np.max(r.tension_record[surface][:, 1]) <= EPS_Y * (1 + 1e-9)
     onset, _ = r.crack_onset([0.5 * EPS_Y, (1 - 1e-9) * EPS_Y], "lower")     # (the break: the last
-    assert onset[1] == pytest.approx(breaks[0]["time"], rel=1e-9) and onset[0] < onset[1]   # sub-step below)
-    after = r.times > breaks[0]["time"]
+    assert onset[1] == pytest.approx(breaks[0].time, rel=1e-9) and onset[0] < onset[1]   # sub-step below)
+    after = r.times > breaks[0].time
     assert np.all(np.isnan(r.amplitudes[after & r.valid])) and np.all(np.isfinite(r.fields["strain"][r.valid]))
     assert_breaking_consistent(r)
 
@@ -111,18 +111,18 @@ def test_crack_onset_at_the_yield_strain_is_the_break(breaking_run):
     above it refused in one line (the tension never passes the yield strain). The records end at
     the level itself at a break (the located break is the last sub-step below it)."""
     p, r = breaking_run
-    first = {s: next(e for e in r.extra["breaks"] if e["surface"] == s) for s in ("upper", "lower")}
+    first = {s: next(e for e in r.breaking.breaks if e.surface == s) for s in ("upper", "lower")}
     for surface, event in first.items():
         t, x = r.crack_onset([EPS_Y], surface)
-        assert t[0] == pytest.approx(event["time"], rel=1e-12) and x[0] == pytest.approx(event["x"], abs=1e-9)
+        assert t[0] == pytest.approx(event.time, rel=1e-12) and x[0] == pytest.approx(event.x, abs=1e-9)
     located = solve(p, Settings(quadrature="gauss"), fields=(), t_end=8e-4, times=[0.0, 8e-4],
                     locate_eps_Y=[0.9 * EPS_Y, EPS_Y])
     for surface, event in first.items():
         t, _ = located.extra["located_crack_onset"][surface]
-        assert t[1] == pytest.approx(event["time"], rel=1e-8) and t[0] < t[1]     # (located to 1e-13 s)
+        assert t[1] == pytest.approx(event.time, rel=1e-8) and t[0] < t[1]     # (located to 1e-13 s)
     case = r.to_dataset()
     assert float(case["eps_Y"].max()) == EPS_Y
-    assert float(case["crack_onset_time_lower"].sel(eps_Y=EPS_Y)) == pytest.approx(first["lower"]["time"], rel=1e-12)
+    assert float(case["crack_onset_time_lower"].sel(eps_Y=EPS_Y)) == pytest.approx(first["lower"].time, rel=1e-12)
     for bad in (dict(eps_Y=[1e-4]), dict(eps_Y="8e-5"), dict(eps_Y=["abc"]), dict(eps_Y=[-1e-5]),
                 dict(eps_Y=[math.nan])):
         with pytest.raises(ParameterError) as err:
@@ -140,9 +140,9 @@ def test_the_first_break_and_breakthrough_converge_in_the_modes():
     ms at N = 20, 30, 40, 60, 80 (measured 2026-11-29), N = 40 and 60 within 5e-3 (4.6e-3)."""
     s = Settings(quadrature="gauss")
     runs = {N: solve(Parameters(Nmod=N, fracture="break", yield_strain=EPS_Y, max_parts=6), s, fields=(),
-                     times=[0.0, 8e-4], t_end=8e-4).extra["breaking"] for N in (40, 60)}
-    assert runs[60]["first_break_time"] == pytest.approx(runs[40]["first_break_time"], rel=3e-3)
-    assert runs[60]["breakthrough_time"] == pytest.approx(runs[40]["breakthrough_time"], rel=5e-3)
+                     times=[0.0, 8e-4], t_end=8e-4).breaking for N in (40, 60)}
+    assert runs[60].first_break_time == pytest.approx(runs[40].first_break_time, rel=3e-3)
+    assert runs[60].breakthrough_time == pytest.approx(runs[40].breakthrough_time, rel=5e-3)
 
 
 @pytest.mark.parametrize("max_parts, parts", [(2, [2]), (3, [2]), (4, [2, 4]), (5, [2, 4])])
@@ -154,7 +154,7 @@ def test_the_cap_on_the_parts(max_parts, parts):
     p = Parameters(Nmod=20, fracture="break", yield_strain=EPS_Y, max_parts=max_parts)
     r = solve(p, Settings(quadrature="gauss"), fields=(), t_end=2e-3)
     assert r.status == "parts_limit" and f"max_parts = {max_parts}" in r.message
-    assert [e["parts"] for e in r.extra["breaks"]] == parts
+    assert [e.parts for e in r.breaking.breaks] == parts
     assert r.time_reached < 2e-3 and np.all(np.isfinite(r.work[r.valid]))
     assert_breaking_consistent(r)
 
@@ -166,7 +166,7 @@ def test_an_arithmetic_error_in_the_kernels_is_a_status():
     p = Parameters(Nmod=6, fracture="break", yield_strain=1e-300)
     r = solve(p, Settings(), fields=(), t_end=1e-4, times=[0.0, 1e-4])
     assert r.status == "nonfinite" and "ZeroDivisionError" in r.message and "\n" not in r.message
-    assert r.valid[0] and len(r.extra["breaks"]) == 1
+    assert r.valid[0] and len(r.breaking.breaks) == 1
 
 
 def test_the_whole_plate_counts_the_same_parts():
@@ -177,9 +177,9 @@ def test_the_whole_plate_counts_the_same_parts():
     s = Settings(quadrature="gauss")
     half = solve(p, s, fields=(), t_end=8e-4, times=[0.0, 8e-4])
     whole = solve(p, s, fields=(), t_end=8e-4, times=[0.0, 8e-4], full_plate=True)
-    assert half.extra["breaks"][0]["x"] == 0.0 and half.extra["breaks"][1]["x"] > 0.0
-    assert half.extra["breaking"]["parts"] == whole.extra["breaking"]["parts"] == 4
-    assert [e["parts"] for e in whole.extra["breaks"]] == [2, 3, 4]
+    assert half.breaking.breaks[0].x == 0.0 and half.breaking.breaks[1].x > 0.0
+    assert half.breaking.parts == whole.breaking.parts == 4
+    assert [e.parts for e in whole.breaking.breaks] == [2, 3, 4]
     for r in (half, whole):
         assert_breaking_consistent(r)
 
@@ -236,22 +236,22 @@ def test_a_dropped_body_goes_on_across_the_breaks():
     p = Parameters(Nmod=20, body_mass=100.0, fracture="break", yield_strain=EPS_Y)
     r = solve(p, Settings(), fields=(), times=times, t_end=times[-1])
     ok = r.valid
-    assert r.status == "ok" and r.extra["breaking"]["break_count"] >= 2 and ok.all()
-    through = r.extra["breaking"]["breakthrough_time"]
+    assert r.status == "ok" and r.breaking.break_count >= 2 and ok.all()
+    through = r.breaking.breakthrough_time
     stop, separation = r.diagnostics["stop_time"], r.diagnostics["separation_time"]
-    assert r.extra["breaks"][0]["time"] < through < stop < separation < times[-1]
-    assert r.diagnostics["max_penetration"] > r.extra["breaking"]["breakthrough_penetration"] > 0
+    assert r.breaking.breaks[0].time < through < stop < separation < times[-1]
+    assert r.diagnostics["max_penetration"] > r.breaking.breakthrough_penetration > 0
     assert r.diagnostics["body_energy_residual"] < 1e-8
     body = p.body_mass * (0.5 * (r.body_speed**2 - p.V**2) - p.body_g * r.body_position) + r.work
     assert np.max(np.abs(body)) < 1e-8 * np.max(r.work)
-    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.extra["removed_energy"] - r.work
+    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.breaking.removed_energy - r.work
     assert np.max(np.abs(balance)) < 1e-7 * np.max(r.work)
     heavy, paper = (solve(Parameters(Nmod=20, fracture="break", **kw), Settings(), fields=(), times=times[:11],
-                          t_end=1e-3).extra["breaks"] for kw in (dict(body_mass=1e9, body_g=0.0), {}))
+                          t_end=1e-3).breaking.breaks for kw in (dict(body_mass=1e9, body_g=0.0), {}))
     assert len(heavy) == len(paper) >= 2
     for a, b in zip(heavy, paper):
-        assert a["time"] == pytest.approx(b["time"], rel=1e-8) and a["x"] == pytest.approx(b["x"], abs=1e-8)
-        assert a["penetration"] == pytest.approx(b["penetration"], rel=1e-8)
+        assert a.time == pytest.approx(b.time, rel=1e-8) and a.x == pytest.approx(b.x, abs=1e-8)
+        assert a.penetration == pytest.approx(b.penetration, rel=1e-8)
 
 
 def test_a_part_edge_rising_into_the_layer_is_seen():
@@ -263,9 +263,9 @@ def test_a_part_edge_rising_into_the_layer_is_seen():
     body's separation, the identity within 1e-5 of the scale at every stage (4e-7 measured)."""
     p = Parameters(Nmod=30, L=12.0, hi=0.3, V=0.5, body_mass=1000.0, body_g=0.0, fracture="break", duration=0.05)
     r = solve(p, Settings(error_estimate=False), fields=(), times=[0.0, p.duration], until_separation=True)
-    assert r.status == "separated" and r.extra["breaking"]["break_count"] >= 3, r.message
-    assert max(stage.diagnostics["energy_residual"] for stage in r.extra["stages"]) < 1e-5
-    assert r.extra["stages"][3].time_reached > 0.0245      # (the stage that failed at 24.4 ms)
+    assert r.status == "separated" and r.breaking.break_count >= 3, r.message
+    assert max(stage.diagnostics["energy_residual"] for stage in r.breaking.stages) < 1e-5
+    assert r.breaking.stages[3].time_reached > 0.0245      # (the stage that failed at 24.4 ms)
 
 
 def test_a_contact_between_two_nodes_of_a_part_is_seen():
@@ -289,12 +289,12 @@ def test_dop853_carries_a_dropped_body_across_a_break():
     of etd34 at 1e-10 (7.6e-12 measured; 1.4 s)."""
     p = Parameters(Nmod=20, body_mass=300.0, fracture="break", yield_strain=EPS_Y)
     runs = [solve(p, Settings(integrator=name, tolerance=tol, error_estimate=False), fields=(),
-                  times=np.linspace(0.0, 7e-4, 8), t_end=7e-4).extra["breaks"]
+                  times=np.linspace(0.0, 7e-4, 8), t_end=7e-4).breaking.breaks
             for name, tol in (("etd34", 1e-10), ("dop853", 1e-12))]
     assert len(runs[0]) == len(runs[1]) == 2
     for a, b in zip(*runs):
-        assert a["time"] == pytest.approx(b["time"], rel=1e-9) and a["x"] == pytest.approx(b["x"], abs=1e-9)
-        assert a["penetration"] == pytest.approx(b["penetration"], rel=1e-9)
+        assert a.time == pytest.approx(b.time, rel=1e-9) and a.x == pytest.approx(b.x, abs=1e-9)
+        assert a.penetration == pytest.approx(b.penetration, rel=1e-9)
 
 
 def test_a_broken_plate_carries_to_itself_and_to_more_breaks():
@@ -353,9 +353,9 @@ def test_breaking_composes_with_every_option_and_numerics(cell):
     assert name not in refused, "runs now: take it off the refusals"
     assert r.status in ("ok", "layer_bottomed_out", "parts_limit", "wall_break"), r.message
     ok = r.valid
-    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.extra["removed_energy"] - r.work
+    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.breaking.removed_energy - r.work
     assert np.max(np.abs(balance[ok])) < 1e-5 * np.max(r.work[ok])
-    assert r.extra["breaking"]["break_count"] >= 1
+    assert r.breaking.break_count >= 1
     p = r.parameters
     if p.free_body:               # and the body's own: M (U^2 - V^2) / 2 - M g s + W = 0, through the breaks
         body = p.body_mass * (0.5 * (r.body_speed**2 - p.V**2) - p.body_g * r.body_position) + r.work

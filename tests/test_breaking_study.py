@@ -13,7 +13,7 @@ from pipeline.study.definition import load_study_text
 from pipeline.study.identity import case_id
 from helpers import assert_breaking_study_consistent
 from solver import Parameters, Settings, solve
-from solver.breaking import breaking_values
+from solver.outputs import breaking_values
 
 OUTPUT = {"times": {"unit": "s", "step": 2.5e-4, "stop": 1.5e-3}, "fields": [], "x_points": 11}
 BASE = {"Nmod": 12, "duration": 1.5e-3}
@@ -173,4 +173,4 @@ def test_a_crack_onset_search_on_ice_that_breaks_finds_the_speed(tmp_path):
     assert 0.5 < lo < hi <= lo * 1.1 + 1e-12
     for V, breaks in ((lo, False), (hi, True)):
         r = solve(Parameters(**{**study["base"], "V": V}), Settings(), fields=(), t_end=1e-3, times=[0.0, 1e-3])
-        assert (r.extra["breaking"]["break_count"] > 0) is breaks
+        assert (r.breaking.break_count > 0) is breaks

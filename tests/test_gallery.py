@@ -96,7 +96,7 @@ def test_plot_breakthrough_speed(tmp_path, monkeypatch):
     for end, through in (("critical_V_lower", False), ("critical_V_upper", True)):
         p = Parameters(**study["base"], hi=0.3, V=float(found[end].sel(hi=0.3)))
         r = solve(p, Settings(error_estimate=False), fields=(), times=[0.0, p.duration], until_separation=True)
-        assert np.isfinite(r.extra["breaking"]["breakthrough_time"]) == through, (end, r.status)
+        assert np.isfinite(r.breaking.breakthrough_time) == through, (end, r.status)
 
 
 def test_plot_body_shapes(tmp_path, monkeypatch):

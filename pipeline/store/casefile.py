@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO
-from solver.breaking import breaking_values
+from solver.outputs import breaking_values
 from solver.outputs import BREAKING_INFO
 from solver.parameters import CHOICES
 

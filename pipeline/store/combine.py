@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import DIAGNOSTIC_INFO, EPS_Y_INFO, FIELD_INFO, PARAMETER_INFO, SETTING_INFO
-from solver.breaking import break_table
+from solver.outputs import break_table
 from solver.outputs import BREAKING_INFO
 from solver.parameters import CHOICES, INTEGER_PARAMETERS
 from solver.settings import NAMED_SETTINGS
@@ -154,9 +154,9 @@ def fit_breaks(values, slots: int) -> np.ndarray:
 
 
 def unbroken(time, slots: int) -> dict:
-    """The breaking outputs of cases that did not break (solver.breaking.break_table without
+    """The breaking outputs of cases that did not break (solver.outputs.break_table without
     breaks) from their series ``time`` (cases, t): NaN where it is."""
-    rows = [break_table([], None, row, np.isfinite(row), slots) for row in np.asarray(time, dtype=float)]
+    rows = [break_table((), row, np.isfinite(row), slots) for row in np.asarray(time, dtype=float)]
     return {name: np.array([row[name] for row in rows]) for name in BREAKING_INFO}
 
 

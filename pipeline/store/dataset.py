@@ -10,7 +10,7 @@ import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, ParameterError, default_eps_Y
 from solver.fracture import above_yield_strain, yield_strains
-from solver.breaking import breaking_values
+from solver.outputs import breaking_values
 from solver.outputs import BREAKING_INFO, SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
 
@@ -52,10 +52,10 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
         data[name] = ((), value, {**_attrs(*DIAGNOSTIC_INFO[name][:2]), **asked_attributes(name, result.outputs, answered)})
     p = result.parameters
     if p.fracture == "break":                # each break along break_number (solver.outputs.BREAKING_OUTPUTS)
-        values = breaking_values(result, len(result.extra.get("breaks", [])))
+        values = breaking_values(result, result.breaking.break_count)
         for name, (long_name, units, along) in BREAKING_INFO.items():
             data[name] = (BREAKING_DIMS[along], values[name], _attrs(long_name, units))
-        data["removed_energy_over_time"] = (("t",), np.asarray(result.extra["removed_energy"], dtype=float),
+        data["removed_energy_over_time"] = (("t",), np.asarray(result.breaking.removed_energy, dtype=float),
                                             _attrs("energy the breaks removed up to each time: plate_energy + "
                                                    "layer_energy + dissipated_energy_over_time + this = "
                                                    "work_over_time", "J m-1"))
