@@ -97,8 +97,8 @@ bench-integrator: setup  ## the time integrators' error against wall time on sev
 bench-answered: setup  ## a crack-onset run (end = "answered") beside the full run, five cases at N = 60 -> results/bench/answered.md
 	$(PY) benchmarks/answered.py
 
-bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa ." RULE=paper|gauss|embedded, settings pinned) -> results/bench/revisions.md
-	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .) --rule $(or $(RULE),paper)
+bench-revisions: setup  ## solver time of git revisions side by side (REVISIONS="46d95fa ." RULE=paper|gauss|embedded CASE=reference|breaking, settings pinned) -> results/bench/revisions.md
+	$(PY) benchmarks/bench_revisions.py --revisions $(or $(REVISIONS),46d95fa .) --rule $(or $(RULE),paper) --case $(or $(CASE),reference)
 
 bench-quadrature: setup  ## error against wall time of both forcing quadratures, N = 20, 60, 120, four cases (about 10 min) -> results/bench/quadrature.{md,csv,png}
 	$(PY) benchmarks/quadrature.py
