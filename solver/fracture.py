@@ -179,15 +179,27 @@ def yield_strains(eps_Y) -> np.ndarray:
     return levels
 
 
+def above_yield_strain_message(largest: float, yield_strain: float) -> str:
+    """The one line refusing crack onset at eps_Y = ``largest`` above the ``yield_strain`` of ice
+    that breaks (solve, Result, a study, the stored records say the same)."""
+    return (f"eps_Y = {largest:g} is above yield_strain = {yield_strain:g}, where the ice breaks (fracture = "
+            f"'break'): its tension never passes it, so crack onset is defined for eps_Y <= {yield_strain:g}")
+
+
+def up_to_yield_strain(eps_Y, yield_strain: float) -> np.ndarray:
+    """A default eps_Y axis for ice that breaks at ``yield_strain``: its values up to it, and it
+    (crack onset there is the first break on its surface), sorted."""
+    eps = np.asarray(eps_Y, dtype=float)
+    return np.unique(np.r_[eps[eps <= yield_strain], yield_strain])
+
+
 def above_yield_strain(p, levels) -> None:
     """ParameterError where crack onset is asked above the yield strain of ice that breaks
     (Parameters p, fracture = "break"): the plate breaks where its tension reaches
     p.yield_strain, so its tension never passes it and crack onset is defined up to it."""
     levels = np.asarray(levels, dtype=float)
     if p.fracture == "break" and levels.size and np.max(levels) > p.yield_strain:
-        raise ParameterError(f"eps_Y = {np.max(levels):g} is above yield_strain = {p.yield_strain:g}, where this ice "
-                             f"breaks (fracture = 'break'): its tension never passes it, so crack onset is defined for "
-                             f"eps_Y <= yield_strain")
+        raise ParameterError(above_yield_strain_message(float(np.max(levels)), p.yield_strain))
 
 
 def crack_onset(record, eps_Y):

@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .spec import Breaking
+
 #: one diagnostic: the kernel's slot name, the stored name, units, long name, a position on the plate,
 #: and how a run in stages (one that breaks: solver.breaking) joins its stages' values into the
 #: run's: one of JOINS (a stored diagnostic must say; tests/test_outputs.py holds it)
@@ -304,11 +306,10 @@ def break_table(events, times, valid, slots: int) -> dict:
     breaks in order, NaN after them; breaks beyond ``slots`` are counted but not listed) or one
     value per output time (along "t": NaN where ``valid`` is not). Without breaks: no break, one
     part, no breakthrough."""
-    through = next((e for e in events if e.broken_through), None)
-    out = {"first_break_time": events[0].time if events else math.nan, "break_count": float(len(events)),
-           "part_count": float(events[-1].parts if events else 1),
-           "breakthrough_time": through.time if through else math.nan,
-           "breakthrough_penetration": through.penetration if through else math.nan,
+    summary = Breaking(tuple(events), None, (), False)
+    out = {"first_break_time": summary.first_break_time, "break_count": float(summary.break_count),
+           "part_count": float(summary.parts), "breakthrough_time": summary.breakthrough_time,
+           "breakthrough_penetration": summary.breakthrough_penetration,
            "removed_energy": float(sum(e.removed_energy for e in events if not math.isnan(e.removed_energy)))}
     columns = {"break_time": "time", "break_x": "x", "break_surface": "surface", "break_part_count": "parts",
                "break_removed_energy": "removed_energy"}

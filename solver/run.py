@@ -208,10 +208,9 @@ def _reached_at_break(tab, s, diag, final, level, records, level_t, level_x, lev
     breaks"), located on sub-steps to the last one below it, so the surface's plate-wide record,
     and its impact zone's where the break lies in the zone, end at (t_b, level, rate, x_b): its
     last row at t_b takes the level, or a row is added there (its rate eps_t(x_b) from the state
-    at t_b). Crack onset for any eps_Y <= level is then defined (at the level: the break's time),
-    and so is each located level up to it. Returns the records."""
-    t_b, x_b, surface = float(diag[kn.D_BREAK_T]), float(diag[kn.D_BREAK_X]), int(diag[kn.D_BREAK_SURFACE])  # (x_b on
-    # the plate)
+    at t_b; x_b is on the plate). Crack onset for any eps_Y <= level is then defined (at the level:
+    the break's time), and so is each located level up to it. Returns the records."""
+    t_b, x_b, surface = float(diag[kn.D_BREAK_T]), float(diag[kn.D_BREAK_X]), int(diag[kn.D_BREAK_SURFACE])
     sign, N = 1.0 - 2.0 * surface, tab.lam.size
     rate = sign * float(tab.mode_values(np.array([x_b]), "strain")[0] @ final[1, :N])
     lo, hi = zone_ends.py_func(tab.model, float(diag[kn.D_CONTACT_EXTENT]), s.impact_zone_margin)

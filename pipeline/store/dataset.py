@@ -9,7 +9,7 @@ import numpy as np
 import xarray as xr
 
 from solver import DIAGNOSTIC_INFO, FIELD_INFO, PARAMETER_INFO, ParameterError, default_eps_Y
-from solver.fracture import above_yield_strain, yield_strains
+from solver.fracture import above_yield_strain, up_to_yield_strain, yield_strains
 from solver.outputs import breaking_values
 from solver.outputs import BREAKING_INFO, SERIES, TENSION_RECORDS
 from solver.parameters import CHOICES
@@ -75,7 +75,7 @@ def case_dataset(result, eps_Y=None) -> xr.Dataset:
         raise ParameterError(f"eps_Y = {eps.max():g} is above {result.answered_eps_Y:g}, the largest the run "
                              f"answered (end = 'answered')")
     if eps_Y is None and p.fracture == "break":    # ice that breaks: defined up to its yield strain
-        eps = np.unique(np.r_[eps[eps <= p.yield_strain], p.yield_strain])
+        eps = up_to_yield_strain(eps, p.yield_strain)
     above_yield_strain(p, eps)
     for name, values in onset_from_records(result.tension_record, eps).items():
         data[name] = (("eps_Y",), values, {**_attrs(*CRACK_INFO[name]), **asked_attributes(name, result.outputs, answered)})

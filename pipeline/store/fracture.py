@@ -24,7 +24,7 @@ import numpy as np
 import xarray as xr
 
 from solver import EPS_Y_INFO, ParameterError, crack_onset as _from_record, default_eps_Y
-from solver.fracture import yield_strains
+from solver.fracture import above_yield_strain_message, up_to_yield_strain, yield_strains
 
 from .casefile import ragged_offsets, tension_records
 from solver.outputs import TENSION_RECORDS, onset_names
@@ -97,19 +97,16 @@ def crack_onset(source, eps_Y=None) -> xr.Dataset:
         with xr.open_dataset(source) as ds:
             return crack_onset(ds.load(), eps)
     ds = source
+    top = breaking_yield_strain(ds)
     if eps is None:                     # the default; where ice breaks, up to its yield strain
-        eps, top = default_eps_Y(), breaking_yield_strain(ds)
-        eps = eps if top is None else np.unique(np.r_[eps[eps <= top], top])
+        eps = default_eps_Y() if top is None else up_to_yield_strain(default_eps_Y(), top)
     level = ds.attrs.get("answered_eps_Y")
     if level is not None and eps.max() > float(level):
         raise ValueError(f"eps_Y = {eps.max():g} is above {float(level):g}, the largest yield strain this study's "
                          f"runs answered ([output] end = \"answered\"): its records end there; run the study with a "
                          f"larger eps_Y, or without end = \"answered\"")
-    top = breaking_yield_strain(ds)
     if top is not None and eps.max() > top:
-        raise ValueError(f"eps_Y = {eps.max():g} is above yield_strain = {top:g}, where the ice of a case here breaks "
-                         f"(fracture = \"break\"): its tension never passes it, so crack onset is defined for "
-                         f"eps_Y <= {top:g}")
+        raise ValueError(above_yield_strain_message(float(eps.max()), top))
     missing = [name for name in ("tension_record_count", *TENSION_RECORD_INFO) if name not in ds]
     if missing:
         raise ValueError(f"no tension record in this dataset ({missing[0]} is missing): a study.nc "

@@ -33,6 +33,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import PARAMETER_INFO, SETTING_INFO, ParameterError
+from solver.fracture import above_yield_strain_message, up_to_yield_strain
 from solver.outputs import BREAKING_INFO, CRACK_ONSET_TIMES, OBSERVED, ONSET_RECORD, RECORDS
 
 from ..common.errors import StudyError
@@ -273,13 +274,11 @@ def _eps_Y_of_breaking_ice(study, output):
     if top is None:
         return output
     if not output.eps_Y_given:
-        output = replace(output, eps_Y=tuple(sorted({e for e in output.eps_Y if e <= top} | {top})))
+        output = replace(output, eps_Y=tuple(up_to_yield_strain(output.eps_Y, top).tolist()))
         study.output = output
     above = [e for e in study.eps_Y_read() if e > top]
     if above:
-        raise StudyError(f"eps_Y = {max(above):g} is above yield_strain = {top:g}, where the ice of a case breaks "
-                         f"(fracture = \"break\"): its tension never passes it, so crack onset is defined for "
-                         f"eps_Y <= {top:g}")
+        raise StudyError(above_yield_strain_message(max(above), top))
     return output
 
 
