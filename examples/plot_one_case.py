@@ -4,7 +4,7 @@ One case: strain along the ice, and the force on the body
 
 The paper's reference case (a body of radius 10 m at 5 m/s on 0.5 m ice through a 2 cm layer),
 solved once with :func:`solver.solve` and turned into a labelled dataset with
-:meth:`solver.Result.to_dataset`. Left: the strain of the upper surface along the plate at a
+:func:`pipeline.case_dataset`. Left: the strain of the upper surface along the plate at a
 few times. Right: the force on the body, with crack onset at the paper's yield strain.
 """
 import os
@@ -12,12 +12,13 @@ import os
 import matplotlib.pyplot as plt
 import numpy as np
 
+from pipeline import case_dataset
 from solver import Parameters, solve
 
 FAST = os.environ.get("FLOE_GALLERY_FAST") == "1"
 p = Parameters(Nmod=20 if FAST else 60)
 times = np.linspace(0.0, 4.0, 9 if FAST else 201) * p.time_scale
-case = solve(p, times=times, fields=("strain",)).to_dataset(eps_Y=[8e-5])
+case = case_dataset(solve(p, times=times, fields=("strain",)), eps_Y=[8e-5])
 
 fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.8), constrained_layout=True)
 for k in np.linspace(0, case.sizes["t"] - 1, 5).astype(int):

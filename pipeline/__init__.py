@@ -5,12 +5,13 @@ From Python::
     import pipeline
     ds = pipeline.run_study("speed_sweep", workers=2)        # the combined study.nc, an xarray.Dataset
     ds = pipeline.open_study("results/speed_sweep")           # a finished study, checksum verified
+    case = pipeline.case_dataset(solver.solve(...))          # one solved case, labelled as study.nc
 
 From the shell: ``floe-impact run|status|show`` (= ``python -m pipeline``).
 """
 from importlib.metadata import PackageNotFoundError, version as _version
 
-from .api import open_emulator, open_sensitivity, open_study, run_study, study_text
+from .api import case_dataset, open_emulator, open_sensitivity, open_study, run_study, study_text
 from .common.errors import EmulatorError, ResultsIOError, StudyError
 from .store.lock import StudyLocked
 
@@ -19,5 +20,5 @@ try:
 except PackageNotFoundError:                    # a source tree that was not installed
     __version__ = "unknown"
 
-__all__ = ["EmulatorError", "ResultsIOError", "StudyError", "StudyLocked", "open_emulator", "open_sensitivity", "open_study",
+__all__ = ["EmulatorError", "ResultsIOError", "StudyError", "StudyLocked", "case_dataset", "open_emulator", "open_sensitivity", "open_study",
            "run_study", "study_text"]

@@ -25,7 +25,7 @@ from .run import RunOptions, run_study as _run
 from .store.ledger import sidecar
 from .store.lock import refuse_if_locked
 
-__all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "study_text", "load"]
+__all__ = ["run_study", "open_study", "open_sensitivity", "open_emulator", "case_dataset", "study_text", "load"]
 
 
 def study_text(study: dict) -> str:
@@ -275,6 +275,41 @@ def open_sensitivity(results):
         raise ResultsIOError(f"{out_dir} holds no sensitivity.nc (does the study have an [analysis], and has "
                              f"it run to its end?)")
     return open_sealed(path)
+
+
+def case_dataset(result, eps_Y=None):
+    """One case :func:`solver.solve` ran, as a Dataset labelled as a study's ``study.nc``.
+
+    Parameters
+    ----------
+    result : solver.Result
+        A solved case (a run that breaks too: its breaks along ``break_number``).
+    eps_Y : float or array_like, optional
+        Yield strains of the crack-onset variables. Default: 10 a decade from 1e-5 to 1e-1 and the
+        paper's 8e-5, as a study's; a run that ended at its answer, the ones it answered; ice that
+        breaks, up to its yield strain.
+
+    Returns
+    -------
+    xarray.Dataset
+        The fields over (t, x), series over t, diagnostics, crack onset along eps_Y, parameters,
+        run records, status and event records, with the names, units and long names of study.nc
+        (t and x here in seconds and metres).
+
+    Raises
+    ------
+    solver.ParameterError
+        An eps_Y above the largest the run answered, or above the yield strain of ice that breaks.
+
+    Examples
+    --------
+    ::
+
+        case = pipeline.case_dataset(solver.solve(solver.Parameters(V=5.0), times=[0.0, 0.05]))
+        case["strain"].sel(t=0.05, method="nearest")
+    """
+    from .store.dataset import case_dataset as labelled    # xarray: only when a case is converted
+    return labelled(result, eps_Y)
 
 
 def open_emulator(results):

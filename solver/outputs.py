@@ -161,7 +161,7 @@ DIAGNOSTIC_INFO = {row.name: (row.long_name, row.units, None if row.slot is None
 #: one series over the output times: the kernel's slot (S_<slot> in solver.layout), the stored
 #: name (None: the kernel's own), the Result's attribute, units, long name, and where it is
 #: stored: "study" (batch files and study.nc), "body" (there too, in a study with a free body),
-#: "case" (a case's Dataset only: Result.to_dataset)
+#: "case" (a case's Dataset only: pipeline.case_dataset)
 Series = namedtuple("Series", "slot name attribute units long_name stored")
 
 SERIES = (

@@ -115,12 +115,10 @@ class Result:
         return crack_onset(self.tension_record[surface if region == "plate" else f"impact_zone_{surface}"], eps_Y)
 
     def to_dataset(self, eps_Y=None):
-        """This case as a labelled ``xarray.Dataset``: the same names, units and long names as a
-        study's ``study.nc`` (fields over t [s] and x [m], series, diagnostics, crack onset along
-        ``eps_Y``, parameters, status, records). Needs the runner's packages (xarray): the
-        conversion is :func:`pipeline.store.dataset.case_dataset`; the solver itself stays free of them."""
-        from pipeline.store.dataset import case_dataset   # deferred: the one hand-off from solver to pipeline
-        return case_dataset(self, eps_Y)
+        """Moved: a case's labelled Dataset is ``pipeline.case_dataset(result, eps_Y)`` (the solver
+        imports nothing of the study runner, so a Result does not know the store)."""
+        raise AttributeError("Result.to_dataset moved to the study runner: pipeline.case_dataset(result, eps_Y=None) "
+                             "gives the same Dataset")
 
 
 #: largest etd34 step as a fraction of the contact period 2 pi / Parameters.contact_frequency

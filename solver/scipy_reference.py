@@ -31,7 +31,7 @@ import numpy as np
 from . import layout as kn
 from .diagnostics import Run, largest_tension
 from .keys import ParameterError
-from .ending import break_value
+from .ending import arm_breaks, break_value
 from .loop import (Observers, StepEnds, initial_state, new_records, new_state, new_workspace, observe_step,
                    state_at)
 from .model.body import body_accel, body_residual, start_body
@@ -282,10 +282,17 @@ def state_series(tab, t, a, adot, body=(np.nan, np.nan)) -> np.ndarray:
     return row.series[0]
 
 
-def _break(system, armed, level, t_old, t_new, dense):
-    """The first time in the step at which an armed surface's peak tension over x reaches the
-    break level (brentq on the dense output, bracketed on 8 points), as (t, x, surface), or None;
-    a surface is armed once its peak is below the level at a step's end (solver.ending.arm_breaks)."""
+def _arm(model, armed, level, state):
+    """Arm each surface whose peak tension at a state the observers computed (its node strains
+    too) is below the break level: the kernels' own rule (solver.ending.arm_breaks)."""
+    arm_breaks(model, armed, state.eps, state.a, level)
+
+
+def _break(system, armed, level, t_old, t_new, dense, end):
+    """The first time in the step at which an armed surface's (armed[s] 1) peak tension over x
+    reaches the break level (brentq on the dense output, bracketed on 8 points), as (t, x,
+    surface), or None; the surfaces still unarmed are armed at the step's end (end: the state
+    there) where it has none."""
     from scipy.optimize import brentq
     model, N, found = system.model, system.N, None
     state, value = new_state(N, system.tab.xq.size), np.empty(3)
@@ -294,10 +301,7 @@ def _break(system, armed, level, t_old, t_new, dense):
         state.a[:] = dense(tt)[:N]
         return break_value(model, sign, tt, state, value), value[2]
     for surface, sign in ((0, 1.0), (1, -1.0)):
-        if armed[surface] is None:                 # the run's first step: armed below the level at its start
-            armed[surface] = peak(t_old, sign)[0] < level
-        if not armed[surface]:
-            armed[surface] = peak(t_new, sign)[0] < level
+        if armed[surface] == 0.0:
             continue
         below = t_old
         for tp in np.linspace(t_old, t_new, 9)[1:]:
@@ -307,6 +311,8 @@ def _break(system, armed, level, t_old, t_new, dense):
                     found = (tb, peak(tb, sign)[1], surface)
                 break
             below = tp
+    if found is None:
+        _arm(model, armed, level, end)
     return found
 
 
@@ -387,7 +393,10 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         k += 1
     solver = DOP853(system.rhs, t_start, y0, t_end, rtol=control.tolerance, atol=control.tolerance * 1e-3,
                     first_step=control.h_init)
-    t_reached, steps, dense, armed, broke = t_start, 0, None, [None, None], None
+    t_reached, steps, dense, broke = t_start, 0, None, None
+    armed = np.zeros(2)                    # the surfaces armed to break (solver.ending.arm_breaks)
+    if control.break_level < np.inf:
+        _arm(tab.model, armed, control.break_level, observers.cur)
     while solver.status == "running":
         if steps >= control.max_steps:
             status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS
@@ -416,7 +425,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
         left = observers.step(t_old, t_stop - t_old, dense)
         broke = None
         if control.break_level < np.inf and t_bottom is None:     # a break ends the run where it is
-            broke = _break(system, armed, control.break_level, t_old, t_stop, dense)
+            broke = _break(system, armed, control.break_level, t_old, t_stop, dense, observers.cur)
             if broke is not None:
                 t_stop = broke[0]
                 diag[kn.D_BREAK_T], diag[kn.D_BREAK_X], diag[kn.D_BREAK_SURFACE] = broke[0], broke[1], broke[2]

@@ -1,6 +1,6 @@
 """The Python API a notebook uses: pipeline.run_study returns the combined study as an
 xarray.Dataset with the command line's guarantees (resume, lock, bad input raised before
-anything is written), pipeline.open_study verifies what it opens, Result.to_dataset labels one
+anything is written), pipeline.open_study verifies what it opens, pipeline.case_dataset labels one
 case as study.nc does, and the console script floe-impact is the command line."""
 import shutil
 import subprocess
@@ -105,7 +105,7 @@ def test_study_text_round_trips_through_toml():
     assert back["cases"] == [{"V": 1.0}, {"V": 2.0, "group": "b"}]
 
 
-def test_result_to_dataset_is_labelled_as_study_nc(tiny_run):
+def test_a_case_dataset_is_labelled_as_study_nc(tiny_run):
     """One case solved directly, as a Dataset: the study's names, units and long names, and the
     study's numbers for that case (same parameters and settings, same machine: bit for bit)."""
     out, ds = tiny_run
@@ -113,7 +113,7 @@ def test_result_to_dataset_is_labelled_as_study_nc(tiny_run):
     p = Parameters(Nmod=10, V=5.0)
     times = case["time"].values
     result = solve(p, Settings(), times=times, fields=("strain",), x=ds["x"].values)
-    one = result.to_dataset(eps_Y=ds["eps_Y"].values)
+    one = pipeline.case_dataset(result, eps_Y=ds["eps_Y"].values)
     shared = [n for n in one.data_vars if n in ds.data_vars]
     assert len(shared) > 40
     for name in shared:
@@ -127,6 +127,8 @@ def test_result_to_dataset_is_labelled_as_study_nc(tiny_run):
     work = one["work_over_time"].values                      # the series ends at the run's total
     assert work[0] == 0.0 and np.all(np.diff(work) >= 0) and float(one["work"]) >= work[-1] > 0
     assert one.attrs["Conventions"].startswith("CF-") and one.attrs["git_commit"]
+    with pytest.raises(AttributeError, match=r"pipeline\.case_dataset\(result"):    # where it moved, in one line
+        result.to_dataset()
 
 
 def test_the_console_script_is_the_command_line():
@@ -157,7 +159,7 @@ def test_result_files_pass_the_cf_checker(tiny_run, tmp_path):
     history, and pass compliance-checker --test=cf:1.11 with no error or warning."""
     pytest.importorskip("compliance_checker")
     out, _ = tiny_run
-    one = solve(Parameters(Nmod=10, V=5.0), times=[0.0, 0.01], fields=("strain",)).to_dataset()
+    one = pipeline.case_dataset(solve(Parameters(Nmod=10, V=5.0), times=[0.0, 0.01], fields=("strain",)))
     one.to_netcdf(tmp_path / "case.nc")
     for path in [out / "study.nc", next((out / "batches").glob("*.nc")), tmp_path / "case.nc"]:
         with xr.open_dataset(path) as ds:

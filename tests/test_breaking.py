@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from helpers import BASE, NUMERICS, OPTIONS, SUBINTERVALS, assert_breaking_consistent
+from pipeline import case_dataset
 from solver import ParameterError, Parameters, Settings, solve
 from solver.model import parts
 
@@ -107,7 +108,7 @@ def test_the_cascade(breaking_run):
 
 def test_crack_onset_at_the_yield_strain_is_the_break(breaking_run):
     """Crack onset at eps_Y = yield_strain is the first break on that surface, in the records, in
-    the located crossings (locate_eps_Y) and through to_dataset; below it the unbroken run's;
+    the located crossings (locate_eps_Y) and through pipeline.case_dataset; below it the unbroken run's;
     above it refused in one line (the tension never passes the yield strain). The records end at
     the level itself at a break (the located break is the last sub-step below it)."""
     p, r = breaking_run
@@ -120,7 +121,7 @@ def test_crack_onset_at_the_yield_strain_is_the_break(breaking_run):
     for surface, event in first.items():
         t, _ = located.extra["located_crack_onset"][surface]
         assert t[1] == pytest.approx(event.time, rel=1e-8) and t[0] < t[1]     # (located to 1e-13 s)
-    case = r.to_dataset()
+    case = case_dataset(r)
     assert float(case["eps_Y"].max()) == EPS_Y
     assert float(case["crack_onset_time_lower"].sel(eps_Y=EPS_Y)) == pytest.approx(first["lower"].time, rel=1e-12)
     for bad in (dict(eps_Y=[1e-4]), dict(eps_Y="8e-5"), dict(eps_Y=["abc"]), dict(eps_Y=[-1e-5]),
@@ -129,7 +130,7 @@ def test_crack_onset_at_the_yield_strain_is_the_break(breaking_run):
             r.crack_onset(**bad)
         assert "\n" not in str(err.value) and ("above yield_strain" in str(err.value) or "eps_Y must" in str(err.value))
     with pytest.raises(ParameterError, match="above yield_strain"):
-        r.to_dataset(eps_Y=[EPS_Y, 2 * EPS_Y])
+        case_dataset(r, eps_Y=[EPS_Y, 2 * EPS_Y])
 
 
 def test_the_first_break_and_breakthrough_converge_in_the_modes():

@@ -1,6 +1,6 @@
 """One solved case as a labelled ``xarray.Dataset``, with the names, units and long names a
-``study.nc`` gives the same quantities (:meth:`solver.Result.to_dataset` hands off to here:
-the solver itself imports no xarray)."""
+``study.nc`` gives the same quantities (``pipeline.case_dataset``: the solver imports nothing of
+the runner, so the conversion of its Result lives here)."""
 from __future__ import annotations
 
 import json
@@ -29,10 +29,8 @@ def _attrs(long_name: str, units: str | None = None) -> dict:
 
 
 def case_dataset(result, eps_Y=None) -> xr.Dataset:
-    """The case's fields over (t, x), series over t, diagnostics, crack onset along eps_Y,
-    parameters, run records, status and event records, labelled as in study.nc (t and x here in
-    seconds and metres). ``eps_Y``: yield strains of the crack-onset variables (default: 10 a
-    decade from 1e-5 to 1e-1 and the paper's 8e-5, as a study's)."""
+    """One case as a Dataset labelled as study.nc (the public door: :func:`pipeline.case_dataset`,
+    whose docstring tells the arguments)."""
     T = result.times.size
     data = {}
     answered = result.answered_eps_Y if result.end_reason == "answered" else None
