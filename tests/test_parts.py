@@ -284,3 +284,28 @@ def test_what_a_break_at_the_centre_removes():
     kinetic_lost, potential_lost = np.array(lost).T
     assert potential_lost == pytest.approx([0.216, 0.108, 0.0541, 0.0271], rel=0.05)
     assert np.all(kinetic_lost < [1e-5, 3e-7, 1e-8, 3e-10])
+
+
+def test_a_parts_rows_are_kept_for_the_later_stages_bit_for_bit():
+    """Each part's rows of its cosine integrals and grid values are computed once a run and kept
+    (parts._by_part): the tables of a plate broken further, with the rows of its unchanged parts
+    taken from the previous stage, are those built from nothing, bit for bit; and only the new
+    parts are computed."""
+    p = Parameters(Nmod=20, fracture="break")
+    xq = np.linspace(0.0, p.L, 201)
+    beta_max = np.pi * p.Nmod / p.L
+    parts._PART_ROWS.clear()
+    fresh = parts.parts_tables(p, xq, [0.0, 0.3, 1.1], False, beta_max)
+    parts._PART_ROWS.clear()
+    parts.parts_tables(p, xq, [0.0, 0.3], False, beta_max)            # the stage before
+    computed = []
+    original = parts._cosine_rows
+    parts._cosine_rows = lambda sub, mu: computed.append((sub.lows[0], sub.highs[0])) or original(sub, mu)
+    try:
+        kept = parts.parts_tables(p, xq, [0.0, 0.3, 1.1], False, beta_max)
+    finally:
+        parts._cosine_rows = original
+    for name, value in fresh.items():
+        if isinstance(value, np.ndarray):
+            np.testing.assert_array_equal(kept[name], value, err_msg=name)
+    assert sorted(computed) == [(0.3, 1.1), (1.1, p.L)]               # [0, 0.3] was kept

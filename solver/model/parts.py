@@ -88,6 +88,31 @@ PartModes = namedtuple("PartModes", "kinds betas centres halves lows highs norms
 #: the wet modes of a broken plate: omega (Nw,) [rad s-1], Q (Nd, Nw) (Q^T M Q = I, Q^T K Q =
 #: diag(omega^2)), the dry modes, the domain Lambda [m] and the mirror (2 on the half plate)
 WetParts = namedtuple("WetParts", "omega Q modes domain mirror")
+#: each part's rows of the tables whose rows depend on a mode's own part only (its cosine integrals,
+#: its values on a grid), kept across a run's stages: a new break changes one or two parts, the
+#: others' rows are the same numbers (the same operations on the same inputs: bit for bit)
+_PART_ROWS: dict = {}
+#: the bytes _PART_ROWS may hold (the oldest entries go first)
+PART_ROWS_BYTES = 256 * 2**20
+
+
+def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray:
+    """(Nd, columns): a table whose rows depend on each mode's own part and on ``what`` only,
+    compute(modes of one part) -> its rows, each part's computed once and kept (_PART_ROWS)."""
+    out = np.empty((modes.kinds.size, columns))
+    for part in np.unique(modes.parts):
+        on = np.flatnonzero(modes.parts == part)
+        sub = PartModes(*(field[on] for field in modes))
+        key = (what, sub.kinds.tobytes(), sub.betas.tobytes(), sub.centres.tobytes(), sub.halves.tobytes(),
+               sub.lows.tobytes(), sub.highs.tobytes(), sub.norms.tobytes())
+        rows = _PART_ROWS.get(key)
+        if rows is None:
+            rows = _PART_ROWS[key] = compute(sub)
+            held = sum(r.nbytes for r in _PART_ROWS.values())
+            while held > PART_ROWS_BYTES and len(_PART_ROWS) > 1:
+                held -= _PART_ROWS.pop(next(iter(_PART_ROWS))).nbytes
+        out[on] = rows
+    return out
 
 
 def part_edges(domain: float, breaks) -> np.ndarray:
@@ -147,17 +172,20 @@ def raw_mode(kind, beta, centre, half, x, order=0):
     return dry_mode(int(kind), beta, half, x - centre, order)
 
 
-def part_values(modes: PartModes, x, order=0) -> np.ndarray:
+def part_values(modes: PartModes, x, order=0, last=None) -> np.ndarray:
     """(Nd, X): the scaled dry modes' derivatives of the given order at x [m], zero off their
-    parts (a break belongs to the part above it; the domain's end to the last part)."""
+    parts (a break belongs to the part above it; the domain's end, ``last`` [m], default the
+    modes' highest end, to the last part)."""
     x = np.asarray(x, dtype=float)
-    out = np.zeros((modes.kinds.size, x.size))
-    last = np.max(modes.highs)
-    for m in range(modes.kinds.size):
-        on = (x >= modes.lows[m]) & ((x < modes.highs[m]) | (modes.highs[m] == last))
-        out[m, on] = modes.norms[m] * raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m],
-                                               x[on], order)
-    return out
+    last = np.max(modes.highs) if last is None else last
+
+    def rows(sub):
+        out = np.zeros((sub.kinds.size, x.size))
+        for m in range(sub.kinds.size):
+            on = (x >= sub.lows[m]) & ((x < sub.highs[m]) | (sub.highs[m] == last))
+            out[m, on] = sub.norms[m] * raw_mode(sub.kinds[m], sub.betas[m], sub.centres[m], sub.halves[m], x[on], order)
+        return out
+    return _by_part(modes, ("values", x.tobytes(), order, float(last)), rows, x.size)
 
 
 #: Gauss-Legendre rule of 32 nodes on [-1, 1] (_gauss's panels)
@@ -181,6 +209,11 @@ def cosine_integrals(modes: PartModes, mu) -> np.ndarray:
     the closed form of the module docstring, and Gauss-Legendre near resonance, |beta^4 - mu^4| <
     RESONANCE mu^4, where the closed form would divide a difference by a small number."""
     mu = np.asarray(mu, dtype=float)
+    return _by_part(modes, ("cosines", mu.tobytes()), lambda sub: _cosine_rows(sub, mu), mu.size)
+
+
+def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
+    """cosine_integrals of the modes of one part."""
     Nd = modes.kinds.size
     ends = np.unique(np.concatenate([modes.lows, modes.highs]))
     cos_e, sin_e = np.cos(np.outer(ends, mu)), np.sin(np.outer(ends, mu))       # (E, K)
