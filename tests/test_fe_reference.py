@@ -1,0 +1,127 @@
+"""The solver against Hermite cubic finite elements (tests/fe_reference.py), a discretisation that
+shares no basis with it (docs/model.md, "An independent check through a break"): the elements'
+own checks (the water's closed-form coefficients, a break that carries the state and its energy
+exactly), and the solver's strain and force against theirs on the unbroken plate, on a plate
+broken at rest, and through the reference case's first break."""
+import math
+
+import numpy as np
+import pytest
+
+import fe_reference as fe
+from solver import Parameters, Settings, solve
+
+EPS_Y = 8e-5
+
+
+def _interpolated(plate, w, slope):
+    """The degrees of freedom of the plate that interpolate w and w' (functions of x)."""
+    q = np.zeros(plate.top.count)
+    for j, node in enumerate(plate.x):
+        for e, side in ((j - 1, 2), (j, 0)):
+            if 0 <= e < plate.h.size:
+                q[plate.top.elem[e, side]], q[plate.top.elem[e, side + 1]] = w(node), slope(node)
+    return q
+
+
+def test_the_elements_water_is_the_channels():
+    """A cosine cos(lambda_n x) on the elements moves the water's added mass rho_w / lambda_n (the
+    walled plate's, docs/model.md "Equations"): its kinetic energy at unit rate, over the plate's
+    own m, is (L / 2) (m + rho_w / lambda_n) / 2 to the interpolation's accuracy (1e-8 at n = 1,
+    5.3e-6 at n = 20 on 2 cm elements); and the
+    constraint int w dx = 0 holds for it."""
+    p = Parameters(Nmod=20)
+    plate = fe.Plate(p, fe.mesh(p.L, [], 0.02), set())
+    for n in (1, 5, 20):
+        lam = n * math.pi / p.L
+        q = _interpolated(plate, lambda x: math.cos(lam * x), lambda x: -lam * math.sin(lam * x))
+        kinetic = 0.5 * q @ plate.mass @ q
+        # the cubic interpolant of the cosine is off by about (lambda h)^4 / 384: 5e-6 at n = 20
+        assert kinetic == pytest.approx(0.5 * (p.L / 2) * (p.plate_mass + p.rho_w / lam), rel=2e-6 * max(n / 10, 1) ** 4)
+        assert abs(plate.means @ q) < 1e-9
+
+
+def test_a_break_carries_the_state_and_its_energy_exactly():
+    """Breaking the elements at a node gives each side its own w and w' there: w, w_t and the
+    energy (the plate's, the water's) are the same just after as just before, to round-off;
+    and the jump's tail makes the water's energy of a jump converge."""
+    p = Parameters(Nmod=20)
+    nodes = fe.mesh(p.L, [0.9], 0.05)
+    before = fe.Plate(p, nodes, set())
+    rng = np.random.default_rng(3)
+    q = _interpolated(before, lambda x: 1e-3 * math.cos(2.1 * x), lambda x: -2.1e-3 * math.sin(2.1 * x))
+    v = _interpolated(before, lambda x: math.cos(0.7 * x + 0.2), lambda x: -0.7 * math.sin(0.7 * x + 0.2))
+    q[before.top.free] += 1e-6 * rng.standard_normal(before.top.free.size)
+    broken = {int(np.argmin(np.abs(nodes - 0.9)))}
+    after = fe.Plate(p, nodes, broken)
+    q2, v2 = fe._broken_state(before, q, v, broken)
+    x = np.linspace(0, p.L, 997)
+    np.testing.assert_allclose(after.values(q2, x), before.values(q, x), rtol=0, atol=1e-15)
+    assert after.energy(q2, v2) == pytest.approx(before.energy(q, v), rel=1e-11)     # (the series summed anew)
+
+
+@pytest.fixture(scope="module")
+def reference_breaks():
+    """The reference case's first break at N = 120 (tolerance 1e-10) and the state there."""
+    p, s = Parameters(Nmod=120), Settings(quadrature="gauss", tolerance=1e-10)
+    first = solve(p, s, fields=(), t_end=2e-3, times=[0.0, 2e-3], break_strain=EPS_Y)
+    return p, s, first
+
+
+@pytest.mark.slow
+def test_the_unbroken_plate_agrees_with_the_elements(reference_breaks):
+    """Up to the first break (0.49 ms): the solver at N = 120 and the elements at 1 cm agree to
+    3e-4 of the largest strain (their difference halves with the spacing: 1.7e-3 at 2 cm,
+    4.8e-4 at 1 cm over 0.45 ms) and to 1e-7 on the force; the elements' energy identity holds to
+    1e-6."""
+    p, s, first = reference_breaks
+    x = np.linspace(0.0, 3.0, 61)
+    times = np.linspace(0.0, first.end.broke.time, 11)
+    ours = solve(p, s, times=times, x=x, fields=("strain",), t_end=times[-1])
+    strain, force, residual = fe.run(p, [], times, x, spacing=0.01, dt=4e-7)
+    scale = np.max(np.abs(ours.fields["strain"]))
+    assert np.max(np.abs(strain - ours.fields["strain"])) < 1e-3 * scale
+    assert np.max(np.abs(force - ours.force)) < 1e-7 * np.max(ours.force)
+    assert residual < 1e-6
+
+
+@pytest.mark.slow
+def test_a_plate_broken_at_rest_agrees_with_the_elements():
+    """The plate broken at 0.3321 m before first touch (where the reference case's second break
+    is, just beyond the contact), to 1.5 ms: nothing is carried, so this checks the broken
+    plate's own dynamics, its parts' modes and their water against the elements': strain 3.0e-4
+    of the largest (N = 120, 1 cm; 1.2e-3 at 2 cm), force 1.7e-8, both at least 0.1 m from the
+    break."""
+    p, s = Parameters(Nmod=120), Settings(quadrature="gauss", tolerance=1e-10)
+    x = np.linspace(0.0, 3.0, 301)
+    times = np.linspace(0.0, 1.5e-3, 16)
+    ours = solve(p, s, times=times, x=x, fields=("strain",), breaks=[0.3321], t_end=times[-1])
+    strain, force, residual = fe.run(p, [(0.0, 0.3321)], times, x, spacing=0.01, dt=4e-7)
+    keep = np.abs(x - 0.3321) >= 0.1
+    scale = np.max(np.abs(ours.fields["strain"][:, keep]))
+    assert np.max(np.abs(strain[:, keep] - ours.fields["strain"][:, keep])) < 6e-4 * scale
+    assert np.max(np.abs(force - ours.force)) < 1e-7 * np.max(ours.force)
+    assert residual < 1e-6
+
+
+@pytest.mark.slow
+def test_through_the_first_break_the_solver_keeps_the_force_and_misses_the_strain_by_the_carry(reference_breaks):
+    """The reference case's first break (the centre, 0.4925 ms, N = 120) imposed on the elements
+    at the solver's own time, both run 1 ms on: the force agrees to 1.7e-7, the strain at least
+    0.1 m from the break to 3.9e-2 of the largest (3.3e-2 at N = 60): not the 1e-3 issue 76 asks.
+    The elements carry the state exactly; the solver's projection misses the strain next to the
+    new edge by 2.8e-2 already at the break (0.12 m from it, N = 60), and the waves that carries
+    spread it over the plate (docs/model.md, "An independent check through a break")."""
+    p, s, first = reference_breaks
+    broke = first.end.broke
+    x = np.linspace(0.0, 3.0, 301)
+    times = np.linspace(broke.time, broke.time + 1e-3, 21)
+    ours = solve(p, s, start=first.end.state, breaks=[broke.x], times=times, x=x, fields=("strain",),
+                 t_end=times[-1])
+    strain, force, residual = fe.run(p, [(broke.time, broke.x)], times, x, spacing=0.01, dt=4e-7)
+    keep = np.abs(x - broke.x) >= 0.1
+    scale = np.max(np.abs(ours.fields["strain"][:, keep]))
+    difference = np.max(np.abs(strain[:, keep] - ours.fields["strain"][:, keep])) / scale
+    assert 1e-2 < difference < 6e-2           # (the carry's miss: it shrinks when issue 76's carry lands)
+    assert np.max(np.abs(force - ours.force)) < 1e-6 * np.max(ours.force)
+    assert residual < 1e-6
