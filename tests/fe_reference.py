@@ -176,22 +176,24 @@ class Plate:
         return np.sum(N * q[self.top.elem[e]].T, axis=0)
 
     def curvature(self, q, x):
-        """w'' at x [m]: w'' at the nodes, each the mean of its two elements' ends (second order
-        where the elements' own w'' is first), linear between them; a node at a break or an end
-        takes its one element's."""
+        """w'' at x [m]: nodal_curvature, linear between the nodes (NaN next to a break)."""
+        return np.interp(np.asarray(x, float), self.x, self.nodal_curvature(q))
+
+    def nodal_curvature(self, q):
+        """w'' at the nodes, each the mean of its two elements' ends (second order where the
+        elements' own w'' is first); an end takes its one element's; NaN at a break (each side has
+        its own, the edge's, which is 0 only weakly)."""
         E, h = self.h.size, self.h
         local = q[self.top.elem] * np.stack([np.ones(E), h, np.ones(E), h], 1)          # (E, 4)
         ends = np.stack([local @ _second(0.0), local @ _second(1.0)], 1) / h[:, None] ** 2   # (E, 2)
         nodal = np.zeros(E + 1)
         count = np.zeros(E + 1)
-        cut = {j for j, _ in self.top.jumps}
         for side, nodes in ((0, np.arange(E)), (1, np.arange(1, E + 1))):
             np.add.at(nodal, nodes, ends[:, side])
             np.add.at(count, nodes, 1.0)
         nodal /= count
-        for j in cut:                                          # at a break, each side its own: the mean
-            nodal[j] = np.nan                                  # describes neither (not reported)
-        return np.interp(np.asarray(x, float), self.x, nodal)
+        nodal[[j for j, _ in self.top.jumps]] = np.nan
+        return nodal
 
     def layer(self, q, t):
         """(generalised forces -int K f(delta) N dx, F = int_0^L K f dx [N m-1], E_layer [J m-1] on
@@ -345,3 +347,59 @@ def _acceleration(plate, q, t):
     a = np.zeros(plate.top.count)
     a[f] = x[:-1]
     return a
+
+
+def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0):
+    """The elements' own breaks: the plate of parameters p on nodes ``spacing`` apart breaks at a
+    node where the tension of an armed surface (armed once its peak is below p.yield_strain, as the
+    solver's) first reaches p.yield_strain, at the time interpolated between two steps' peaks (the
+    step then taken again to it); the search skips the wall and the nodes within ``band`` [m] of
+    a break and the next node (a free edge's own tension is 0 only weakly in the elements; the
+    centre's symmetry plane is searched until it breaks). Returns [(time [s], x [m], surface)] up
+    to max_breaks breaks, to the first one off the centre (the breakthrough), or to t_end."""
+    nodes = mesh(p.L, [], spacing)
+    broken, found = set(), []
+    plate = Plate(p, nodes, broken)
+    q, v, a = np.zeros(plate.top.count), np.zeros(plate.top.count), np.zeros(plate.top.count)
+    t, armed = 0.0, [True, True]
+    level = p.yield_strain
+    before = _peaks(plate, q, broken, p, band)
+    while t < t_end and len(found) < max_breaks:
+        state = (q, v, a)
+        q, v, a, _, _ = _step(plate, q, v, a, t, dt)
+        peaks = _peaks(plate, q, broken, p, band)
+        crossing = [s for s in range(2) if armed[s] and peaks[s][0] >= level]
+        if crossing:
+            s = min(crossing, key=lambda s: (level - before[s][0]) / (peaks[s][0] - before[s][0]))
+            h = dt * (level - before[s][0]) / (peaks[s][0] - before[s][0])
+            q, v, a, _, _ = _step(plate, *state, t, h)
+            t += h
+            node = _peaks(plate, q, broken, p, band)[s][1]
+            found.append((t, float(nodes[node]), ("upper", "lower")[s]))
+            if node > 0:
+                break                                             # the breakthrough
+            broken.add(node)
+            q, v = _broken_state(plate, q, v, broken)
+            plate = Plate(p, nodes, broken)
+            a = _acceleration(plate, q, t)
+            armed = [False, False]
+        else:
+            t += dt
+        before = _peaks(plate, q, broken, p, band)
+        armed = [armed[s] or before[s][0] < level for s in range(2)]
+    return found
+
+
+def _peaks(plate, q, broken, p, band):
+    """[(peak tension, its node)] of the upper and the lower surface over the nodes searched."""
+    strain = -0.5 * p.hi * plate.nodal_curvature(q)
+    skip = np.zeros(strain.size, bool)
+    skip[-1] = True                                              # the wall
+    for j in broken:
+        skip[np.abs(plate.x - plate.x[j]) <= band + 1.01 * np.max(plate.h)] = True
+    out = []
+    for sign in (1.0, -1.0):
+        values = np.where(skip, -np.inf, sign * np.nan_to_num(strain, nan=-np.inf))
+        node = int(np.argmax(values))
+        out.append((float(values[node]), node))
+    return out
