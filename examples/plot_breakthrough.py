@@ -7,7 +7,9 @@ reaches ``yield_strain`` (the paper's 8e-5), and the run goes on on the parts, w
 again. The body has broken through when a break on each side of it cuts the ice under it from
 the walls (docs/model.md, "Breaking into parts"). Thicker ice breaks later and lets the body
 in deeper first; a faster body breaks it sooner but deeper. The right panel is one case's
-cascade: the number of parts over time.
+cascade: the number of parts over time. The breakthrough is the answer of the Nmod the study
+runs at: a break that releases its moment at once breaks the ice again beside it as finely as
+the plate is resolved (docs/model.md, "An independent check through a break").
 """
 import os
 
