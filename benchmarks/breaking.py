@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -25,7 +26,9 @@ import numpy as np
 from solver import Parameters, Settings, solve
 from solver.model import assemble, parts
 
-ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from report import write_report  # noqa: E402
+
 EPS_Y = 8e-5
 
 
@@ -117,11 +120,7 @@ def main():
             lines.append(f"    N = {N}: {1e3 * event.time:.5f} ms at x = {event.x:.4f} m, {event.surface}, "
                          f"{event.parts} parts, removed {event.removed_energy:.4g} J/m")
         lines.append("")
-    text = "\n".join(lines + where) + "\n"
-    out = ROOT / "results" / "bench" / "breaking.md"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    print(text)
+    write_report("breaking", lines + where)
 
 
 if __name__ == "__main__":

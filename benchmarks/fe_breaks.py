@@ -24,6 +24,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 import fe_reference as fe  # noqa: E402
+from report import write_report  # noqa: E402
 
 from solver import Parameters, Settings, solve  # noqa: E402
 
@@ -100,11 +101,7 @@ def main():
                 own = np.nanmax(np.abs(strains[fine][:, keep] - strains[coarse][:, keep])) / 3 / scale
                 lines.append(f"| {N} | {name} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
             print(lines[-1], flush=True)
-    text = "\n".join(lines) + "\n"
-    out = ROOT / "results" / "bench" / "fe_breaks.md"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(text)
-    print(text)
+    write_report("fe_breaks", lines)
 
 
 if __name__ == "__main__":
