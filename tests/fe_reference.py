@@ -110,6 +110,13 @@ class Plate:
     the layer, the paper's body) on ``nodes`` [m] broken at the node indices ``broken``."""
 
     def __init__(self, p, nodes, broken):
+        beyond = [key for key, value in (("x0", p.x0 != 0.0), ("body_mass", math.isfinite(p.body_mass)),
+                                         ("tau", p.tau > 0.0), ("layer_tau", p.layer_tau > 0.0),
+                                         ("edges", p.edges != "walls"), ("body_p", p.body_p != 2.0),
+                                         ("flat_width", p.flat_width > 0.0), ("deadrise", p.deadrise > 0.0))
+                  if value]
+        if beyond:
+            raise ValueError(f"the finite elements model the walled plate under the paper's body only; not {beyond}")
         self.p, self.x = p, np.asarray(nodes, float)
         self.h = np.diff(self.x)
         self.top = topology(self.x, set(broken))

@@ -140,3 +140,12 @@ def test_the_elements_break_first_where_and_when_the_solver_does(reference_break
     assert abs(fine[0] - first.end.broke.time) < abs(fine[0] - coarse[0])
     extrapolated = fine[0] + (fine[0] - coarse[0]) / 3
     assert abs(extrapolated - first.end.broke.time) < 1e-4 * first.end.broke.time
+
+
+def test_the_elements_refuse_what_they_do_not_model():
+    """A centred impact of the paper's body on elastic ice in the walls' channel, nothing else: an
+    option beyond it is refused, not left out in silence."""
+    with pytest.raises(ValueError, match="x0"):
+        fe.Plate(Parameters(Nmod=10, x0=0.5), fe.mesh(6.0, [], 0.5), set())
+    with pytest.raises(ValueError, match="body_mass"):
+        fe.Plate(Parameters(Nmod=10, body_mass=300.0), fe.mesh(6.0, [], 0.5), set())
