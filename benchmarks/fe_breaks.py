@@ -59,10 +59,15 @@ def solver_runs(N, times_count=21, x=None):
     return p, (b1, b2), runs
 
 
+def _away(x, breaks):
+    """Where x [m] is at least AWAY from every break [(time, place)]."""
+    return np.all([np.abs(x - b) >= AWAY for _, b in breaks], axis=0) if breaks else np.ones(x.size, bool)
+
+
 def agreement(strain, force, result, breaks, x):
     """(largest strain difference at least AWAY from the breaks over the largest strain there,
     largest force difference over the largest force)."""
-    keep = np.all([np.abs(x - b) >= AWAY for _, b in breaks], axis=0) if breaks else np.ones(x.size, bool)
+    keep = _away(x, breaks)
     ours = result.fields["strain"][:, keep]
     scale = np.max(np.abs(ours))
     return (float(np.nanmax(np.abs(strain[:, keep] - ours)) / scale),
@@ -96,7 +101,7 @@ def main():
                              f"| {spent:.1f} |")
             if len(strains) > 1:
                 fine, coarse = sorted(strains)[:2]
-                keep = np.all([np.abs(x - b) >= AWAY for _, b in breaks], axis=0) if breaks else np.ones(x.size, bool)
+                keep = _away(x, breaks)
                 scale = np.max(np.abs(result.fields["strain"][:, keep]))
                 own = np.nanmax(np.abs(strains[fine][:, keep] - strains[coarse][:, keep])) / 3 / scale
                 lines.append(f"| {N} | {name} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")

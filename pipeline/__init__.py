@@ -20,5 +20,5 @@ try:
 except PackageNotFoundError:                    # a source tree that was not installed
     __version__ = "unknown"
 
-__all__ = ["EmulatorError", "ResultsIOError", "StudyError", "StudyLocked", "case_dataset", "open_emulator", "open_sensitivity", "open_study",
-           "run_study", "study_text"]
+__all__ = ["EmulatorError", "ResultsIOError", "StudyError", "StudyLocked", "case_dataset", "open_emulator",
+           "open_sensitivity", "open_study", "run_study", "study_text"]

@@ -282,17 +282,11 @@ def state_series(tab, t, a, adot, body=(np.nan, np.nan)) -> np.ndarray:
     return row.series[0]
 
 
-def _arm(model, armed, level, state):
-    """Arm each surface whose peak tension at a state the observers computed (its node strains
-    too) is below the break level: the kernels' own rule (solver.ending.arm_breaks)."""
-    arm_breaks(model, armed, state.eps, state.a, level)
-
-
 def _break(system, armed, level, t_old, t_new, dense, end):
     """The first time in the step at which an armed surface's (armed[s] 1) peak tension over x
     reaches the break level (brentq on the dense output, bracketed on 8 points), as (t, x,
     surface), or None; the surfaces still unarmed are armed at the step's end (end: the state
-    there) where it has none."""
+    there, its node strains computed by the observers) by the kernels' rule where it has none."""
     from scipy.optimize import brentq
     model, N, found = system.model, system.N, None
     state, value = new_state(N, system.tab.xq.size), np.empty(3)
@@ -312,7 +306,7 @@ def _break(system, armed, level, t_old, t_new, dense, end):
                 break
             below = tp
     if found is None:
-        _arm(model, armed, level, end)
+        arm_breaks(model, armed, end.eps, end.a, level)
     return found
 
 
@@ -396,7 +390,7 @@ def integrate_dop853(tab, control, t_out, a0, adot0, levels, out, coupled_dampin
     t_reached, steps, dense, broke = t_start, 0, None, None
     armed = np.zeros(2)                    # the surfaces armed to break (solver.ending.arm_breaks)
     if control.break_level < np.inf:
-        _arm(tab.model, armed, control.break_level, observers.cur)
+        arm_breaks(tab.model, armed, observers.cur.eps, observers.cur.a, control.break_level)
     while solver.status == "running":
         if steps >= control.max_steps:
             status, reason = kn.STEP_LIMIT, kn.FAIL_MAX_STEPS

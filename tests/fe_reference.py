@@ -165,8 +165,11 @@ class Plate:
 
     def solver(self, dt):
         """The factors of the trapezoidal step's matrix [[M + dt^2 K / 4, -c], [c^T, 0]] on the
-        free degrees of freedom (c: int N dx)."""
+        free degrees of freedom (c: int N dx); dt = 0: the mass's, for a consistent acceleration.
+        The last few are kept (a run's regular step, and the short ones that end on a stop)."""
         if dt not in self._lu:
+            while len(self._lu) >= 4:
+                self._lu.pop(next(iter(self._lu)))
             f = self.top.free
             M = self.mass[np.ix_(f, f)] + 0.25 * dt**2 * self.stiffness[np.ix_(f, f)]
             c = self.means[f]
@@ -303,9 +306,7 @@ def run(p, breaks, times, x, spacing=0.02, dt=1e-7):
         for tb, b in breaks:
             if tb == stop:
                 broken.add(index[b])
-                q, v = _broken_state(plate, q, v, broken)
-                plate = Plate(p, nodes, broken)
-                a = _acceleration(plate, q, t)
+                plate, q, v, a = _break(plate, q, v, broken, t)
     return strain, force, residual / peak_work if peak_work > 0 else 0.0
 
 
@@ -338,22 +339,24 @@ def _broken_state(plate, q, v, broken):
 
 
 def _carry(before, after, q):
+    """The degrees of freedom q of the topology before on the topology after (each element's own)."""
     out = np.zeros(after.count)
     out[after.elem.ravel()] = q[before.elem.ravel()]
     return out
 
 
-def _acceleration(plate, q, t):
-    """The acceleration consistent with the state at t on the plate's matrices (the constraint's
-    multiplier eliminated)."""
+def _break(plate, q, v, broken, t):
+    """(plate, q, v, a) just after the plate broke at the node indices ``broken`` (one more than
+    plate's) at t: the state carried, the matrices of the broken plate, the acceleration consistent
+    with them (the constraint's multiplier eliminated)."""
+    q, v = _broken_state(plate, q, v, broken)
+    plate = Plate(plate.p, plate.x, broken)
     f = plate.top.free
-    c = plate.means[f]
-    S = np.block([[plate.mass[np.ix_(f, f)], -c[:, None]], [c[None, :], np.zeros((1, 1))]])
     forces, _, _ = plate.layer(q, t)
-    x = np.linalg.solve(S, np.append((forces - plate.stiffness @ q)[f], 0.0))
+    x = lu_solve(plate.solver(0.0), np.append((forces - plate.stiffness @ q)[f], 0.0))
     a = np.zeros(plate.top.count)
     a[f] = x[:-1]
-    return a
+    return plate, q, v, a
 
 
 def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0):
@@ -386,9 +389,7 @@ def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0)
             if node > 0:
                 break                                             # the breakthrough
             broken.add(node)
-            q, v = _broken_state(plate, q, v, broken)
-            plate = Plate(p, nodes, broken)
-            a = _acceleration(plate, q, t)
+            plate, q, v, a = _break(plate, q, v, broken, t)
             armed = [False, False]
         else:
             t += dt

@@ -172,12 +172,11 @@ def raw_mode(kind, beta, centre, half, x, order=0):
     return dry_mode(int(kind), beta, half, x - centre, order)
 
 
-def part_values(modes: PartModes, x, order=0, last=None) -> np.ndarray:
+def part_values(modes: PartModes, x, order=0) -> np.ndarray:
     """(Nd, X): the scaled dry modes' derivatives of the given order at x [m], zero off their
-    parts (a break belongs to the part above it; the domain's end, ``last`` [m], default the
-    modes' highest end, to the last part)."""
+    parts (a break belongs to the part above it; the domain's end to the last part)."""
     x = np.asarray(x, dtype=float)
-    last = np.max(modes.highs) if last is None else last
+    last = np.max(modes.highs)
 
     def rows(sub):
         out = np.zeros((sub.kinds.size, x.size))
