@@ -6,8 +6,9 @@ the elements' breaks (time, place, surface) to the breakthrough, the first break
     python benchmarks/fe_breakthrough.py [--bands 0.1 0.25 0.5] [--spacing 0.02 0.01]
 
 The elements break at a node where an armed surface's tension first reaches the yield strain
-(armed as the solver's: once its peak is below it), skipping the nodes within the band of a
-break (and the next node: a free edge's own tension is 0 only weakly in the elements).
+(armed as the solver's: once its peak is below it), skipping the nodes closer than the band to a
+break, as the solver's crack spacing does (with no band, the break's node and the next: a free
+edge's own tension is 0 only weakly in the elements).
 """
 from __future__ import annotations
 

@@ -55,10 +55,13 @@ PARAMETER_INFO = {
                      "8e-5: the paper's illustrative value)", "1"),
     "max_parts": ("most parts the whole plate may break into (read with fracture = break): a run that would "
                   "break into more ends with status parts_limit", "1"),
+    "crack_spacing": ("shortest distance between two breaks, in ice thicknesses (read with fracture = break): "
+                      "within it of a break the tension is not read and the ice does not break again (0: "
+                      "none)", "1"),
 }
 
 #: the parameters only a run that breaks (fracture = "break") reads
-BREAKING_KEYS = ("yield_strain", "max_parts")
+BREAKING_KEYS = ("yield_strain", "max_parts", "crack_spacing")
 
 #: the parameters that are whole numbers
 INTEGER_PARAMETERS = ("Nmod", "max_parts")
@@ -71,7 +74,8 @@ CHOICES = {"layer_law": tuple(LAW_CODES), "edges": ("walls", "free"), "fracture"
 #: leaves them out at that value, so the ids of every study from before they existed hold
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
                   "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0, "layer_law": "paper", "edges": "walls",
-                  "duration": 0.0, "fracture": "none", "yield_strain": 8e-5, "max_parts": 16}
+                  "duration": 0.0, "fracture": "none", "yield_strain": 8e-5, "max_parts": 16,
+                  "crack_spacing": 0.0}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -83,7 +87,7 @@ PHYSICAL_RANGES = {
     "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
     "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
     "tau": (0.0, 10.0), "layer_tau": (0.0, 10.0), "duration": (1e-6, 1e4),
-    "yield_strain": (1e-6, 1e-1),
+    "yield_strain": (1e-6, 1e-1), "crack_spacing": (0.0, 100.0),
 }
 
 
@@ -114,6 +118,7 @@ BEYOND_BOUNDS = {
     "layer_tau": (0.0, False, False, "0: elastic layer"),
     "duration": (0.0, False, False, "0: the walled plate's impact stage"),
     "yield_strain": (0.0, True, False, "a tension"),
+    "crack_spacing": (0.0, False, False, "0: none, a break may follow next to another"),
 }
 
 

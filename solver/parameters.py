@@ -156,6 +156,11 @@ class Parameters:
         The most parts the whole plate may break into, read with fracture = "break" (default
         16): a run that would break into more ends with status ``parts_limit``, its data up to
         then valid.
+    crack_spacing : float
+        The shortest distance between two breaks, in ice thicknesses hi, read with fracture =
+        "break": within it of a break (a free edge) the tension is not read and the ice does not
+        break again (docs/model.md, "The crack spacing"). 0 (the default): none, the
+        discretisation's resolution acts as one.
     """
 
     K: float = 8e6
@@ -185,6 +190,7 @@ class Parameters:
     fracture: str = "none"
     yield_strain: float = 8e-5
     max_parts: int = 16
+    crack_spacing: float = 0.0
 
     def __post_init__(self):
         for f in fields(self):

@@ -363,9 +363,10 @@ def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0)
     """The elements' own breaks: the plate of parameters p on nodes ``spacing`` apart breaks at a
     node where the tension of an armed surface (armed once its peak is below p.yield_strain, as the
     solver's) first reaches p.yield_strain, at the time interpolated between two steps' peaks (the
-    step then taken again to it); the search skips the wall and the nodes within ``band`` [m] of
-    a break and the next node (a free edge's own tension is 0 only weakly in the elements; the
-    centre's symmetry plane is searched until it breaks). Returns [(time [s], x [m], surface)] up
+    step then taken again to it); the search skips the wall and the nodes closer than ``band`` [m]
+    to a break, as the solver's crack spacing (with no band, the break's node and the next: a free
+    edge's own tension is 0 only weakly in the elements; the centre's symmetry plane is searched
+    until it breaks). Returns [(time [s], x [m], surface)] up
     to max_breaks breaks, to the first one off the centre (the breakthrough), or to t_end."""
     nodes = mesh(p.L, [], spacing)
     broken, found = set(), []
@@ -403,8 +404,9 @@ def _peaks(plate, q, broken, p, band):
     strain = -0.5 * p.hi * plate.nodal_curvature(q)
     skip = np.zeros(strain.size, bool)
     skip[-1] = True                                              # the wall
+    reach = band if band > 0.0 else 1.01 * np.max(plate.h)        # (no band: the break's node and the next)
     for j in broken:
-        skip[np.abs(plate.x - plate.x[j]) <= band + 1.01 * np.max(plate.h)] = True
+        skip[np.abs(plate.x - plate.x[j]) < reach - 1e-9] = True
     out = []
     for sign in (1.0, -1.0):
         values = np.where(skip, -np.inf, sign * np.nan_to_num(strain, nan=-np.inf))

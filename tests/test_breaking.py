@@ -146,6 +146,59 @@ def test_the_first_break_and_breakthrough_converge_in_the_modes():
     assert runs[60].breakthrough_time == pytest.approx(runs[40].breakthrough_time, rel=5e-3)
 
 
+def test_a_crack_spacing_keeps_the_breaks_apart_and_its_band_unread():
+    """crack_spacing = 1 (hi = 0.5 m; docs/model.md, "The crack spacing"): no break within 0.5 m
+    of an earlier one (nor of the centre's), the tension records after each break read only beyond
+    it, and the breakthrough is on the band's edge, 0.5 m, where without a band it is at 0.35 m
+    (N = 40). The band's breakthrough is stable in N: 0.66353, 0.66271, 0.66349, 0.66299 ms at
+    N = 40, 60, 80, 120 (N = 40 and 60 within 1.3e-3), where without a band it moves 0.6226 ->
+    0.6255 ms and 0.35 -> 0.33 m from N = 40 to 60 (and to 0.4942 ms at 0.085 m at N = 120)."""
+    s = Settings(quadrature="gauss")
+    runs = {}
+    for N, spacing in ((40, 1.0), (60, 1.0), (40, 0.0)):
+        p = Parameters(Nmod=N, fracture="break", yield_strain=EPS_Y, crack_spacing=spacing)
+        runs[N, spacing] = solve(p, s, fields=(), times=[0.0, 2e-3], t_end=2e-3)
+    for (N, spacing), r in runs.items():
+        breaks = r.breaking.breaks
+        assert r.status == "ok" and breaks[0].x == 0.0 and breaks[1].broken_through, (N, spacing)
+        if spacing == 0.0:
+            assert 0.0 < breaks[1].x < 0.5 * 0.9          # (the resolution's own band)
+            continue
+        band = spacing * 0.5
+        places = [e.x for e in breaks]
+        assert all(abs(a - b) >= band * (1 - 1e-12) for i, a in enumerate(places) for b in places[:i])
+        assert breaks[1].x == pytest.approx(band, abs=1e-9)
+        for surface in ("upper", "lower"):
+            rows = r.tension_record[surface]
+            for i, event in enumerate(breaks):
+                later = rows[rows[:, 0] > event.time]
+                near = np.abs(later[:, 3][:, None] - np.array(places[:i + 1])[None, :]) < band * (1 - 1e-9)
+                assert not np.any(near), (N, surface, i)
+        assert np.max(r.tension_record["upper"][:, 1]) <= EPS_Y * (1 + 1e-9)
+    through = {N: runs[N, 1.0].breaking.breakthrough_time for N in (40, 60)}
+    assert through[60] == pytest.approx(through[40], rel=2e-3)
+    assert runs[40, 0.0].breaking.breakthrough_time < 0.95 * through[40]
+
+
+def test_the_band_is_read_where_a_plate_broken_with_a_spacing_says():
+    """solver.model.basis.read_interval: on a plate broken at 0 (the half plate's centre) and 2 m
+    with a band of 0.5 m, the stretch read around x is cut at 0.5, 1.5 and 2.5 m; a point within
+    the band is left out of its stretch; the cosines and a band of 0 read everywhere."""
+    from solver.model import floe as fl
+    from solver.model.basis import read_interval
+    header = np.zeros(fl.HEADER)
+    header[fl.BREAK_COUNT], header[fl.FIRST_BREAK] = 1, 2.0
+    header[fl.CRACK_BAND], header[fl.CENTRE_CUT] = 0.5, 1.0
+    packed = np.concatenate([np.zeros(7), header])
+    assert read_interval(packed, 1.0, 0.0, 6.0) == (0.5, 1.5)
+    assert read_interval(packed, 3.0, 0.0, 6.0) == (2.5, 6.0)
+    lo, hi = read_interval(packed, 1.8, 0.0, 6.0)
+    assert not lo <= 1.8 <= hi
+    assert read_interval(np.zeros(0), 0.1, 0.0, 6.0) == (0.0, 6.0)
+    header[fl.CRACK_BAND] = 0.0
+    assert read_interval(np.concatenate([np.zeros(7), header]), 2.1, 0.0, 6.0) == (0.0, 6.0)
+
+
 @pytest.mark.parametrize("max_parts, parts", [(2, [2]), (3, [2]), (4, [2, 4]), (5, [2, 4])])
 def test_the_cap_on_the_parts(max_parts, parts):
     """The centre's break cuts the whole plate into 2 parts, each later break (at x and -x on the

@@ -25,7 +25,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from .floe import TABLE_STRAIN, floe_dry, floe_dry_sums, floe_plane, floe_sums
+from .floe import (BREAK_COUNT, CENTRE_CUT, CRACK_BAND, FIRST_BREAK, HEADER, TABLE_STRAIN, floe_dry, floe_dry_sums,
+                   floe_plane, floe_sums)
 from ..compile.jit import kernel
 
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
@@ -320,11 +321,107 @@ def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
 
 
 @kernel
+def read_interval(floe, x, lo, hi):
+    """[lo, hi] cut to the stretch around x where a broken plate's tension is read: beyond its
+    crack spacing (the header's CRACK_BAND) from every break, and from x = 0 where the half plate's
+    symmetry plane is one (CENTRE_CUT). Within it of a free edge a beam's strain is not the ice's
+    (Saint-Venant) and no crack forms (docs/model.md, "The crack spacing"). Unchanged on the
+    cosines and without a band. Returns (lo, hi), which leaves x out where x itself is within
+    the band."""
+    if floe.shape[0] == 0:
+        return lo, hi
+    head = floe.shape[0] - HEADER                    # (the header's place: floe_header, without a view)
+    band = floe[head + CRACK_BAND]
+    if not band > 0.0:
+        return lo, hi
+    if floe[head + CENTRE_CUT] > 0.0:
+        lo = max(lo, band)
+    for k in range(int(floe[head + BREAK_COUNT])):
+        b = floe[head + FIRST_BREAK + k]
+        if b <= x:
+            lo = max(lo, b + band)
+        else:
+            hi = min(hi, b - band)
+    return lo, hi
+
+
+@kernel
+def banded(basis):
+    """Whether the tension is read only beyond a crack spacing from the breaks (read_interval)."""
+    floe = basis.floe
+    return floe.shape[0] != 0 and floe[floe.shape[0] - HEADER + CRACK_BAND] > 0.0
+
+
+@kernel
+def read_peak(vals, sign, j, n, basis, field, c):
+    """continuous_peak of sign * the modal field near node j, kept where the tension is read
+    (read_interval of [x_{j-1}, x_{j+1}]): Newton from node j, and the bracket's ends where the
+    band cuts it (the peak may lie on the band's edge). Returns (value, x)."""
+    dx = basis.dx
+    x0 = j * dx
+    if j == 0 or j == n - 1:
+        return sign * vals[j], x0                      # (an end of the plate: the node, as continuous_peak)
+    lo, hi = read_interval(basis.floe, x0, x0 - dx, x0 + dx)
+    x = min(max(refine(vals, sign, j, n, dx)[1], lo), hi)
+    for _ in range(8):
+        s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
+        x, done = newton_move(x, sign * s1, sign * s2, lo, hi, NEWTON_STOP * dx)
+        if done:
+            break
+    best, bx = sign * field_sums(basis.lam1, basis.floe, field, c, x)[0], x
+    for edge in (lo, hi):
+        if abs(edge - x0) < dx and edge != x:        # an end the band sets
+            v = sign * field_sums(basis.lam1, basis.floe, field, c, edge)[0]
+            if v > best:
+                best, bx = v, edge
+    return best, bx
+
+
+@kernel
+def banded_peak(eps, sign, basis, w, a):
+    """global_peak where the tension is read only beyond the crack spacing from the breaks: the
+    local maxima among the nodes read (read_interval), each refined within the stretch read
+    (read_peak). A plate broken everywhere within its spacing reads everywhere (global_peak's
+    search). Returns (value, x, node)."""
+    J, dx, floe = eps.shape[0], basis.dx, basis.floe
+    jtop, top = -1, -np.inf
+    for j in range(J):
+        lo, hi = read_interval(floe, j * dx, -np.inf, np.inf)
+        if lo <= j * dx <= hi and sign * eps[j] > top:
+            jtop, top = j, sign * eps[j]
+    if jtop < 0:
+        return -np.inf, 0.0, -1
+    floor = top - PEAK_MARGIN * abs(top)
+    field = Field(w, 1)
+    bv, bx = read_peak(eps, sign, jtop, J, basis, field, a)
+    bj = jtop
+    for j in range(J):
+        v = sign * eps[j]
+        if j == jtop or v < floor:
+            continue
+        lo, hi = read_interval(floe, j * dx, -np.inf, np.inf)
+        if not lo <= j * dx <= hi:
+            continue
+        if (j > 0 and lo <= (j - 1) * dx and sign * eps[j - 1] > v) or \
+                (j < J - 1 and (j + 1) * dx <= hi and sign * eps[j + 1] > v):
+            continue
+        cv, cx = read_peak(eps, sign, j, J, basis, field, a)
+        if cv > bv:
+            bv, bx, bj = cv, cx, j
+    return bv, bx, bj
+
+
+@kernel
 def global_peak(eps, sign, basis, w, a):
     """The global peak of sign * eps over continuous x: every local maximum of the nodes within
     PEAK_MARGIN of the largest node is refined on the modes (a sharp peak between nodes can
     rise above a larger node elsewhere by up to (lambda_N dx)^2 / 8 of itself, 0.4% at N = 60).
-    Returns (value, x, node)."""
+    Returns (value, x, node). On a plate broken with a crack spacing, banded_peak: the peak
+    where the tension is read."""
+    if banded(basis):
+        v, x, j = banded_peak(eps, sign, basis, w, a)
+        if j >= 0:
+            return v, x, j
     J = eps.shape[0]
     jtop = argmax_node(eps, sign, J)
     top = sign * eps[jtop]

@@ -70,7 +70,11 @@ STRAIN_FACTOR, HALF_LENGTH, ORIGIN, FIRST_EVEN, SPACING = range(5)
 #: then the number of breaks and their places (kernel coordinates, ascending; a broken plate's,
 #: solver.model.parts: the contact-resolving rule cuts its panels there), at most MAX_BREAKS
 BREAK_COUNT, FIRST_BREAK, MAX_BREAKS = 5, 6, 16
-HEADER = FIRST_BREAK + MAX_BREAKS
+#: then the crack spacing [m] (no tension is read within it of a break: solver.model.basis.read_interval;
+#: 0, a floe's and an unbroken plate's: read everywhere) and 1 where the half plate's symmetry plane
+#: x = 0 is a break (not in the list: it is no part's end there)
+CRACK_BAND, CENTRE_CUT = FIRST_BREAK + MAX_BREAKS, FIRST_BREAK + MAX_BREAKS + 1
+HEADER = FIRST_BREAK + MAX_BREAKS + 2
 #: exp(-HYP_NEGLIGIBLE) = 4e-18: a hyperbolic part that small is below the rounding of the
 #: trigonometric part (of order 1) and is not computed (_raw3, dry_table)
 HYP_NEGLIGIBLE = 40.0

@@ -406,6 +406,8 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
         raise ValueError(f"at most {fl.MAX_BREAKS} breaks, got {cuts.size}")
     header[fl.BREAK_COUNT] = cuts.size
     header[fl.FIRST_BREAK:fl.FIRST_BREAK + cuts.size] = cuts
+    header[fl.CRACK_BAND] = p.crack_spacing * p.hi
+    header[fl.CENTRE_CUT] = 1.0 if centre_broken(breaks) and not full else 0.0
     bending = Q.T @ (Q * (mirror * p.rigidity * modes.betas**4 * part_lengths(modes))[:, None])
     damping = p.tau * np.diag(bending).copy()
     damping[-1] = damping[-2]            # (the null mode's, at rest: the last mode is damped if any is)

@@ -23,7 +23,7 @@ from ..arrays import copy_into
 from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
-from ..model.basis import Field, climb, field_sum, field_sums, global_peak, newton_peak, node_strain
+from ..model.basis import Field, climb, field_sum, field_sums, global_peak, newton_peak, node_strain, read_interval
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
 from .record import SurfaceRows, append_row
@@ -94,7 +94,11 @@ def dense_due(marks, h):
 def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
     near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
-    track[:3] = (value, rate, x)."""
+    track[:3] = (value, rate, x). On a plate broken with a crack spacing the bracket stays where
+    the tension is read (read_interval)."""
+    lo, hi = read_interval(floe, x, xlo, xhi)
+    if lo <= x <= hi:
+        xlo, xhi = lo, hi
     x = newton_peak(x, xlo, xhi, sign, field, a, lam1, floe)
     s0, s1, s2 = field_sums(lam1, floe, field, a, x)
     track[0] = sign * s0
