@@ -119,7 +119,8 @@ class Plate:
             raise ValueError(f"the finite elements model the walled plate under the paper's body only; not {beyond}")
         self.p, self.x = p, np.asarray(nodes, float)
         self.h = np.diff(self.x)
-        self.top = topology(self.x, set(broken))
+        self.broken = set(broken)
+        self.top = topology(self.x, self.broken)
         E, n = self.h.size, self.top.count
         h = self.h[:, None, None]
         m_e = h / 420 * np.array([[156, 22, 54, -13], [22, 4, 13, -3], [54, 13, 156, -22], [-13, -3, -22, 4]])
@@ -138,6 +139,16 @@ class Plate:
         np.add.at(means, self.top.elem, self.h[:, None] * np.array([0.5, 1 / 12, 0.5, -1 / 12])[None, :] * scale)
         self.means = means
         self._lu = {}
+        self.cracks = []           # the opening cracks: (load, break time, opening time), crack_load
+
+    def crack_load(self, t):
+        """The generalised forces [N m-1, N] of the cracks still opening at t: each the internal
+        force its node carried at the break (its moment and shear), times 1 - (t - t_b) / tau
+        until the crack has opened through (breaking_run's opening_time)."""
+        out = np.zeros(self.top.count)
+        for load, t_b, tau in self.cracks:
+            out += load * max(0.0, 1.0 - (t - t_b) / tau)
+        return out
 
     def added_mass(self):
         """The channel's added mass [kg m-1] of the degrees of freedom (module docstring)."""
@@ -319,7 +330,7 @@ def _step(plate, q, v, a, t, h):
     for _ in range(20):
         q_new = base + 0.25 * h**2 * a_new
         forces, F, layer_energy = plate.layer(q_new, t + h)
-        rhs = forces - plate.stiffness @ base
+        rhs = forces + plate.crack_load(t + h) - plate.stiffness @ base
         x = lu_solve(lu, np.append(rhs[f], 0.0))
         change = np.max(np.abs(x[:-1] - a_new[f]))
         a_new = np.zeros_like(a)
@@ -345,29 +356,49 @@ def _carry(before, after, q):
     return out
 
 
-def _break(plate, q, v, broken, t):
+def _break(plate, q, v, broken, t, a=None, opening_time=0.0):
     """(plate, q, v, a) just after the plate broke at the node indices ``broken`` (one more than
     plate's) at t: the state carried, the matrices of the broken plate, the acceleration consistent
-    with them (the constraint's multiplier eliminated)."""
+    with them (the constraint's multiplier eliminated). With an opening_time [s] > 0 (and the
+    acceleration a before the break) the new crack opens over that time: the broken plate's new
+    node first carries the internal force the whole plate's carried there (its moment and shear:
+    the broken equations' residual at the carried state and acceleration, which is zero elsewhere),
+    released linearly to zero (Plate.crack_load), so the acceleration is continuous at the break."""
+    before, q_before = plate, q
     q, v = _broken_state(plate, q, v, broken)
     plate = Plate(plate.p, plate.x, broken)
+    plate.cracks = [(_carry(before.top, plate.top, load), t_b, tau) for load, t_b, tau in before.cracks]
     f = plate.top.free
-    forces, _, _ = plate.layer(q, t)
+    forces = plate.layer(q, t)[0] + plate.crack_load(t)
+    if opening_time > 0.0:
+        held = before.mass @ a + before.stiffness @ q_before - before.layer(q_before, t)[0] - before.crack_load(t)
+        c = before.means[before.top.free]
+        multiplier = (c @ held[before.top.free]) / (c @ c)     # (held = c multiplier on the free dofs)
+        carried = _carry(before.top, plate.top, a)
+        residual = plate.mass @ carried + plate.stiffness @ q - forces - plate.means * multiplier
+        node = min(set(broken) - before.broken)
+        dofs = set(plate.top.elem[node, :2]) | (set(plate.top.elem[node - 1, 2:]) if node > 0 else set())
+        load = np.zeros(plate.top.count)
+        new = sorted(dofs & set(f))
+        load[new] = residual[new]
+        plate.cracks.append((load, t, opening_time))
+        forces = forces + load
     x = lu_solve(plate.solver(0.0), np.append((forces - plate.stiffness @ q)[f], 0.0))
     a = np.zeros(plate.top.count)
     a[f] = x[:-1]
     return plate, q, v, a
 
 
-def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0):
+def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0, opening_time=0.0):
     """The elements' own breaks: the plate of parameters p on nodes ``spacing`` apart breaks at a
     node where the tension of an armed surface (armed once its peak is below p.yield_strain, as the
     solver's) first reaches p.yield_strain, at the time interpolated between two steps' peaks (the
     step then taken again to it); the search skips the wall and the nodes closer than ``band`` [m]
     to a break, as the solver's crack spacing (with no band, the break's node and the next: a free
     edge's own tension is 0 only weakly in the elements; the centre's symmetry plane is searched
-    until it breaks). Returns [(time [s], x [m], surface)] up
-    to max_breaks breaks, to the first one off the centre (the breakthrough), or to t_end."""
+    until it breaks); each crack opens over ``opening_time`` [s] (0: at once; _break). Returns
+    [(time [s], x [m], surface)] up to max_breaks breaks, to the first one off the centre (the
+    breakthrough), or to t_end."""
     nodes = mesh(p.L, [], spacing)
     broken, found = set(), []
     plate = Plate(p, nodes, broken)
@@ -390,7 +421,7 @@ def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0)
             if node > 0:
                 break                                             # the breakthrough
             broken.add(node)
-            plate, q, v, a = _break(plate, q, v, broken, t)
+            plate, q, v, a = _break(plate, q, v, broken, t, a, opening_time)
             armed = [False, False]
         else:
             t += dt

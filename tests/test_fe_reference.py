@@ -60,6 +60,38 @@ def test_a_break_carries_the_state_and_its_energy_exactly():
     assert after.energy(q2, v2) == pytest.approx(before.energy(q, v), rel=1e-11)     # (the series summed anew)
 
 
+def test_a_crack_that_opens_over_a_time_keeps_the_acceleration_and_releases_its_moment():
+    """A crack opening over tau (tests/fe_reference._break with opening_time): the broken node
+    first carries the internal force the whole plate carried there, so the acceleration just
+    after the break is the one just before (to 1e-6: the trapezoidal rule's own acceleration);
+    at the centre, the symmetry plane, that is a moment alone, D w''(0) (to the elements'
+    accuracy, 1.5e-3 at 2 cm), at an inner node a moment and a shear, equal and opposite on the
+    two sides; the load falls linearly to 0 at t_b + tau and stays there."""
+    p = Parameters(fracture="break")
+    nodes = fe.mesh(p.L, [], 0.02)
+    plate = fe.Plate(p, nodes, set())
+    q, v, a, t = np.zeros(plate.top.count), np.zeros(plate.top.count), np.zeros(plate.top.count), 0.0
+    while t < 4.8e-4:                                      # (the body has pressed the plate a while)
+        q, v, a, _, _ = fe._step(plate, q, v, a, t, 4e-7)
+        t += 4e-7
+    for node in (0, 10):
+        broken, _, _, after = fe._break(plate, q, v, {node}, t, a, 1e-4)
+        carried = fe._carry(plate.top, broken.top, a)
+        assert np.max(np.abs(after - carried)) < 1e-6 * np.max(np.abs(carried))
+        load = broken.cracks[-1][0]
+        nonzero = np.flatnonzero(load)
+        if node == 0:
+            moment = p.rigidity * plate.nodal_curvature(q)[0]
+            assert list(nonzero) == [broken.top.elem[0, 1]] or abs(load[broken.top.elem[0, 0]]) < 1e-9 * abs(moment)
+            assert -load[broken.top.elem[0, 1]] == pytest.approx(moment, rel=3e-3)
+        else:
+            left, right = broken.top.elem[node - 1, 2:], broken.top.elem[node, :2]
+            np.testing.assert_allclose(load[left], -load[right], rtol=1e-9)
+            assert set(nonzero) == set(left) | set(right)
+        np.testing.assert_allclose(broken.crack_load(t + 5e-5), 0.5 * load, rtol=1e-9, atol=0)
+        assert np.all(broken.crack_load(t + 1e-4) == 0.0) and np.all(broken.crack_load(t + 1e-3) == 0.0)
+
+
 @pytest.fixture(scope="module")
 def reference_breaks():
     """The reference case's first break at N = 120 (tolerance 1e-10) and the state there."""
@@ -160,6 +192,25 @@ def test_with_a_crack_spacing_the_elements_break_through_where_the_solver_does()
         assert [(x, s) for _, x, s in run] == [(0.0, "lower"), (pytest.approx(0.5, abs=1e-9), "upper")]
     assert abs(ours.breakthrough_time - fine[1][0]) < 1.5 * abs(fine[1][0] - coarse[1][0])
     assert ours.breakthrough_time == pytest.approx(fine[1][0], rel=1.5e-2)
+
+
+@pytest.mark.slow
+def test_a_crack_that_opens_over_a_time_makes_the_elements_breakthrough_converge():
+    """With no band, a crack that opens at once lets the elements break again one element from
+    the first break, within 0.2 us of it, at 2 cm and at 1 cm (the breakthrough collapses as they
+    refine); one that opens over 25 us gives the breakthrough 0.63187 and 0.63217 ms at 0.34 m at
+    2 and 1 cm, within 5e-4 (0.63224 ms at 0.5 cm; docs/model.md, "A crack that opens over a
+    time")."""
+    p = Parameters(fracture="break", yield_strain=EPS_Y)
+    at_once = [fe.breaking_run(p, spacing=spacing, t_end=8e-4) for spacing in (0.02, 0.01)]
+    for run, spacing in zip(at_once, (0.02, 0.01)):
+        assert run[1][0] - run[0][0] < 2e-7 and run[1][1] <= 2.01 * spacing
+    opening = [fe.breaking_run(p, spacing=spacing, t_end=8e-4, opening_time=2.5e-5) for spacing in (0.02, 0.01)]
+    for run in opening:
+        assert [s for _, _, s in run] == ["lower", "upper"] and run[0][1] == 0.0
+        assert run[1][1] == pytest.approx(0.34, abs=0.011)
+    assert opening[1][1][0] == pytest.approx(opening[0][1][0], rel=5e-4)
+    assert opening[1][1][0] > 1.25 * opening[1][0][0]
 
 
 def test_the_elements_refuse_what_they_do_not_model():
