@@ -152,7 +152,8 @@ def test_a_crack_spacing_keeps_the_breaks_apart_and_its_band_unread():
     it, and the breakthrough is on the band's edge, 0.5 m, where without a band it is at 0.35 m
     (N = 40). The band's breakthrough is stable in N: 0.66353, 0.66271, 0.66349, 0.66299 ms at
     N = 40, 60, 80, 120 (N = 40 and 60 within 1.3e-3), where without a band it moves 0.6226 ->
-    0.6255 ms and 0.35 -> 0.33 m from N = 40 to 60 (and to 0.4942 ms at 0.085 m at N = 120)."""
+    0.6255 ms and 0.35 -> 0.33 m from N = 40 to 60 (and to 0.4942 ms at 0.085 m at N = 120, tolerance
+    1e-10). On the whole plate of an off-centre impact the band keeps each side's breaks apart too."""
     s = Settings(quadrature="gauss")
     runs = {}
     for N, spacing in ((40, 1.0), (60, 1.0), (40, 0.0)):
@@ -178,6 +179,13 @@ def test_a_crack_spacing_keeps_the_breaks_apart_and_its_band_unread():
     through = {N: runs[N, 1.0].breaking.breakthrough_time for N in (40, 60)}
     assert through[60] == pytest.approx(through[40], rel=2e-3)
     assert runs[40, 0.0].breaking.breakthrough_time < 0.95 * through[40]
+    # the whole plate of an off-centre impact (x0 = 0.5 m): its breaks as far apart, each side's
+    off = solve(Parameters(Nmod=30, x0=0.5, fracture="break", yield_strain=EPS_Y, crack_spacing=1.0), s, fields=(),
+                times=[0.0, 2e-3], t_end=2e-3)
+    places = [e.x for e in off.breaking.breaks]
+    assert off.status == "ok" and places[0] == pytest.approx(0.5, abs=1e-3) and len(places) >= 3
+    assert places[1] == pytest.approx(places[0] - 0.5, abs=1e-9)           # (on the band's edge, below x0)
+    assert all(abs(a - b) >= 0.5 * (1 - 1e-12) for i, a in enumerate(places) for b in places[:i])
 
 
 def test_the_band_is_read_where_a_plate_broken_with_a_spacing_says():
