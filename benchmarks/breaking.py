@@ -10,11 +10,12 @@ tables, the carries across the breaks, the integration, its steps and their cost
 unbroken run's); and the breaks' times, places and surfaces, the first break and the breakthrough.
 Writes results/bench/breaking.md.
 
-    python benchmarks/breaking.py [--modes 30 60] [--t-end 0.005] [--rounds 3] [--crack-spacing 0]
+    python benchmarks/breaking.py [--modes 30 60] [--t-end 0.005] [--rounds 3] [--crack-spacing 0] [--crack-speed inf]
 """
 from __future__ import annotations
 
 import argparse
+import math
 import statistics
 import sys
 import time
@@ -63,10 +64,10 @@ def _timed(run):
             setattr(module, name, function)
 
 
-def measure(N, t_end, rounds, crack_spacing=0.0):
+def measure(N, t_end, rounds, crack_spacing=0.0, crack_speed=math.inf):
     """Medians (call, integration) of the unbroken and the breaking run, and the breaking run."""
     p, s = Parameters(Nmod=N), Settings(quadrature="gauss")
-    broken = replace(p, fracture="break", yield_strain=EPS_Y, crack_spacing=crack_spacing)
+    broken = replace(p, fracture="break", yield_strain=EPS_Y, crack_spacing=crack_spacing, crack_speed=crack_speed)
     times = np.linspace(0.0, t_end, 51)
     runs = {"unbroken": lambda: solve(p, s, fields=(), times=times, t_end=t_end),
             "breaking": lambda: solve(broken, s, fields=(), times=times, t_end=t_end)}
@@ -94,10 +95,11 @@ def main():
     parser.add_argument("--t-end", type=float, default=0.005)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--crack-spacing", type=float, default=0.0, help="in ice thicknesses (0: none)")
+    parser.add_argument("--crack-speed", type=float, default=math.inf, help="[m s-1] (inf: a crack opens at once)")
     args = parser.parse_args()
     lines = ["# A run that breaks against the unbroken run", "",
              f"Reference case, contact-resolving rule, t_end {args.t_end:g} s, eps_Y {EPS_Y:g}, crack spacing "
-             f"{args.crack_spacing:g} hi, medians of "
+             f"{args.crack_spacing:g} hi, crack speed {args.crack_speed:g} m/s, medians of "
              f"{args.rounds} rounds.", "",
              "| N | unbroken call [s] | breaking call [s] | ratio | unbroken integration [s] | breaking integration [s] "
              "| ratio | breaks | first break [ms] | breakthrough [ms] | status |", "|" + "---|" * 11]
@@ -107,7 +109,7 @@ def main():
              "| N | tables [s] | carries [s] | integration [s] | rest [s] | steps, unbroken -> breaking "
              "| per step, unbroken -> breaking [us] |", "|" + "---|" * 7]
     for N in args.modes:
-        medians, result, pieces, per_step, unbroken = measure(N, args.t_end, args.rounds, args.crack_spacing)
+        medians, result, pieces, per_step, unbroken = measure(N, args.t_end, args.rounds, args.crack_spacing, args.crack_speed)
         (un, un_int), (br, br_int) = medians["unbroken"], medians["breaking"]
         rest = br - br_int - pieces["tables"] - pieces["carry"]
         where.append(f"| {N} | {pieces['tables']:.3f} | {pieces['carry']:.3f} | {br_int:.3f} | {rest:.3f} "
@@ -121,6 +123,8 @@ def main():
         for event in result.breaking.breaks:
             lines.append(f"    N = {N}: {1e3 * event.time:.5f} ms at x = {event.x:.4f} m, {event.surface}, "
                          f"{event.parts} parts, removed {event.removed_energy:.4g} J/m")
+        lines.append(f"    N = {N}: energy residual {result.diagnostics['energy_residual']:.2e}, dissipated "
+                     f"{result.diagnostics['dissipated_energy']:.4g} J/m")
         lines.append("")
     write_report("breaking", lines + where)
 

@@ -47,7 +47,8 @@ from . import layout as kn
 from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
 from .run import Result, checked_breaks, cosines_to_kernel, run_case
-from .spec import Begin, Breaking, BreakEvent, RunSpec
+from .model.assemble import Tables
+from .spec import Begin, Breaking, BreakEvent, Crack, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
 PARTS_LIMIT, WALL_BREAK = "parts_limit", "wall_break"
@@ -65,6 +66,16 @@ def _restart_step(stages):
     first touch's, for the first stage, or where the integrator reports no steps, DOP853)."""
     h = RESTART_STEP * stages[-1][1].largest_step if stages else math.nan
     return h if math.isfinite(h) and h > 0.0 else None
+
+
+def _crack(p, s, full, kernel_breaks, amplitudes, time, x):
+    """The crack opening at the break at x [m] at time [s] (a solver.spec.Crack): the moment D w_xx
+    and shear D w_xxx the plate broken at kernel_breaks carried there in the state of kernel
+    amplitudes, which its faces carry at first (solver.model.crack)."""
+    tab = Tables(p, s.subintervals, full, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
+    at = x + p.L if full else x                       # (kernel coordinates, as checked_breaks's)
+    w2, w3 = (float(tab.derivative(amplitudes, at, order)[0]) for order in (2, 3))
+    return Crack(time, at, p.rigidity * w2, p.rigidity * w3)
 
 
 def whole_plate_parts(breaks, full) -> int:
@@ -98,13 +109,15 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
     yield_strain, max_parts, full, times = p.yield_strain, p.max_parts, spec.full_plate, spec.window.times
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
     begin, breaks, t0 = Begin(zeros, zeros.copy()), [], spec.window.t_start
-    stages, events, status, message = [], [], None, ""
+    stages, events, status, message, cracks = [], [], None, "", []
+    opening = p.hi / p.crack_speed                    # (0: each crack opens at once)
     while True:
         later = times >= t0 if not stages else times > t0
         kernel_breaks = checked_breaks(p, s, breaks, full) if breaks else None
         stage = run_case(p, s, replace(spec, window=replace(spec.window, times=times[later], t_start=t0), begin=begin,
                                        breaks=kernel_breaks, break_level=float(yield_strain),
-                                       first_step=_restart_step(stages)))
+                                       first_step=_restart_step(stages),
+                                       cracks=tuple(c for c in cracks if c.time + opening > t0)))
         stages.append((later, stage))
         end = stage.end
         if end.carried is not None:
@@ -132,6 +145,8 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
                        "parts": whole_plate_parts(new_breaks, full),
                        "broken_through": broken_through(new_breaks, p.x0, full),
                        "penetration": p.V * where.time if body is None else body.penetration})
+        if opening > 0.0:
+            cracks.append(_crack(p, s, full, kernel_breaks, end.state.amplitudes, where.time, x_b))
         breaks, t0 = new_breaks, stage.time_reached
         begin = Begin(end.state.amplitudes, end.state.velocities, kernel_breaks, body)
     return _joined(p, s, spec, stages, events, status, message, full)

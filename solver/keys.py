@@ -58,10 +58,13 @@ PARAMETER_INFO = {
     "crack_spacing": ("shortest distance between two breaks, in ice thicknesses (read with fracture = break): "
                       "within it of a break the tension is not read and the ice does not break again (0: "
                       "none)", "1"),
+    "crack_speed": ("speed at which a crack crosses the ice's thickness (read with fracture = break): a break's "
+                    "faces carry the moment and shear the ice carried there, released over hi / crack_speed (inf: "
+                    "at once)", "m s-1"),
 }
 
 #: the parameters only a run that breaks (fracture = "break") reads
-BREAKING_KEYS = ("yield_strain", "max_parts", "crack_spacing")
+BREAKING_KEYS = ("yield_strain", "max_parts", "crack_spacing", "crack_speed")
 
 #: the parameters that are whole numbers
 INTEGER_PARAMETERS = ("Nmod", "max_parts")
@@ -75,7 +78,7 @@ CHOICES = {"layer_law": tuple(LAW_CODES), "edges": ("walls", "free"), "fracture"
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
                   "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0, "layer_law": "paper", "edges": "walls",
                   "duration": 0.0, "fracture": "none", "yield_strain": 8e-5, "max_parts": 16,
-                  "crack_spacing": 0.0}
+                  "crack_spacing": 0.0, "crack_speed": math.inf}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -87,7 +90,7 @@ PHYSICAL_RANGES = {
     "rho_w": (10.0, 1e5), "g": (1e-3, 1e3), "H": (1e-2, 1e5), "body_mass": (1e-2, 1e10),
     "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
     "tau": (0.0, 10.0), "layer_tau": (0.0, 10.0), "duration": (1e-6, 1e4),
-    "yield_strain": (1e-6, 1e-1), "crack_spacing": (0.0, 100.0),
+    "yield_strain": (1e-6, 1e-1), "crack_spacing": (0.0, 100.0), "crack_speed": (1.0, 1e5),
 }
 
 
@@ -119,6 +122,7 @@ BEYOND_BOUNDS = {
     "duration": (0.0, False, False, "0: the walled plate's impact stage"),
     "yield_strain": (0.0, True, False, "a tension"),
     "crack_spacing": (0.0, False, False, "0: none, a break may follow next to another"),
+    "crack_speed": (0.0, True, True, "inf: a crack opens at once"),
 }
 
 

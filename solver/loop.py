@@ -32,6 +32,7 @@ from .layout import (B_D, B_U, D_ANSWERED_T, D_BODY_RESIDUAL, D_DISSIPATED, D_EN
 from .model.basis import node_strain
 from .model.body import body_coefficients, body_position, body_residual, body_speed, start_body
 from .model.contact import count_contacts, gap_peak
+from .model.crack import add_crack_forcing
 from .model.layer import layer_energy, layer_forcing_at, node_energy
 from .model.plate import OMEGA, STRAIN, plus_plate_energy, mode_a, mode_adot, mode_z, plate_damped
 from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, answered, asks
@@ -115,6 +116,7 @@ def state_at(model, t, a, adot, fvals, state):
         state.adot[n] = adot[n]
     s, U = body_position(model.body, t, state.yb), body_speed(model.body, state.yb)
     st, force, jmax, lp = layer_forcing_at(model, s, U, state.a, state.adot, state.delta, fvals, state.forcing)
+    add_crack_forcing(model.cracks, t, state.forcing)
     if st == 0:
         node_strain(model.basis.cosq, model.basis.floe, plate.modes[STRAIN], state.a, state.eps)
     return st, force, jmax, lp

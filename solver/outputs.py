@@ -100,8 +100,9 @@ DIAGNOSTICS = (
                "the largest work W over the run (the final work for the paper's body)", join=("residual",)),
     Diagnostic("WORK", "work", "J m-1", "work done by the body on the ice up to the time reached, int F U dt",
                join=("sum",)),
-    Diagnostic("DISSIPATED", "dissipated_energy", "J m-1", "energy dissipated in the viscoelastic ice and layer up "
-               "to the time reached (0: elastic)", join=("sum",)),
+    Diagnostic("DISSIPATED", "dissipated_energy", "J m-1", "energy dissipated in the viscoelastic ice and "
+               "layer, and taken by cracks that open over a time, up to the time reached (0: elastic, cracks at "
+               "once)", join=("sum",)),
     Diagnostic("STOP_T", "stop_time", "s", "first time a free body's speed reached zero (NaN: never, or the paper's "
                "body at constant speed)", join=("last",)),
     Diagnostic("MAX_PENETRATION", "max_penetration", "m", "deepest penetration s of a free body, at a zero of its "
@@ -180,7 +181,8 @@ SERIES = (
     Series("BODY_SPEED", "body_speed", "body_speed", "m s-1", "downward speed U of the body (V for the paper's body)",
            "body"),
     Series("DISSIPATED", "dissipated_energy_over_time", "dissipated_energy", "J m-1", "energy dissipated in "
-           "viscoelastic ice and layer up to each time (0: elastic)", "case"),
+           "viscoelastic ice and layer, and taken by cracks that open over a time, up to each time (0: elastic, cracks "
+           "at once)", "case"),
 )
 SERIES_SLOTS = tuple(row.slot for row in SERIES)
 

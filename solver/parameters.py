@@ -161,6 +161,11 @@ class Parameters:
         "break": within it of a break (a free edge) the tension is not read and the ice does not
         break again (docs/model.md, "The crack spacing"). 0 (the default): none, the
         discretisation's resolution acts as one.
+    crack_speed : float
+        The speed [m s-1] at which a crack crosses the ice's thickness, read with fracture =
+        "break": a break's faces first carry the moment and shear the ice carried there, released
+        linearly over hi / crack_speed, their work the fracture's dissipated energy (docs/model.md,
+        "A crack that opens over a time"). inf (the default): at once.
     """
 
     K: float = 8e6
@@ -191,6 +196,7 @@ class Parameters:
     yield_strain: float = 8e-5
     max_parts: int = 16
     crack_spacing: float = 0.0
+    crack_speed: float = math.inf
 
     def __post_init__(self):
         for f in fields(self):

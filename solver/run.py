@@ -19,6 +19,7 @@ from .layout import ETD34, RK4
 from .loop import integrate, new_records
 from .model import parts
 from .model.assemble import Tables
+from .model.crack import Cracks
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import BITS, plan as plan_outputs
 from .observe.reach import zone_ends
@@ -52,7 +53,7 @@ class Result:
     plate_energy: np.ndarray           # (T,) [J m-1]
     layer_energy: np.ndarray           # (T,) [J m-1]
     work: np.ndarray                   # (T,) int F U dt [J m-1]
-    dissipated_energy: np.ndarray      # (T,) dissipated in viscoelastic ice and layer [J m-1] (0: elastic)
+    dissipated_energy: np.ndarray      # (T,) dissipated in viscoelastic ice and layer, and by opening cracks [J m-1]
     valid: np.ndarray                  # (T,) bool
     diagnostics: dict                  # name -> float, see DIAGNOSTIC_INFO
     status: str                        # see STATUS_INFO
@@ -321,6 +322,10 @@ def run_case(p, s, spec: RunSpec) -> Result:
     and the fields, and the Result with the run's end (StageEnd)."""
     observers, answer, asked = _plan(p, spec)
     tab = Tables(p, s.subintervals, spec.full_plate, s.quadrature, s.quadrature_density, breaks=spec.breaks)
+    if spec.cracks:                                   # the cracks still opening (solver.model.crack)
+        loads = parts.crack_loads(p, tab.floe, spec.cracks, spec.full_plate)
+        tab.model = tab.model._replace(cracks=Cracks(loads, np.array([c.time for c in spec.cracks]),
+                                                     p.hi / p.crack_speed))
     a0, v0, carried = _begun(p, s, tab, spec)
     integrator = INTEGRATORS[s.integrator]
     control = _control(p, s, spec, tab, integrator, observers, answer)

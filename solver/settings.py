@@ -183,6 +183,9 @@ def check_combination(parameters: Parameters, settings: Settings) -> None:
     if (parameters.tau > 0 or parameters.layer_tau > 0) and settings.integrator == "rk4":
         raise ParameterError("rk4 integrates the paper's elastic plate and layer; viscoelastic ice or layer "
                              "(tau, layer_tau > 0) needs etd34 (its damped modes are exact) or dop853")
+    if parameters.fracture == "break" and math.isfinite(parameters.crack_speed) and settings.integrator != "etd34":
+        raise ParameterError("a crack that opens over a time (crack_speed < inf) needs etd34: its fracture's "
+                             "dissipated energy is taken on etd34's stages")
     if parameters.fracture == "break" and settings.quadrature != "gauss":
         raise ParameterError("fracture = 'break' needs quadrature = 'gauss': the paper's rule interpolates the "
                              "modes between nodes, across a break")

@@ -44,6 +44,9 @@ class RunState:
 #: where a run ended at a break (the tension reached the break level): time [s], x [m] on the
 #: plate, surface ("upper" or "lower")
 Break = namedtuple("Break", "time x surface")
+#: a crack still opening (solver.model.crack): its break's time [s] and place [m, kernel
+#: coordinates], and the moment D w_xx [N m m-1] and shear D w_xxx [N m-1] the ice carried there
+Crack = namedtuple("Crack", "time x moment shear")
 
 
 @dataclass(frozen=True)
@@ -130,7 +133,7 @@ class RunSpec:
     it begins from, the plate it runs on (``breaks`` in kernel coordinates, None: unbroken; the
     full plate or the half plate of a centred impact), and how it ends besides t_end (at a free
     body's separation; where a surface's tension reaches ``break_level``, inf: never); the first
-    step [s] (None: first touch's, short)."""
+    step [s] (None: first touch's, short); the cracks still opening (Crack, solver.model.crack)."""
 
     window: Window
     asked: Asked
@@ -140,6 +143,7 @@ class RunSpec:
     until_separation: bool = False
     break_level: float = math.inf
     first_step: float | None = None
+    cracks: tuple = ()
 
 
 @dataclass(frozen=True)

@@ -17,8 +17,8 @@ STATUS_INFO = {
     "nonfinite": "a fixed-step run met delta >= 1 or a non-finite state, or the adaptive step "
                  "could not avoid one",
     "step_limit": "max_steps attempted, or error control drove the step below its floor",
-    "energy_violation": "the energy identity E_plate + E_layer + D = W (D: dissipated, 0 when elastic) was "
-                        "broken: a step made it jump and no smaller step mended it, or the residual ended "
+    "energy_violation": "the energy identity E_plate + E_layer + D = W (D: dissipated, by viscoelastic ice or "
+                        "layer and opening cracks) was broken: a step made it jump and no smaller step mended it, or the residual ended "
                         "above 1e-3 of the work (for a free body, also its own balance "
                         "M (U^2 - V^2)/2 - M body_g s + W = 0)",
     "separated": "a free body (finite body_mass) left the ice moving up at separation_time, and the run "

@@ -41,6 +41,7 @@ from .compile.jit import kernel
 from .layout import B_D, B_U, ETD34
 from .model.body import Stages, body_error, body_step_work, body_accel, body_coefficients
 from .model.contact import count_contacts
+from .model.crack import add_crack_forcing, crack_power, opening
 from .model.layer import layer_forcing_at, layer_forcing_strain, rule_energy
 from .model.plate import (HALF_C, KIND, OMEGA, dissipation_rate, emul, mode_a, mode_adot, mode_phis, phi_from,
                           plate_damped)
@@ -102,10 +103,11 @@ def etd_coefficients(plate, h, C):
 
 
 @kernel(inline="llvm")
-def _stage(model, rows, fvals, zs, s, U, delta, P):
-    """A stage at the state zs, the body at penetration s moving down at U: layer_forcing_at into
-    P. Returns (status, force, jmax, the layer's power). a' is needed only by a viscoelastic
-    layer. (The stage's number is not an argument: numba would compile a copy for each literal.)"""
+def _stage(model, rows, fvals, zs, t, s, U, delta, P):
+    """A stage at the state zs at t, the body at penetration s moving down at U: layer_forcing_at
+    into P, and the opening cracks' forcing (solver.model.crack). Returns (status, force, jmax,
+    the layer's power). a' is needed only by a viscoelastic layer. (The stage's number is not an
+    argument: numba would compile a copy for each literal.)"""
     plate = model.plate
     a_work = rows[0]
     adot_work = rows[4]
@@ -114,7 +116,9 @@ def _stage(model, rows, fvals, zs, s, U, delta, P):
     if model.layer.tau > 0.0:
         for n in range(zs.shape[0]):
             adot_work[n] = mode_adot(zs[n], a_work[n], n, plate)
-    return layer_forcing_at(model, s, U, a_work, adot_work, delta, fvals, P)
+    out = layer_forcing_at(model, s, U, a_work, adot_work, delta, fvals, P)
+    add_crack_forcing(model.cracks, t, P)
+    return out
 
 
 @kernel(inline="llvm", nrt=True)
@@ -133,9 +137,18 @@ def _last_stage(model, w, zs, yb, delta, forcing, eps, t_new):
     V = model.body.V
     st, F, jm, Lp = layer_forcing_strain(model, V * t_new - yb[B_D], V - yb[B_U], a_work, adot_work, delta, w.fvals,
                                          forcing, eps)
+    add_crack_forcing(model.cracks, t_new, forcing)
     w.table[F_ROW, 5] = F
     w.table[LP_ROW, 5] = Lp
     return st, jm
+
+
+@kernel(inline="always")
+def _dissipation(model, z, t, ice_damped):
+    """The power taken from the plate at the modal state z at t: the Kelvin-Voigt damping's (for
+    viscoelastic ice) and the opening cracks' (solver.model.crack.crack_power, the fracture's)."""
+    d = dissipation_rate(z, model.plate) if ice_damped else 0.0
+    return d - crack_power(model.cracks, t, z, model.plate)
 
 
 @kernel(inline="llvm")
@@ -152,6 +165,7 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     plate = model.plate
     kind = plate.modes[KIND]
     ice_damped = plate_damped(plate)
+    dissipating = ice_damped or opening(model.cracks)
     z, N1 = start.z, start.forcing
     zs = w.cz[0]
     N2, N3, N4 = w.rows[1], w.rows[2], w.rows[3]
@@ -160,9 +174,10 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
     th = t + 0.5 * h
     for n in range(z.shape[0]):
         zs[n] = emul(C[1, n], z[n], kind[n]) + C[2, n] * N1[n]
-    if ice_damped:
-        w.table[DISS_ROW, 2] = dissipation_rate(zs, plate)
-    st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
+    if dissipating:
+        w.table[DISS_ROW, 2] = _dissipation(model, zs, th, ice_damped)
+    st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, th, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta,
+                           N2)
     w.table[F_ROW, 2], w.table[G_ROW, 2], w.table[LP_ROW, 2] = F, body_accel(model.body, F), Lp
     event = _contacts_changed(model.basis.mirror, st, delta, jm, contacts)
     if st == 0:
@@ -170,20 +185,21 @@ def _etd_stages(model, coeffs, w, start, contacts, t, t_new, h, delta):
             zs[n] = zs[n] + C[3, n] * (N2[n] - N1[n])
         w.table[D_ROW, 3] = w.table[D_ROW, 2] + Cb[3, 1] * (w.table[G_ROW, 2] - G1)
         w.table[U_ROW, 3] = w.table[U_ROW, 2] + Cb[3, 0] * (w.table[G_ROW, 2] - G1)
-        if ice_damped:
-            w.table[DISS_ROW, 3] = dissipation_rate(zs, plate)
-        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
+        if dissipating:
+            w.table[DISS_ROW, 3] = _dissipation(model, zs, th, ice_damped)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, th, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3],
+                               delta, N3)
         w.table[F_ROW, 3], w.table[G_ROW, 3], w.table[LP_ROW, 3] = F, body_accel(model.body, F), Lp
         event = event or _contacts_changed(model.basis.mirror, st, delta, jm, contacts)
     if st == 0:
         for n in range(z.shape[0]):
             zs[n] = emul(C[0, n], z[n], kind[n]) + C[4, n] * N1[n] + C[5, n] * (N3[n] - N1[n])
-        if ice_damped:
-            w.table[DISS_ROW, 4] = dissipation_rate(zs, plate)
+        if dissipating:
+            w.table[DISS_ROW, 4] = _dissipation(model, zs, t_new, ice_damped)
         w.table[D_ROW, 4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.table[G_ROW, 3] - G1)
         w.table[U_ROW, 4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.table[G_ROW, 3] - G1)
-        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4],
-                               delta, N4)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, t_new, V * t_new - w.table[D_ROW, 4],
+                               V - w.table[U_ROW, 4], delta, N4)
         w.table[F_ROW, 4], w.table[G_ROW, 4], w.table[LP_ROW, 4] = F, body_accel(model.body, F), Lp
         event = event or _contacts_changed(model.basis.mirror, st, delta, jm, contacts)
     return st, jm, event
@@ -205,7 +221,8 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
         k1 = 1j * omega[n] * z[n] + N1[n]
         incr[n] = k1
         zs[n] = z[n] + 0.5 * h * k1
-    st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta, N2)
+    st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, th, V * th - w.table[D_ROW, 2], V - w.table[U_ROW, 2], delta,
+                           N2)
     w.table[F_ROW, 2], w.table[G_ROW, 2], w.table[LP_ROW, 2] = F, body_accel(model.body, F), Lp
     if st == 0:
         for n in range(z.shape[0]):
@@ -214,7 +231,8 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
             zs[n] = z[n] + 0.5 * h * k2
         w.table[D_ROW, 3] = w.table[D_ROW, 2] + Cb[3, 1] * (w.table[G_ROW, 2] - G1)
         w.table[U_ROW, 3] = w.table[U_ROW, 2] + Cb[3, 0] * (w.table[G_ROW, 2] - G1)
-        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3], delta, N3)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, th, V * th - w.table[D_ROW, 3], V - w.table[U_ROW, 3],
+                               delta, N3)
         w.table[F_ROW, 3], w.table[G_ROW, 3], w.table[LP_ROW, 3] = F, body_accel(model.body, F), Lp
     if st == 0:
         for n in range(z.shape[0]):
@@ -223,8 +241,8 @@ def _rk4_stages(model, coeffs, w, start, t, t_new, h, delta):
             zs[n] = z[n] + h * k3
         w.table[D_ROW, 4] = d + Cb[0, 1] * u + Cb[4, 1] * G1 + Cb[5, 1] * (w.table[G_ROW, 3] - G1)
         w.table[U_ROW, 4] = u + Cb[4, 0] * G1 + Cb[5, 0] * (w.table[G_ROW, 3] - G1)
-        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, V * t_new - w.table[D_ROW, 4], V - w.table[U_ROW, 4],
-                               delta, N4)
+        st, F, jm, Lp = _stage(model, w.rows, w.fvals, zs, t_new, V * t_new - w.table[D_ROW, 4],
+                               V - w.table[U_ROW, 4], delta, N4)
         w.table[F_ROW, 4], w.table[G_ROW, 4], w.table[LP_ROW, 4] = F, body_accel(model.body, F), Lp
     return st, jm
 
@@ -300,7 +318,7 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     body, plate = model.body, model.plate
     Cb = coeffs.Cb
     ice_damped = plate_damped(plate)
-    damped = ice_damped or model.layer.tau > 0.0
+    damped = ice_damped or model.layer.tau > 0.0 or opening(model.cracks)
     d, u = start.yb[B_D], start.yb[B_U]
     for k in range(1, 5):
         w.table[DISS_ROW, k] = 0.0
@@ -308,8 +326,8 @@ def take_step(method, model, coeffs, w, start, carried, t, t_new, h, out):
     w.table[G_ROW, 1] = body_accel(body, carried.force)
     w.table[D_ROW, 2] = d + Cb[1, 1] * u + Cb[2, 1] * w.table[G_ROW, 1]
     w.table[U_ROW, 2] = u + Cb[2, 0] * w.table[G_ROW, 1]
-    if ice_damped:
-        w.table[DISS_ROW, 1] = dissipation_rate(start.z, plate)
+    if ice_damped or opening(model.cracks):
+        w.table[DISS_ROW, 1] = _dissipation(model, start.z, t, ice_damped)
     event = False
     if method == ETD34:
         st, jm, event = _etd_stages(model, coeffs, w, start, carried.contacts, t, t_new, h, out.delta)

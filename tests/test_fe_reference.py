@@ -213,6 +213,22 @@ def test_a_crack_that_opens_over_a_time_makes_the_elements_breakthrough_converge
     assert opening[1][1][0] > 1.25 * opening[1][0][0]
 
 
+@pytest.mark.slow
+def test_with_an_opening_crack_the_elements_break_through_where_and_when_the_solver_does():
+    """Cracks that open over 25 us, no band: the solver (N = 80, crack_speed 2e4 m/s on 0.5 m ice;
+    solver.model.crack) and the elements (opening_time 25 us) break through at the same place on
+    the upper surface, 0.34 m, and time: 0.63227 ms against 0.63217 ms at 1 cm (1.6e-4), within
+    the elements' own change from 2 cm to 1 cm (0.63187 -> 0.63217 ms; 0.63224 at 0.5 cm)."""
+    p = Parameters(Nmod=80, fracture="break", yield_strain=EPS_Y, crack_speed=2e4)
+    ours = solve(p, Settings(quadrature="gauss"), fields=(), times=[0.0, 8e-4], t_end=8e-4).breaking
+    coarse, fine = (fe.breaking_run(p, spacing=spacing, t_end=8e-4, opening_time=p.hi / p.crack_speed)
+                    for spacing in (0.02, 0.01))
+    through = next(e for e in ours.breaks if e.broken_through)
+    assert through.surface == fine[1][2] == "upper" and abs(through.x - fine[1][1]) < 0.011
+    assert abs(ours.breakthrough_time - fine[1][0]) < max(abs(fine[1][0] - coarse[1][0]), 3e-4 * fine[1][0])
+    assert ours.breakthrough_time == pytest.approx(fine[1][0], rel=3e-4)
+
+
 def test_the_elements_refuse_what_they_do_not_model():
     """A centred impact of the paper's body on elastic ice in the walls' channel, nothing else: an
     option beyond it is refused, not left out in silence."""

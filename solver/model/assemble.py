@@ -17,6 +17,7 @@ import numpy as np
 
 from .basis import QUADRATURE_CODES, Basis
 from .body import Body
+from .crack import no_cracks
 from .floe import dry_values, floe_tables
 from .parts import part_values, parts_tables
 from .layer import LAW_CODES, Layer
@@ -27,8 +28,9 @@ from .quadrature import PANEL_POINTS, legendre_rule
 #: plate, breaks): at most PARTS_TABLES_KEPT, the oldest dropped first
 PARTS_TABLES_KEPT = 32
 _PARTS_TABLES = {}
-#: what the kernels take for one case: Plate, Basis, Body, Layer (each defined by its module)
-Model = namedtuple("Model", "plate basis body layer")
+#: what the kernels take for one case: Plate, Basis, Body, Layer, Cracks (each defined by its module;
+#: Cracks: the cracks still opening, none but in a stage of a run that breaks with a crack_speed)
+Model = namedtuple("Model", "plate basis body layer cracks")
 
 #: a damped mode is kept at least this far (omega_d or kappa over omega) from critical damping
 CRITICAL_GAP = 1e-6
@@ -74,7 +76,8 @@ class Tables:
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
                       0.0, np.zeros(0))
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
-                                                                    LAW_CODES[p.layer_law]))
+                                                                    LAW_CODES[p.layer_law]),
+                           no_cracks(self.omega.size))
 
     def _free_floe(self, p, subintervals, full, quadrature, quadrature_density):
         """A free floe (docs/model.md, "A free floe"): its wet modes (solver.model.floe) in the
@@ -129,7 +132,16 @@ class Tables:
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
                       1.0, fl["packed"])
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
-                                                                    LAW_CODES[p.layer_law]))
+                                                                    LAW_CODES[p.layer_law]),
+                           no_cracks(self.omega.size))
+
+    def derivative(self, a, x, order):
+        """The deflection's x-derivative of the given order [m1-order] at kernel coordinates x of the
+        kernel's amplitudes a (the cosines', or a broken plate's wet modes')."""
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        if self.floe is None:
+            return np.cos(np.outer(x, self.lam) + order * np.pi / 2) @ (self.lam**order * np.asarray(a))
+        return (self.floe["Q"].T @ self._dry_values(x, order)).T @ np.asarray(a)
 
     def mode_values(self, x, field: str = "deflection"):
         """(X, N): each kernel mode's deflection (field "deflection") or upper-surface strain

@@ -437,3 +437,23 @@ def _hat_weights(Qs, modes: PartModes, x):
     np.add.at(hat.T, j, np.einsum("kpg,pg->pk", vals, w * (1.0 - t)))
     np.add.at(hat.T, j + 1, np.einsum("kpg,pg->pk", vals, w * t))
     return hat
+
+
+def crack_loads(p, tables: dict, cracks, full: bool) -> np.ndarray:
+    """(C, N): each opening crack's forcing G_ck [m s-2] on the kernel's modes of the broken plate
+    of these tables (parts_tables; solver.model.crack): its faces' generalised force, -M psi'(b) +
+    V psi(b) on the part above the break b and M psi'(b) - V psi(b) on the part below (M = D w_xx,
+    V = D w_xxx the ice carried there: a solver.spec.Crack, b in kernel coordinates), over each
+    mode's generalised mass; on the half plate each face stands for its mirror too."""
+    modes, Qs, mass = tables["wet"].modes, tables["Q"], tables["mass"]
+    out = np.zeros((len(cracks), Qs.shape[1]))
+    for c, crack in enumerate(cracks):
+        force = np.zeros(modes.kinds.size)
+        for m in range(modes.kinds.size):
+            for face, sign in ((modes.lows[m], 1.0), (modes.highs[m], -1.0)):
+                if face == crack.x:
+                    shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], crack.x)
+                    value, slope = (modes.norms[m] * float(raw_mode(*shape, order)) for order in (0, 1))
+                    force[m] += sign * (crack.shear * value - crack.moment * slope)
+        out[c] = (1.0 if full else 2.0) * (Qs.T @ force) / mass
+    return out
