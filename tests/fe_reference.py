@@ -287,11 +287,13 @@ def mesh(L, breaks, spacing):
     return np.concatenate(pieces + [[L]])
 
 
-def run(p, breaks, times, x, spacing=0.02, dt=1e-7):
+def run(p, breaks, times, x, spacing=0.02, dt=1e-7, opening_time=0.0):
     """The plate of parameters p from first touch, broken at ``breaks`` [(time [s], place [m])]
-    on nodes ``spacing`` apart, by steps of at most dt [s]: the upper-surface strain at the times
+    on nodes ``spacing`` apart (each crack opening over ``opening_time`` [s], _break), by steps of
+    at most dt [s]: the upper-surface strain at the times
     and places x [m] (T, X), the force on the body [N m-1] (full plate) and the energy identity's
-    largest residual |E_plate + E_layer - W| over the largest W (both over the run's steps)."""
+    largest residual |E_plate + E_layer - W| over the largest W (both over the run's steps; W with
+    the opening faces' work)."""
     times = np.asarray(times, float)
     nodes = mesh(p.L, [b for _, b in breaks], spacing)
     index = {b: int(np.argmin(np.abs(nodes - b))) for _, b in breaks}
@@ -306,9 +308,11 @@ def run(p, breaks, times, x, spacing=0.02, dt=1e-7):
         steps = max(1, math.ceil((stop - t) / dt - 1e-9)) if stop > t else 0
         for k in range(steps):
             h = dt if k < steps - 1 else stop - t
+            q_old, faces_old = q, plate.crack_load(t)
             q, v, a, force_new, layer_energy = _step(plate, q, v, a, t, h)
             work += 0.5 * h * p.V * 2.0 * (force_now + force_new)
             force_now, t = force_new, t + h if k < steps - 1 else stop
+            work += (faces_old + plate.crack_load(t)) @ (q - q_old)      # (the opening faces', whole plate)
             peak_work = max(peak_work, work)
             residual = max(residual, abs(2.0 * (plate.energy(q, v) + layer_energy) - work))
         for i in np.flatnonzero(times == stop):
@@ -317,7 +321,7 @@ def run(p, breaks, times, x, spacing=0.02, dt=1e-7):
         for tb, b in breaks:
             if tb == stop:
                 broken.add(index[b])
-                plate, q, v, a = _break(plate, q, v, broken, t)
+                plate, q, v, a = _break(plate, q, v, broken, t, a, opening_time)
     return strain, force, residual / peak_work if peak_work > 0 else 0.0
 
 

@@ -1,0 +1,73 @@
+"""The solver against the finite elements through breaks whose cracks open over a time
+(docs/model.md, "A crack that opens over a time"): the reference case breaking with
+``crack_speed`` (its own breaks, located on its sub-steps), and the elements broken at the same
+times and places, each crack opening over the same time (tests/fe_reference.run); the
+upper-surface strain at least AWAY from the breaks over the largest strain there, and the force on
+the body over the largest force, from the first break for WINDOW; the elements at each spacing,
+their own uncertainty the two finest's difference over 3. Writes results/bench/fe_opening.md.
+
+    python benchmarks/fe_opening.py [--modes 60 120] [--spacing 0.02 0.01] [--crack-speed 2e4]
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parent
+sys.path.insert(0, str(ROOT.parent / "tests"))
+sys.path.insert(0, str(ROOT))
+import fe_reference as fe  # noqa: E402
+from fe_breaks import AWAY, DT, EPS_Y, WINDOW, _away, agreement  # noqa: E402
+from report import write_report  # noqa: E402
+
+from solver import Parameters, Settings, solve  # noqa: E402
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--modes", type=int, nargs="+", default=[60, 120])
+    parser.add_argument("--spacing", type=float, nargs="+", default=[0.02, 0.01])
+    parser.add_argument("--crack-speed", type=float, default=2e4)
+    args = parser.parse_args()
+    x = np.linspace(0.0, 3.0, 301)
+    lines = ["# The solver against Hermite finite elements through cracks that open over a time", "",
+             f"Reference case, the solver at tolerance 1e-10, eps_Y {EPS_Y:g}, crack speed {args.crack_speed:g} m/s; "
+             f"the elements' steps {DT:g} s; the strain at x = 0..3 m at least {AWAY:g} m from a break, over the "
+             f"largest strain there; the force over the largest force; {WINDOW * 1e3:g} ms from the first break.", "",
+             "| N | breaks [ms, m] | spacing [m] | strain | force | elements' energy residual | elements' time [s] |",
+             "|" + "---|" * 7]
+    for N in args.modes:
+        p = Parameters(Nmod=N, fracture="break", yield_strain=EPS_Y, crack_speed=args.crack_speed)
+        probe = solve(p, Settings(quadrature="gauss", tolerance=1e-10), fields=(), times=[0.0, 2e-3], t_end=2e-3)
+        first = probe.breaking.first_break_time
+        times = np.linspace(first, first + WINDOW, 21)
+        ours = solve(p, Settings(quadrature="gauss", tolerance=1e-10), fields=("strain",), x=x, times=times,
+                     t_end=times[-1])
+        breaks = [(e.time, e.x) for e in ours.breaking.breaks]
+        strains = {}
+        for spacing in args.spacing:
+            started = time.perf_counter()
+            strain, force, residual = fe.run(p, breaks, times, x, spacing=spacing, dt=DT,
+                                             opening_time=p.hi / p.crack_speed)
+            strains[spacing] = strain
+            s_diff, f_diff = agreement(strain, force, ours, breaks, x)
+            where = ", ".join(f"{1e3 * t:.5f}, {b:.4f}" for t, b in breaks)
+            lines.append(f"| {N} | {where} | {spacing:g} | {s_diff:.2e} | {f_diff:.2e} | {residual:.1e} "
+                         f"| {time.perf_counter() - started:.1f} |")
+            print(lines[-1], flush=True)
+        if len(strains) > 1:
+            fine, coarse = sorted(strains)[:2]
+            keep = _away(x, breaks)
+            scale = np.max(np.abs(ours.fields["strain"][:, keep]))
+            own = np.nanmax(np.abs(strains[fine][:, keep] - strains[coarse][:, keep])) / 3 / scale
+            lines.append(f"| {N} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
+            print(lines[-1], flush=True)
+    write_report("fe_opening", lines)
+
+
+if __name__ == "__main__":
+    main()
