@@ -7,7 +7,9 @@ through its thickness: the next stage runs on the parts (solver.model.parts), fr
 carried across the new break (w and w_t projected in the stiffness and the mass). A free edge
 carries no moment, so a break cannot reach eps_Y again where it is: the cascade goes on elsewhere
 until the run's end or until the plate would have more than ``max_parts`` parts (status
-``parts_limit``).
+``parts_limit``). With a finite ``crack_speed`` each crack opens over hi / crack_speed: its faces
+first carry the moment and shear the ice carried there (``_crack``), released on the stages that
+follow (solver.model.crack; docs/model.md, "A crack that opens over a time").
 
 **The carried state's overshoot.** The parts' modes all have w'' = 0 at the new free edge, so the
 curvature carried across a break is fitted with an overshoot next to it (Gibbs): the reference

@@ -71,9 +71,9 @@ def test_a_crack_that_opens_over_a_time_keeps_the_acceleration_and_releases_its_
     nodes = fe.mesh(p.L, [], 0.02)
     plate = fe.Plate(p, nodes, set())
     q, v, a, t = np.zeros(plate.top.count), np.zeros(plate.top.count), np.zeros(plate.top.count), 0.0
-    while t < 4.8e-4:                                      # (the body has pressed the plate a while)
-        q, v, a, _, _ = fe._step(plate, q, v, a, t, 4e-7)
-        t += 4e-7
+    while t < 4.8e-4:                       # (the body has pressed the plate a while; coarse steps suffice)
+        q, v, a, _, _ = fe._step(plate, q, v, a, t, 2e-6)
+        t += 2e-6
     for node in (0, 10):
         broken, _, _, after = fe._break(plate, q, v, {node}, t, a, 1e-4)
         carried = fe._carry(plate.top, broken.top, a)
@@ -89,7 +89,8 @@ def test_a_crack_that_opens_over_a_time_keeps_the_acceleration_and_releases_its_
             np.testing.assert_allclose(load[left], -load[right], rtol=1e-9)
             assert set(nonzero) == set(left) | set(right)
         np.testing.assert_allclose(broken.crack_load(t + 5e-5), 0.5 * load, rtol=1e-9, atol=0)
-        assert np.all(broken.crack_load(t + 1e-4) == 0.0) and np.all(broken.crack_load(t + 1e-3) == 0.0)
+        assert np.max(np.abs(broken.crack_load(t + 1e-4))) < 1e-9 * np.max(np.abs(load))      # (t_b + tau: open)
+        assert np.all(broken.crack_load(t + 1e-3) == 0.0)
 
 
 @pytest.fixture(scope="module")
