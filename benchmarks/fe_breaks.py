@@ -74,6 +74,16 @@ def agreement(strain, force, result, breaks, x):
             float(np.max(np.abs(force - result.force)) / np.max(np.abs(result.force))))
 
 
+def own_uncertainty(strains, result, breaks, x):
+    """(the finest spacing [m], the elements' own uncertainty there): the two finest spacings'
+    strains {spacing: (T, X)} apart at least AWAY from the breaks, over 3 (their strain converges
+    as h^2), over the solver's largest strain there."""
+    fine, coarse = sorted(strains)[:2]
+    keep = _away(x, breaks)
+    scale = np.max(np.abs(result.fields["strain"][:, keep]))
+    return fine, float(np.nanmax(np.abs(strains[fine][:, keep] - strains[coarse][:, keep])) / 3 / scale)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--modes", type=int, nargs="+", default=[60])
@@ -100,10 +110,7 @@ def main():
                 lines.append(f"| {N} | {name} | {where} | {spacing:g} | {s_diff:.2e} | {f_diff:.2e} | {residual:.1e} "
                              f"| {spent:.1f} |")
             if len(strains) > 1:
-                fine, coarse = sorted(strains)[:2]
-                keep = _away(x, breaks)
-                scale = np.max(np.abs(result.fields["strain"][:, keep]))
-                own = np.nanmax(np.abs(strains[fine][:, keep] - strains[coarse][:, keep])) / 3 / scale
+                fine, own = own_uncertainty(strains, result, breaks, x)
                 lines.append(f"| {N} | {name} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
             print(lines[-1], flush=True)
     write_report("fe_breaks", lines)

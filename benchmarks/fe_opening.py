@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parent
 sys.path.insert(0, str(ROOT.parent / "tests"))
 sys.path.insert(0, str(ROOT))
 import fe_reference as fe  # noqa: E402
-from fe_breaks import AWAY, DT, EPS_Y, WINDOW, _away, agreement  # noqa: E402
+from fe_breaks import AWAY, DT, EPS_Y, WINDOW, agreement, own_uncertainty  # noqa: E402
 from report import write_report  # noqa: E402
 
 from solver import Parameters, Settings, solve  # noqa: E402
@@ -52,7 +52,7 @@ def main():
         for spacing in args.spacing:
             started = time.perf_counter()
             strain, force, residual = fe.run(p, breaks, times, x, spacing=spacing, dt=DT,
-                                             opening_time=p.hi / p.crack_speed)
+                                             opening_time=p.crack_opening_time)
             strains[spacing] = strain
             s_diff, f_diff = agreement(strain, force, ours, breaks, x)
             where = ", ".join(f"{1e3 * t:.5f}, {b:.4f}" for t, b in breaks)
@@ -60,10 +60,7 @@ def main():
                          f"| {time.perf_counter() - started:.1f} |")
             print(lines[-1], flush=True)
         if len(strains) > 1:
-            fine, coarse = sorted(strains)[:2]
-            keep = _away(x, breaks)
-            scale = np.max(np.abs(ours.fields["strain"][:, keep]))
-            own = np.nanmax(np.abs(strains[fine][:, keep] - strains[coarse][:, keep])) / 3 / scale
+            fine, own = own_uncertainty(strains, ours, breaks, x)
             lines.append(f"| {N} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
             print(lines[-1], flush=True)
     write_report("fe_opening", lines)

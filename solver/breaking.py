@@ -112,7 +112,7 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
     begin, breaks, t0 = Begin(zeros, zeros.copy()), [], spec.window.t_start
     stages, events, status, message, cracks = [], [], None, "", []
-    opening = p.hi / p.crack_speed                    # (0: each crack opens at once)
+    opening = p.crack_opening_time                    # (0: each crack opens at once)
     while True:
         later = times >= t0 if not stages else times > t0
         kernel_breaks = checked_breaks(p, s, breaks, full) if breaks else None

@@ -297,6 +297,11 @@ class Parameters:
 
     # --- derived quantities -------------------------------------------------------------
     @property
+    def crack_opening_time(self) -> float:
+        """hi / crack_speed [s]: how long a crack takes to cross the ice (0: at once)."""
+        return self.hi / self.crack_speed
+
+    @property
     def plate_mass(self) -> float:
         """m = rho_i hi [kg m-2]."""
         return self.rho_i * self.hi

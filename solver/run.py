@@ -325,7 +325,7 @@ def run_case(p, s, spec: RunSpec) -> Result:
     if spec.cracks:                                   # the cracks still opening (solver.model.crack)
         loads = parts.crack_loads(p, tab.floe, spec.cracks, spec.full_plate)
         tab.model = tab.model._replace(cracks=Cracks(loads, np.array([c.time for c in spec.cracks]),
-                                                     p.hi / p.crack_speed))
+                                                     p.crack_opening_time))
     a0, v0, carried = _begun(p, s, tab, spec)
     integrator = INTEGRATORS[s.integrator]
     control = _control(p, s, spec, tab, integrator, observers, answer)

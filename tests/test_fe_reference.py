@@ -222,7 +222,7 @@ def test_with_an_opening_crack_the_elements_break_through_where_and_when_the_sol
     the elements' own change from 2 cm to 1 cm (0.63187 -> 0.63217 ms; 0.63224 at 0.5 cm)."""
     p = Parameters(Nmod=80, fracture="break", yield_strain=EPS_Y, crack_speed=2e4)
     ours = solve(p, Settings(quadrature="gauss"), fields=(), times=[0.0, 8e-4], t_end=8e-4).breaking
-    coarse, fine = (fe.breaking_run(p, spacing=spacing, t_end=8e-4, opening_time=p.hi / p.crack_speed)
+    coarse, fine = (fe.breaking_run(p, spacing=spacing, t_end=8e-4, opening_time=p.crack_opening_time)
                     for spacing in (0.02, 0.01))
     through = next(e for e in ours.breaks if e.broken_through)
     assert through.surface == fine[1][2] == "upper" and abs(through.x - fine[1][1]) < 0.011

@@ -418,7 +418,7 @@ def global_peak(eps, sign, basis, w, a):
     rise above a larger node elsewhere by up to (lambda_N dx)^2 / 8 of itself, 0.4% at N = 60).
     Returns (value, x, node). On a plate broken with a crack spacing, banded_peak: the peak
     where the tension is read."""
-    if banded(basis):
+    if banded(basis):             # (its own search: the unbanded one below is hot and stays bit for bit)
         v, x, j = banded_peak(eps, sign, basis, w, a)
         if j >= 0:
             return v, x, j
