@@ -157,8 +157,24 @@ def differences(base: dict, new: dict) -> list:
             else:
                 same = old == now or (old != old and now != now)
             if not same:
-                lines.append(f"{case}: {name} differs")
+                lines.append(f"{case}: {name} differs" + _by_how_much(old, now))
     return lines
+
+
+def _by_how_much(old, now) -> str:
+    """', by r of its largest' (the largest difference over the largest magnitude of old) where
+    both are numbers of one shape, else ''."""
+    try:
+        a, b = np.asarray(old, dtype=float), np.asarray(now, dtype=float)
+        if a.shape != b.shape or not a.size:
+            return ""
+        finite = np.isfinite(a) & np.isfinite(b)
+        scale = np.max(np.abs(a[finite])) if np.any(finite) else 0.0
+        if not np.array_equal(np.isfinite(a), np.isfinite(b)) or scale == 0.0:
+            return ""
+        return f", by {np.max(np.abs(a[finite] - b[finite])) / scale:.1e} of its largest"
+    except (TypeError, ValueError):
+        return ""
 
 
 def main(argv=None) -> int:

@@ -32,9 +32,9 @@ integrating by parts four times gives each coefficient in closed form,
     (beta^4 - mu^4) int_a^b psi cos(mu x) dx = [psi''' cos + mu psi'' sin - mu^2 psi' cos - mu^3 psi sin]_a^b,
 
 used away from resonance (Gauss-Legendre on the part where mu is near beta). A part's mode jumps to zero at a
-break, so c_mk falls only as 1 / k and A's series as k^-3: it is summed to K terms and the rest,
-sum_{k>K} of the jumps' products times sin^2(mu_k b) / mu_k^3, is added with sin^2 at its mean
-1/2 (Hurwitz zeta(3, K + 1)).
+break, so c_mk falls only as 1 / k and A's series as k^-3: it is summed to K terms and the rest
+is added in closed form to its second order, from the jumps of each mode's value and slope at
+its part's ends (jump_tail).
 
 **Wet modes.** With the dry amplitudes q (w = sum_m q_m psi_m), the part's mass and the added mass
 M = mirror m G + A, the stiffness K = mirror (D beta^4 + rho_w g) G (G = diag(int psi^2 dx)), and
@@ -80,6 +80,9 @@ RESONANCE = 0.05
 #: after them): the velocity carried then moves by < 1e-9 of itself (tests/test_parts.py), far
 #: below what the projection leaves out
 CARRY_TERMS = 2048
+#: cosines of a broken plate's added mass (channel_added_mass), the jumps' tail after them: 1e-12 of
+#: the largest entry (tests/test_parts.py)
+ADDED_MASS_TERMS = 2048
 #: the dry modes of a broken plate, each (Nd,): kind, wavenumber beta [m-1], centre c and
 #: half-length l [m] of the free-free beam it is a mode of (the cosine's: c the part's low end),
 #: the part [low, high] it lives on [m], the factor that gives it mean square 1 there, and the
@@ -178,13 +181,42 @@ def part_values(modes: PartModes, x, order=0) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     last = np.max(modes.highs)
 
-    def rows(sub):
+    def rows(sub):                   # (the modes of one part: one interval)
         out = np.zeros((sub.kinds.size, x.size))
-        for m in range(sub.kinds.size):
-            on = (x >= sub.lows[m]) & ((x < sub.highs[m]) | (sub.highs[m] == last))
-            out[m, on] = sub.norms[m] * raw_mode(sub.kinds[m], sub.betas[m], sub.centres[m], sub.halves[m], x[on], order)
+        on = (x >= sub.lows[0]) & ((x < sub.highs[0]) | (sub.highs[0] == last))
+        if np.any(on):
+            out[:, on] = sub.norms[:, None] * mode_block(sub, x[on], order)
         return out
     return _by_part(modes, ("values", x.tobytes(), order, float(last)), rows, x.size)
+
+
+def mode_block(modes: PartModes, x, order=0) -> np.ndarray:
+    """(Nd, X): raw_mode of every mode at x at once (unscaled): the elastic modes' trigonometric
+    and hyperbolic parts as floe.dry_mode's, broadcast over the modes (their end values by math,
+    as dry_mode's); a kind this does not know by raw_mode."""
+    xs = x[None, :] - modes.centres[:, None]
+    out = np.zeros((modes.kinds.size, x.size))
+    kinds, betas, halves = modes.kinds, modes.betas[:, None], modes.halves[:, None]
+    out[kinds == HEAVE] = 1.0 if order == 0 else 0.0
+    pitch = kinds == PITCH
+    if order < 2 and np.any(pitch):
+        out[pitch] = xs[pitch] / halves[pitch] if order == 0 else 1.0 / halves[pitch]
+    cosine = kinds == COSINE
+    if np.any(cosine):
+        out[cosine] = betas[cosine] ** order * np.cos(betas[cosine] * xs[cosine] + order * math.pi / 2.0)
+    for kind, trig, symmetric in ((SYMMETRIC, np.cos, True), (ANTISYMMETRIC, np.sin, False)):
+        on = kinds == kind
+        if not np.any(on):
+            continue
+        b, L, y = betas[on], halves[on], xs[on]
+        end = np.array([[(math.cos if symmetric else math.sin)(beta * half)] for beta, half in zip(b[:, 0], L[:, 0])])
+        ep, em = np.exp(b * (y - L)), np.exp(-b * (y + L))
+        even = (order % 2 == 0) == symmetric
+        den = 1.0 + np.exp(-2.0 * b * L) if symmetric else 1.0 - np.exp(-2.0 * b * L)
+        out[on] = b**order * trig(b * y + order * math.pi / 2) / end + b**order * (ep + em if even else ep - em) / den
+    for m in np.flatnonzero(~np.isin(kinds, (HEAVE, PITCH, COSINE, SYMMETRIC, ANTISYMMETRIC))):
+        out[m] = raw_mode(kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x, order)
+    return out
 
 
 #: Gauss-Legendre rule of 32 nodes on [-1, 1] (_gauss's panels)
@@ -217,11 +249,10 @@ def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
     ends = np.unique(np.concatenate([modes.lows, modes.highs]))
     cos_e, sin_e = np.cos(np.outer(ends, mu)), np.sin(np.outer(ends, mu))       # (E, K)
     out = np.zeros((Nd, mu.size))
+    at_ends = [modes.norms[:, None] * mode_block(modes, ends, j) for j in range(4)]     # (Nd, E) each
     for end_of, sign in ((modes.highs, 1.0), (modes.lows, -1.0)):
         e = np.searchsorted(ends, end_of)
-        d = np.array([[modes.norms[m] * float(raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m],
-                                                       modes.halves[m], end_of[m], j)) for j in range(4)]
-                      for m in range(Nd)])                                            # (Nd, 4)
+        d = np.stack([values[np.arange(Nd), e] for values in at_ends], axis=1)          # (Nd, 4)
         c, sn = cos_e[e], sin_e[e]
         out += sign * ((d[:, 3:4] - mu**2 * d[:, 1:2]) * c + (mu * d[:, 2:3] - mu**3 * d[:, 0:1]) * sn)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -242,29 +273,112 @@ def _coth_over(mu, H):
 def channel_added_mass(modes: PartModes, domain: float, mirror: float, rho_w: float, H: float = math.inf,
                        terms: int = 0, other: PartModes | None = None) -> np.ndarray:
     """A_mn [kg m-1] of the dry modes in the walls' channel (module docstring): ``terms`` cosines
-    (0: enough for 1e-12 of the largest entry, tests/test_parts.py), then the jumps' tail; with
-    ``other``, the added mass between modes (rows) and other's modes (columns)."""
-    from scipy.special import zeta           # (here: only a broken plate's tables need it)
+    (0: ADDED_MASS_TERMS, or 8 beta_max Lambda / pi if more, enough for 1e-12 of the largest entry,
+    tests/test_parts.py), then the jumps' tail (jump_tail); with ``other``, the added mass between
+    modes (rows) and other's modes (columns)."""
     other = modes if other is None else other
-    K = terms or max(16384, int(8 * max(np.max(modes.betas), np.max(other.betas)) * domain / math.pi))
+    K = terms or max(ADDED_MASS_TERMS, int(8 * max(np.max(modes.betas), np.max(other.betas)) * domain / math.pi))
     mu = math.pi * np.arange(1, K + 1) / domain
     c = (2.0 / domain) * cosine_integrals(modes, mu)
     c_other = c if other is modes else (2.0 / domain) * cosine_integrals(other, mu)
     A = mirror * (domain / 2.0) * rho_w * (c * _coth_over(mu, H)) @ c_other.T
-    # the tail: c_mk -> (2 / Lambda) [psi sin(mu x) / mu]_a^b; sin^2(mu_k b) at its mean 1/2
-    tail = mirror * rho_w * (1.0 / domain) * (domain / math.pi) ** 3 * zeta(3.0, K + 1.0)
-    for b in np.unique(np.concatenate([modes.lows, modes.highs])):
-        if 0.0 < b < domain:
-            A += tail * np.outer(_jumps(modes, b), _jumps(other, b))
-    return A
+    return A + mirror * rho_w * jump_tail(modes, other, domain, K)
 
 
-def _jumps(modes: PartModes, b) -> np.ndarray:
-    """(Nd,): each mode's jump at the break b (its value at a part's upper end minus at its lower)."""
+def jump_tail(modes: PartModes, other: PartModes, domain: float, K: int) -> np.ndarray:
+    """(Nd, No) [m2]: the added mass's cosines beyond the K-th over mirror rho_w. Integrating by parts,
+    a mode's cosine integral falls as its jumps at the part's ends e, of its value J_m(e) and of its
+    slope P_m(e) (the value at a part's upper end, minus at its lower; 0 at a sliding end):
+    I_mk = sum_e [J_m(e) sin(mu_k e) / mu_k + P_m(e) cos(mu_k e) / mu_k^2] + O(mu_k^-3). With
+    coth(mu_k H) = 1 there, mu_k = k pi / Lambda and the products of sines and cosines as sums,
+    the tail sum_{k > K} I_mk I_nk / mu_k is
+
+        (Lambda / pi)^3 sum_{e, f} J_m(e) J_n(f) [C3(e - f) - C3(e + f)] / 2
+      + (Lambda / pi)^4 sum_{e, f} (J_m(e) P_n(f) + P_m(f) J_n(e)) [S4(e + f) + S4(e - f)] / 2
+      + (Lambda / pi)^5 sum_{e, f} P_m(e) P_n(f) [C5(e - f) + C5(e + f)] / 2,
+
+    C_p, S_p(d) = sum_{k > K} (cos, sin)(k pi d / Lambda) / k^p (power_tail), times 2 / Lambda:
+    every pair of ends, the oscillating sums included, 1e-12 of the largest entry at 2048 terms
+    (tests/test_parts.py)."""
+    e = np.unique(np.concatenate([modes.lows, modes.highs, other.lows, other.highs]))
+    J, P = (np.array([_jumps(modes, b, order) for b in e]) for order in (0, 1))         # (E, Nd)
+    J_o, P_o = (J, P) if other is modes else (np.array([_jumps(other, b, order) for b in e]) for order in (0, 1))
+    minus, plus = (math.pi * (e[:, None] - e[None, :]) / domain, math.pi * (e[:, None] + e[None, :]) / domain)
+    C3 = 0.5 * (cosine_tail(minus, K) - cosine_tail(plus, K))
+    S4 = 0.5 * (np.imag(power_tail(plus, K, 4)) + np.imag(power_tail(minus, K, 4)))      # [e, f]: sin(e) cos(f)
+    C5 = 0.5 * (np.real(power_tail(minus, K, 5)) + np.real(power_tail(plus, K, 5)))
+    r = domain / math.pi
+    out = r**3 * (J.T @ C3 @ J_o) + r**4 * (J.T @ S4 @ P_o + P.T @ S4.T @ J_o) + r**5 * (P.T @ C5 @ P_o)
+    return (2.0 / domain) * out
+
+
+#: Gauss-Laguerre nodes and weights (weight e^-u) of cosine_tail, and the (K + 1) theta below which it
+#: takes the whole sum less the first K terms instead (the integrand's pole at u = i (K + 1) theta is
+#: then near the nodes): within 3e-15, the round-off of the whole sum (tests/test_parts.py)
+LAGUERRE_U, LAGUERRE_W = np.polynomial.laguerre.laggauss(40)
+LAGUERRE_FROM = 20.0
+
+
+def cosine_tail(theta, K: int) -> np.ndarray:
+    """sum_{k > K} cos(k theta) / k^3 for each theta [rad]. With k^-3 = int t^2 e^-kt dt / 2 and
+    the geometric sum under the integral, it is Re z^(K+1) int_0^inf u^2 e^-u / (1 - z e^(-u / (K
+    + 1))) du / (2 (K + 1)^3), z = e^(i theta), taken by Gauss-Laguerre (the denominator as 2 e^-s
+    sin^2(theta / 2) - expm1(-s) - i e^-s sin(theta): no cancellation); where (K + 1) theta (theta
+    taken to [0, pi]) is below LAGUERRE_FROM, as clausen_cosine(theta) less the first K terms
+    (zeta(3, K + 1) at theta = 0)."""
+    from scipy.special import zeta
+    theta = np.asarray(theta, dtype=float)
+    reduced = np.abs(np.remainder(theta.ravel() + math.pi, 2.0 * math.pi) - math.pi)    # cos(k theta): even, 2 pi periodic
+    n = K + 1.0
+    s = LAGUERRE_U / n
+    decay = np.exp(-s)
+    denominator = (2.0 * decay * np.sin(0.5 * reduced[:, None]) ** 2 - np.expm1(-s)) - 1j * decay * np.sin(reduced[:, None])
+    integral = (LAGUERRE_U**2 / denominator) @ LAGUERRE_W
+    out = np.real(np.exp(1j * n * reduced) * integral) / (2.0 * n**3)
+    near = (n * reduced < LAGUERRE_FROM) & (reduced > 0.0)
+    if np.any(near):
+        k = np.arange(1.0, n)
+        out[near] = clausen_cosine(reduced[near]) - np.cos(np.outer(reduced[near], k)) @ k**-3.0
+    out[reduced == 0.0] = zeta(3.0, n)
+    return out.reshape(theta.shape)
+
+
+def power_tail(theta, K: int, p: int) -> np.ndarray:
+    """sum_{k > K} e^(i k theta) / k^p for each theta [rad], by cosine_tail's Gauss-Laguerre alone
+    (within 1e-4 of the sum's largest, zeta(p, K + 1), where (K + 1) theta is small: enough for the
+    tail's second order, p = 4 and 5)."""
+    theta = np.asarray(theta, dtype=float)[..., None]
+    n = K + 1.0
+    s = LAGUERRE_U / n
+    decay = np.exp(-s)
+    denominator = (2.0 * decay * np.sin(0.5 * theta) ** 2 - np.expm1(-s)) - 1j * decay * np.sin(theta)
+    integral = np.sum(LAGUERRE_W * LAGUERRE_U ** (p - 1) / denominator, axis=-1)
+    return np.exp(1j * n * theta[..., 0]) * integral / (math.gamma(p) * n**p)
+
+
+def clausen_cosine(theta) -> np.ndarray:
+    """sum_{k >= 1} cos(k theta) / k^3 for 0 <= theta <= pi: zeta(3) - 3 theta^2 / 4 + theta^2
+    ln(theta) / 2 - sum_{n >= 1} zeta(2n) theta^(2n+2) / (n (2n+1) (2n+2) (2 pi)^(2n)) (twice
+    integrated from the Clausen function's series; 30 terms: 4^-30 at theta = pi)."""
+    from scipy.special import zeta
+    theta = np.asarray(theta, dtype=float)
+    n = np.arange(1, 31, dtype=float)
+    series = (zeta(2.0 * n) / (n * (2 * n + 1) * (2 * n + 2) * (2.0 * math.pi) ** (2 * n))) @ \
+        (theta[None, :] ** (2 * n[:, None] + 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log_term = np.where(theta > 0.0, 0.5 * theta**2 * np.log(np.where(theta > 0.0, theta, 1.0)), 0.0)
+    return zeta(3.0) - 0.75 * theta**2 + log_term - series
+
+
+def _jumps(modes: PartModes, b, order: int = 0) -> np.ndarray:
+    """(Nd,): each mode's jump at the break b, of its value (order 0) or a derivative (its value at a
+    part's upper end minus at its lower)."""
     jump = np.zeros(modes.kinds.size)
-    for m in np.flatnonzero((modes.highs == b) | (modes.lows == b)):
-        value = modes.norms[m] * float(raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], b))
-        jump[m] = value if modes.highs[m] == b else -value
+    at = np.flatnonzero((modes.highs == b) | (modes.lows == b))
+    if at.size:
+        sub = PartModes(*(field[at] for field in modes))
+        value = sub.norms * mode_block(sub, np.array([float(b)]), order)[:, 0]
+        jump[at] = np.where(sub.highs == b, value, -value)
     return jump
 
 
@@ -319,11 +433,13 @@ def carry_state(p, wet: WetParts, a, adot):
     M, omega, _ = p.mode_constants(lam)
     X = wet.mirror * cosine_integrals(wet.modes, lam)                 # <psi_m, cos_n>
     bending = np.zeros_like(X)                                         # <psi_m'', cos_n''>
-    for m in range(X.shape[0]):
-        x, w = _gauss(wet.modes, m, np.max(lam))
-        modes = wet.modes
-        curvature = modes.norms[m] * raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x, 2)
-        bending[m] = -wet.mirror * lam**2 * ((w * curvature) @ np.cos(np.outer(x, lam)))
+    for part in np.unique(wet.modes.parts):
+        on = np.flatnonzero(wet.modes.parts == part)
+        # one rule for the part: panels for its fastest mode against the fastest cosine
+        x, w = _gauss(wet.modes, on[np.argmax(wet.modes.betas[on])], np.max(lam))
+        sub = PartModes(*(field[on] for field in wet.modes))
+        curvature = sub.norms[:, None] * mode_block(sub, x, 2)
+        bending[on] = -wet.mirror * lam**2 * ((curvature * w) @ np.cos(np.outer(x, lam)))
     stiffness = p.rigidity * bending + p.rho_w * p.g * X
     b = (wet.Q.T @ (stiffness @ np.asarray(a))) / wet.omega**2
     bdot = wet.Q.T @ ((X * M[None, :]) @ np.asarray(adot))
