@@ -6,7 +6,7 @@ STUDY  ?= speed_sweep
 ARGS   ?=
 
 .DEFAULT_GOAL := help
-.PHONY: help setup docs docs-check architecture-numbers study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
+.PHONY: help setup warm-kernels docs docs-check architecture-numbers study status test test-slow test-portable test-cluster bench bench-quadrature bench-scale bench-answered bench-integrator bench-revisions bit-for-bit fingerprint regenerate-reference variables-table clean
 
 help:  ## list the targets
 	@grep -E '^[a-z-]+:.*## ' $(MAKEFILE_LIST) | awk -F':.*## ' '{printf "  make %-22s %s\n", $$1, $$2}'
@@ -17,9 +17,13 @@ $(VENV)/.installed: pyproject.toml
 	@# setuptools warns on every editable install of a flat layout that a folder named like a
 	@# package could shadow it; here those folders are the packages, so that one warning is muted
 	PYTHONWARNINGS="ignore:Editable installation" $(VENV)/bin/pip install --quiet -e ".[test]"
+	$(MAKE) --no-print-directory warm-kernels PY=$(VENV)/bin/python
 	touch $@
 
-setup: $(VENV)/.installed  ## create .venv and install the package with its test extras
+setup: $(VENV)/.installed  ## create .venv and install the package with its test extras, its kernels compiled (warm-kernels)
+
+warm-kernels:  ## compile the solver's kernels into their cache, as the tests' start does (about 40 s once; make setup runs it)
+	$(PY) -c "import subprocess, sys; from solver import compile_kernels; helper = subprocess.Popen([sys.executable, 'tests/warm_kernels.py']); compile_kernels(); sys.exit(helper.wait())"
 
 $(VENV)/.docs-installed: $(VENV)/.installed pyproject.toml
 	PYTHONWARNINGS="ignore:Editable installation" $(VENV)/bin/pip install --quiet -e ".[test,docs]"
@@ -60,8 +64,8 @@ PORTABLE_TESTS := tests/test_axes.py tests/test_body_mass.py tests/test_body_sha
 NO_AVX512 := X86_V4 AVX512_ICL AVX512_SPR
 
 test-portable: setup  ## the numerics-bearing tests as on other CPUs: numpy without AVX-512 + numba for haswell; numpy's SSE baseline + numba generic
-	NPY_DISABLE_CPU_FEATURES="$(NO_AVX512)" NUMBA_CPU_NAME=haswell $(PY) -m pytest -q -n 2 --dist loadfile $(PORTABLE_TESTS)
-	NPY_DISABLE_CPU_FEATURES="X86_V3 $(NO_AVX512)" NUMBA_CPU_NAME=generic $(PY) -m pytest -q -n 2 --dist loadfile $(PORTABLE_TESTS)
+	NPY_DISABLE_CPU_FEATURES="$(NO_AVX512)" NUMBA_CPU_NAME=haswell $(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not cluster" $(PORTABLE_TESTS)
+	NPY_DISABLE_CPU_FEATURES="X86_V3 $(NO_AVX512)" NUMBA_CPU_NAME=generic $(PY) -m pytest -q -n 2 --dist loadfile -m "not slow and not cluster" $(PORTABLE_TESTS)
 
 test-cluster: setup  ## a one-node SLURM from Debian's packages (root; installed if missing), then the tests marked cluster: studies through --cluster slurm (a job cancelled, workers retiring, a Ctrl-C), a killed dask worker, a stand-in PBS
 	tests/cluster/slurm.sh up
@@ -69,8 +73,8 @@ test-cluster: setup  ## a one-node SLURM from Debian's packages (root; installed
 		tests/test_slurm_teardown.py; status=$$?; \
 	tests/cluster/slurm.sh down; exit $$status
 
-test-slow: setup  ## only the long tests (marked slow)
-	$(PY) -m pytest -q -n 2 --dist loadfile -m slow --durations=10
+test-slow: setup  ## only the long tests (marked slow) and the heavy ones (marked heavy: make test-portable runs them too)
+	$(PY) -m pytest -q -n 2 --dist loadfile -m "slow or heavy" --durations=10
 
 bench-compile: setup  ## the first compile from an empty cache, beside the number README.md gives (CI prints it)
 	$(PY) benchmarks/first_compile.py

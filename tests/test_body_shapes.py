@@ -102,6 +102,7 @@ def test_energy_identity_on_a_wedge_falls_as_dx_squared():
     assert max(gauss) < 1e-6 and max(gauss) < 0.1 * res[-1], (gauss, res)
 
 
+@pytest.mark.heavy
 def test_wedge_agrees_with_dop853():
     """The Gauss rule (the default) resolves the apex: the 10-degree wedge bottoms out at
     0.1785 t_sc, and the two integrators agree up to just before it. The paper's rule at 1000

@@ -18,6 +18,7 @@ def test_energy_residual_small_for_rk4_at_paper_rule():
     assert r.diagnostics["energy_residual"] < 1e-3
 
 
+@pytest.mark.heavy
 def test_energy_residual_second_order_in_subintervals():
     """The paper's rule (f linear between the nodes): its residual is its O(dx^2) quadrature
     error. The Gauss rule's is the time integration's (tests/test_quadrature.py)."""

@@ -64,6 +64,7 @@ def test_modal_part_reference_case():
     _check_modal_part(Parameters(), modes=(10, 20, 40), reference_modes=120)
 
 
+@pytest.mark.heavy
 def test_quadrature_part_reference_case():
     """The paper's rule: 4 x the energy residual against its O(dx^2) quadrature error."""
     p = Parameters(Nmod=20)

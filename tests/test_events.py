@@ -64,7 +64,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("name", CASES)
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.heavy) if n == "slow" else n for n in CASES])
 def test_crack_onset_at_default_tolerance_matches_tight_run(name):
     """Crack onset for 10 eps_Y at the default tolerance within 1e-5 of etd34 at 1e-12."""
     p = Parameters(**CASES[name])
@@ -151,7 +151,7 @@ def test_bottoming_time_converges_with_tolerance():
     assert np.max(np.abs(times / times[-1] - 1)) <= 1e-4
 
 
-@pytest.mark.parametrize("N", [12] + [pytest.param(n, marks=pytest.mark.slow) for n in (20, 40, 80)])
+@pytest.mark.parametrize("N", [pytest.param(12, marks=pytest.mark.heavy)] + [pytest.param(n, marks=pytest.mark.slow) for n in (20, 40, 80)])
 def test_bottoming_time_agrees_with_dop853(N):
     """(issue 35: make test checks 12 modes; 20, 40 and 80, 14 s and more each, in make test-slow)"""
     r = _bottoming(N, 1e-8)

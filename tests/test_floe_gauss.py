@@ -54,6 +54,7 @@ def _strain(**settings):
     return r.diagnostics["max_strain"], r.fields["strain"]
 
 
+@pytest.mark.heavy
 def test_both_rules_converge_to_one_answer_and_the_default_is_within_2e_6():
     """The continuous floe model at tolerance 1e-12: the rule at 16 nodes a wavelength. The
     paper's rule converges to it as dx^2 (measured: 1.0e-5, 2.5e-6, 6.2e-7 of max_strain at
@@ -72,7 +73,7 @@ def test_both_rules_converge_to_one_answer_and_the_default_is_within_2e_6():
 
 
 @pytest.mark.parametrize("changes", [dict(deadrise=10.0, x0=0.7, duration=0.004),
-                                     dict(flat_width=0.3, layer_tau=1e-3, duration=0.01),
+                                     pytest.param(dict(flat_width=0.3, layer_tau=1e-3, duration=0.01), marks=pytest.mark.heavy),
                                      dict(H=3.0, duration=0.01)])
 def test_dop853_on_the_same_right_hand_side(changes):
     """An off-centre wedge (full floe, both parities, a corner in the contact), a flat body on a

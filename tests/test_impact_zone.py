@@ -78,7 +78,7 @@ def test_a_margin_that_covers_a_walled_plate_leaves_the_zone_empty(x0, integrato
         assert np.isfinite(r.diagnostics["max_strain"])
 
 
-@pytest.mark.parametrize("changes", [dict(), dict(edges="free", duration=0.06)])
+@pytest.mark.parametrize("changes", [pytest.param(dict(), marks=pytest.mark.heavy), dict(edges="free", duration=0.06)])
 def test_zone_maxima_agree_with_dop853(changes):
     """DOP853 observes the zone on its own dense output (8 samples a step, Hermite between);
     the kernels at their step ends and on the dense output inside the steps that do not resolve
@@ -108,7 +108,7 @@ def test_zone_maxima_agree_with_dop853(changes):
         assert rel < 3e-6 and np.nanmax(np.abs(xa - xb)) < 1e-3
 
 
-@pytest.mark.parametrize("changes", [dict(V=1.0, Nmod=40), dict(hi=0.2, Nmod=40),
+@pytest.mark.parametrize("changes", [pytest.param(dict(V=1.0, Nmod=40), marks=pytest.mark.heavy), dict(hi=0.2, Nmod=40),
                                      dict(edges="free", L=2.0, duration=0.01, Nmod=40)])
 def test_zone_crack_onset_at_default_tolerance_matches_tight_run(changes):
     """All 42 yield strains of the default axis, both surfaces: crack onset in the zone at the

@@ -40,6 +40,7 @@ def _dop853_strain(p, times, x, rtol):
 PAPER = dict(quadrature="paper", subintervals=1000)
 
 
+@pytest.mark.heavy
 def test_three_integrators_agree_on_reference_case_20_modes(case20):
     p, times = case20
     etd = solve(p, Settings(tolerance=1e-12, **PAPER), times=times, fields=("strain",))
@@ -58,6 +59,7 @@ def test_three_integrators_agree_on_reference_case_20_modes(case20):
     assert e_paper <= 1e-3
 
 
+@pytest.mark.heavy
 def test_error_falls_with_tolerance(case20):
     p, times = case20
     ref = solve(p, Settings(tolerance=1e-12), times=times, fields=("strain",))
@@ -219,6 +221,7 @@ def test_dop853_reports_the_diagnostics(changes):
         np.testing.assert_allclose(td, te, rtol=1e-5, err_msg=surface)
 
 
+@pytest.mark.heavy
 def test_dop853_runs_the_kernels_observers_on_its_dense_output():
     """One set of observers (solver.scipy_reference): DOP853's tension records, contact record and
     impact zone come from the kernels' own observers run on its dense output, so they answer

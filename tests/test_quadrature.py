@@ -173,7 +173,8 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("name, N", [("reference", 12), pytest.param("reference", 20, marks=pytest.mark.slow)]
+@pytest.mark.parametrize("name, N", [pytest.param("reference", 12, marks=pytest.mark.heavy),
+                                     pytest.param("reference", 20, marks=pytest.mark.slow)]
                          + [pytest.param(n, 20, marks=pytest.mark.slow) for n in CASES if n != "reference"])
 def test_gauss_against_dop853_on_the_same_rhs(name, N):
     """(issue 35: make test checks 12 modes, 7 s; 20 modes and the off-centre case, 19 s and more

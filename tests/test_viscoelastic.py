@@ -134,6 +134,7 @@ def test_energy_identity_with_the_dissipated_energy():
     assert np.all(np.diff(r.dissipated_energy[ok]) >= 0)
 
 
+@pytest.mark.heavy
 def test_damped_impact_agrees_with_dop853():
     p = Parameters(Nmod=20, tau=1e-4)
     kinds = Tables(p, 64).model.plate.modes[KIND]
@@ -205,6 +206,7 @@ def test_viscoelastic_layer_energy_identity_and_pressure():
     assert np.all(r.fields["layer_pressure"][r.valid] >= 0.0)       # the layer never pulls
 
 
+@pytest.mark.heavy
 def test_viscoelastic_layer_agrees_with_dop853():
     p = Parameters(Nmod=20, layer_tau=1e-4)
     a, b = against_dop853(p, 0.3 * p.stage_duration)

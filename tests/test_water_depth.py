@@ -50,6 +50,7 @@ def test_energy_identity_holds_in_shallow_water():
     assert not np.allclose(r.fields["strain"][3], deep.fields["strain"][0], rtol=1e-2)   # it matters
 
 
+@pytest.mark.heavy
 def test_strain_converges_to_deep_water_as_exp_minus_2_lambda1_H():
     times = np.linspace(0.0, 1.5, 7) * Parameters().time_scale
     settings = Settings(tolerance=1e-12, error_estimate=False)
