@@ -15,7 +15,7 @@ round-off or better); --dropped, seeds 1-4: none flagged, worst 7.2e-7. With --t
 11-13, 90 cases, and 20 dropped at seed 11) every case breaks at the same times, places and
 surfaces as at the default tolerance (within 1e-4 and 1 cm); with --modes 60 80 (seed 21, 20
 cases) 5 differ, and 3 with --crack-speed 20000: each time the tight run makes a break the default
-does not (3 of them 1 to 16 us after an earlier break, 5 of them 70 us to 1.2 ms after), and the
+does not (3 of them 1 to 16 us after an earlier break, 5 of them 68 us to 0.58 ms after), and the
 cascade after it differs (docs/model.md, "Why a stage starts with a short step").
 """
 from __future__ import annotations
