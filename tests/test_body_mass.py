@@ -63,6 +63,7 @@ def strain_error(p, t_end):
                             for f in (0.8, 1.0, 1.25)]))
 
 
+@pytest.mark.heavy
 def test_a_free_body_is_as_accurate_as_the_papers_body():
     """Every free body, light or heavy, is within 2x of the paper body's error at the default
     tolerance (N = 30, 0..2 t_sc, body_g = 0). Two defects of the step control made it 29x (M =

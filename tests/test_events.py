@@ -64,7 +64,7 @@ CASES = {
 }
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.heavy) if n == "slow" else n for n in CASES])
+@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.heavy) if n in ("slow", "fast, thick ice") else n for n in CASES])
 def test_crack_onset_at_default_tolerance_matches_tight_run(name):
     """Crack onset for 10 eps_Y at the default tolerance within 1e-5 of etd34 at 1e-12."""
     p = Parameters(**CASES[name])

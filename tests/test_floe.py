@@ -92,6 +92,7 @@ def _run(p, **settings):
     return solve(p, Settings(**{**FLOE, **settings}), fields=("deflection", "strain"))
 
 
+@pytest.mark.heavy
 def test_floe_energy_identity_and_dop853():
     """The energy identity with the floe's rigid-body kinetic and hydrostatic energy (the wet
     modes' plate energy), and DOP853 on the same right-hand side within 1e-6 of the largest

@@ -74,7 +74,7 @@ def test_both_rules_converge_to_one_answer_and_the_default_is_within_2e_6():
 
 @pytest.mark.parametrize("changes", [dict(deadrise=10.0, x0=0.7, duration=0.004),
                                      pytest.param(dict(flat_width=0.3, layer_tau=1e-3, duration=0.01), marks=pytest.mark.heavy),
-                                     dict(H=3.0, duration=0.01)])
+                                     pytest.param(dict(H=3.0, duration=0.01), marks=pytest.mark.heavy)])
 def test_dop853_on_the_same_right_hand_side(changes):
     """An off-centre wedge (full floe, both parities, a corner in the contact), a flat body on a
     viscoelastic layer, and a floe on water 3 m deep: etd34 at 1e-11 against DOP853 at 1e-13, within 1e-7 of the
