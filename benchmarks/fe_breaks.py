@@ -99,21 +99,30 @@ def main():
     for N in args.modes:
         p, (b1, b2), runs = solver_runs(N, x=x)
         for name, (breaks, times, result) in runs.items():
-            strains = {}
-            for spacing in args.spacing:
-                started = time.perf_counter()
-                strain, force, residual = fe.run(p, breaks, times, x, spacing=spacing, dt=DT)
-                spent = time.perf_counter() - started
-                strains[spacing] = strain
-                s_diff, f_diff = agreement(strain, force, result, breaks, x)
-                where = ", ".join(f"{1e3 * t:.5f}, {b:.4f}" for t, b in breaks) or "none"
-                lines.append(f"| {N} | {name} | {where} | {spacing:g} | {s_diff:.2e} | {f_diff:.2e} | {residual:.1e} "
-                             f"| {spent:.1f} |")
-            if len(strains) > 1:
-                fine, own = own_uncertainty(strains, result, breaks, x)
-                lines.append(f"| {N} | {name} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
-            print(lines[-1], flush=True)
+            lines += spacing_rows(f"{N} | {name}", p, breaks, times, x, result, args.spacing)
     write_report("fe_breaks", lines)
+
+
+def spacing_rows(first, p, breaks, times, x, result, spacings, opening_time=0.0) -> list:
+    """The report's rows of the elements at each spacing through ``breaks`` (cracks opening over
+    opening_time [s]) against the solver's Result: '| first | breaks | spacing | strain | force |
+    residual | seconds |', then the elements' own uncertainty where there are two spacings or more
+    (each row printed as it comes)."""
+    rows, strains = [], {}
+    where = ", ".join(f"{1e3 * t:.5f}, {b:.4f}" for t, b in breaks) or "none"
+    for spacing in spacings:
+        started = time.perf_counter()
+        strain, force, residual = fe.run(p, breaks, times, x, spacing=spacing, dt=DT, opening_time=opening_time)
+        strains[spacing] = strain
+        s_diff, f_diff = agreement(strain, force, result, breaks, x)
+        rows.append(f"| {first} | {where} | {spacing:g} | {s_diff:.2e} | {f_diff:.2e} | {residual:.1e} "
+                    f"| {time.perf_counter() - started:.1f} |")
+        print(rows[-1], flush=True)
+    if len(strains) > 1:
+        fine, own = own_uncertainty(strains, result, breaks, x)
+        rows.append(f"| {first} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
+        print(rows[-1], flush=True)
+    return rows
 
 
 if __name__ == "__main__":

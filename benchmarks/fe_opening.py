@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -20,8 +19,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent
 sys.path.insert(0, str(ROOT.parent / "tests"))
 sys.path.insert(0, str(ROOT))
-import fe_reference as fe  # noqa: E402
-from fe_breaks import AWAY, DT, EPS_Y, WINDOW, agreement, own_uncertainty  # noqa: E402
+from fe_breaks import AWAY, DT, EPS_Y, WINDOW, spacing_rows  # noqa: E402
 from report import write_report  # noqa: E402
 
 from solver import Parameters, Settings, solve  # noqa: E402
@@ -48,21 +46,7 @@ def main():
         ours = solve(p, Settings(quadrature="gauss", tolerance=1e-10), fields=("strain",), x=x, times=times,
                      t_end=times[-1])
         breaks = [(e.time, e.x) for e in ours.breaking.breaks]
-        strains = {}
-        for spacing in args.spacing:
-            started = time.perf_counter()
-            strain, force, residual = fe.run(p, breaks, times, x, spacing=spacing, dt=DT,
-                                             opening_time=p.crack_opening_time)
-            strains[spacing] = strain
-            s_diff, f_diff = agreement(strain, force, ours, breaks, x)
-            where = ", ".join(f"{1e3 * t:.5f}, {b:.4f}" for t, b in breaks)
-            lines.append(f"| {N} | {where} | {spacing:g} | {s_diff:.2e} | {f_diff:.2e} | {residual:.1e} "
-                         f"| {time.perf_counter() - started:.1f} |")
-            print(lines[-1], flush=True)
-        if len(strains) > 1:
-            fine, own = own_uncertainty(strains, ours, breaks, x)
-            lines.append(f"| {N} | | own uncertainty at {fine:g} m | {own:.2e} | | | |")
-            print(lines[-1], flush=True)
+        lines += spacing_rows(f"{N}", p, breaks, times, x, ours, args.spacing, p.crack_opening_time)
     write_report("fe_opening", lines)
 
 
