@@ -18,7 +18,7 @@ from .model.basis import global_peak, node_strain
 from .model.body import body_position, body_speed
 from .model.contact import gap_peak
 from .model.plate import STRAIN, mode_a, mode_adot
-from .observe.events import event_value, locate_event, value_after
+from .observe.events import Scan, event_value, locate_event, value_after
 from .observe.tension import PEAKS, STEP_BEST
 
 #: an event that ends the run inside an accepted step: its kind (NO_EVENT, BOTTOMING, BREAK), and
@@ -63,17 +63,20 @@ def _may_bottom(model, control, gap0, gap1, h):
 
 
 @kernel(inline="llvm", nrt=True)
-def _locate_break(ws, level, start, carried, t, h, upper, lower):
+def _locate_break(ws, level, start, carried, t, h, upper, lower, observed):
     """The first time in the accepted step [t, t + h] at which the tension of a surface that may
     reach the break level in it (upper, lower) does, located on true sub-steps as the levels are
-    (from each surface's peak at t, ws.peaks0): (s, F, jmax, W, place, surface), surface -1
-    where neither did, as a Located; ws.sub then holds the state at t + s (the last sub-step below
-    the level)."""
+    (from each surface's peak at t, ws.peaks0; a surface not yet armed, ws.armed, from the first
+    sub-step below the level: locate_event's rearm; observed: the tension observer saw the step,
+    and the scan takes in the time of its largest tension): (s, F, jmax, W, place, surface),
+    surface -1 where neither did, as a Located; ws.sub then holds the state at t + s (the last
+    sub-step below the level)."""
     first, surface = h, -1
     for s in range(2):
         if upper if s == 0 else lower:
+            hint = ws.tension.track[STEP_BEST + s, 1] - t if observed else -1.0
             lo, hi, F, jm, w, found = locate_event(ws.stepper, 1.0 - 2.0 * s, level, start, carried, t, h,
-                                                   ws.peaks0[s], ws.sub, ws.value)
+                                                   Scan(ws.peaks0[s], ws.armed[s] == 0.0, hint), ws.sub, ws.value)
             if found and (surface < 0 or lo < first):
                 first, surface = lo, s
     F, jm, w = 0.0, 0, 0.0
@@ -97,7 +100,7 @@ def ending_event(model, ws, control, start, carried, t, h, new, diag):
     level, tw, armed = control.break_level, ws.tension, ws.armed
     if _may_bottom(model, control, ws.gap0, ws.gap1, h):
         s_b, _, F, jm, w, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, start, carried, t, h,
-                                               ws.gap0, ws.sub, ws.value)
+                                               Scan(ws.gap0, False, -1.0), ws.sub, ws.value)
         if found:                    # (where the interpolant's crossing was not real, the step stays)
             copy_into(ws.gap1, ws.value, 3)
             copy_state(ws.sub, new)
@@ -109,20 +112,24 @@ def ending_event(model, ws, control, start, carried, t, h, new, diag):
     lower = armed[1] > 0.0 and _peak_reaches(model, new.eps, new.a, -1.0, level)
     for s in range(2):
         copy_into(ws.peaks0[s], tw.track[PEAKS + s], 4)
-    return _cut_at_break(model, ws, _locate_break(ws, level, start, carried, t, h, upper, lower), t, h, new, diag)
+    return _cut_at_break(model, ws, _locate_break(ws, level, start, carried, t, h, upper, lower, False), t, h,
+                         new, diag)
 
 
 @kernel(nrt=True)
 def break_inside_step(model, ws, control, start, carried, t, h, new, diag):
     """After the observers saw the accepted step [t, t + h] (the run breaks, control.break_level
     finite, and no event cut it): a break an armed surface's peak tension reached only inside the
-    step (the tension observer's largest over it), located on true sub-steps (the adapter then
-    drops the tension records' rows past it); else each surface is armed once its peak at the
-    step's end is below the level. Returns an EventCut."""
+    step (the tension observer's largest over it), or a surface not yet armed whose peak fell
+    below the level inside the step (the observer's smallest sample) and reached it again,
+    located on true sub-steps (the adapter then drops the tension records' rows past it); else
+    each surface is armed once its peak at the step's end is below the level. Returns an
+    EventCut."""
     level, tw, armed = control.break_level, ws.tension, ws.armed
-    upper = armed[0] > 0.0 and tw.track[STEP_BEST, 0] >= level
-    lower = armed[1] > 0.0 and tw.track[STEP_BEST + 1, 0] >= level
-    cut = _cut_at_break(model, ws, _locate_break(ws, level, start, carried, t, h, upper, lower), t, h, new, diag)
+    upper = tw.track[STEP_BEST, 0] >= level and (armed[0] > 0.0 or tw.track[STEP_BEST, 3] < level)
+    lower = tw.track[STEP_BEST + 1, 0] >= level and (armed[1] > 0.0 or tw.track[STEP_BEST + 1, 3] < level)
+    cut = _cut_at_break(model, ws, _locate_break(ws, level, start, carried, t, h, upper, lower, True), t, h, new,
+                        diag)
     if cut.kind == NO_EVENT:
         arm_breaks(model, armed, new.eps, new.a, level)
     return cut

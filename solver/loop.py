@@ -39,11 +39,11 @@ from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, a
 from .observe.body import observe_body
 from .observe.contacts import Snapshot, contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
-from .observe.events import locate_event
+from .observe.events import Scan, locate_event
 from .observe.layer_maxima import LayerEnds, finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import Rows, SurfaceRows, append_row
 from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, DenseStates, StepStrains, dense_due, global_state,
-                              observe_tensions, tension_work)
+                              observe_tensions, tension_work, watch_level)
 from .observe.reach import Span
 from .observe.zone import ZoneEnds, observe_zone, zone_work
 from .step import G_ROW, Carried, Coefficients, Start, State, StepWork, Stepper, etd_coefficients, take_step
@@ -267,7 +267,7 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
         for i in range(levels.shape[0]):
             if math.isnan(out.level_t[s, i]) and levels[i] <= rm:
                 lo, hi, _, _, _, found = locate_event(ws.stepper, 1.0 - 2.0 * s, levels[i], start, carried, t, h,
-                                                      ws.peaks0[s], ws.sub, ws.value)
+                                                      Scan(ws.peaks0[s], False, -1.0), ws.sub, ws.value)
                 if found:
                     out.level_t[s, i] = t + 0.5 * (lo + hi)
                     out.level_x[s, i] = ws.value[2]
@@ -333,6 +333,7 @@ def integrate(method, model, control, t_out, a0, adot0, levels, out):
     N, J, T, diag = a0.shape[0], model.basis.cosq.shape[1], t_out.shape[0], out.diag
     start_diagnostics(diag, control.t_start)
     ws = new_workspace(method, model, N, J, control.zone_margin)
+    watch_level(ws.tension, control.break_level)
     # what a step reads of the work space, bound once (numba counts a reference to every array
     # of a tuple each time the tuple is bound to a name: the Workspace holds some sixty)
     step_work, stepper, sub, value, gap0, gap1 = ws.work, ws.stepper, ws.sub, ws.value, ws.gap0, ws.gap1

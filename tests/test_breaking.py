@@ -164,6 +164,54 @@ def test_the_cascade_at_the_default_tolerance_is_the_tight_one():
     assert runs[0].breaks[2].time - runs[0].breaks[1].time < 1.5e-5
 
 
+def _breaks_at_default_and_tight(p, t_end, outputs=2):
+    """The breaks of p to t_end at the default tolerance and at 3e-9 (etd34), with the given
+    number of output times (a step ends at each)."""
+    times = np.linspace(0.0, t_end, outputs)
+    return [solve(p, Settings(error_estimate=False, tolerance=tol), fields=(), times=times, t_end=t_end)
+            .breaking.breaks for tol in (Settings().tolerance, 3e-9)]
+
+
+def _assert_same_breaks(default, tight):
+    assert [(e.surface, e.parts) for e in default] == [(e.surface, e.parts) for e in tight]
+    for d, t in zip(default, tight):
+        assert d.time == pytest.approx(t.time, rel=1e-6)
+        assert d.x == pytest.approx(t.x, abs=1e-3)
+
+
+def test_a_surface_the_carried_peak_disarmed_breaks_once_it_fell_below_inside_a_step():
+    """After a break at the centre the carried lower tension stands above eps_Y (disarmed,
+    solver.ending.arm_breaks), falls below it and rises to it again at 0.176 m, 3.6 us later,
+    all within one of etd34's steps at the default tolerance: the surface re-arms where its
+    sampled peak fell below (the tension observer's smallest sample) and the break is located
+    after that (locate_event's rearm), as at tolerance 3e-9. Without it the default run broke
+    next 0.49 ms later, elsewhere (benchmarks/breaking_sweep.py --seed 21 --modes 60 80, case 8)."""
+    p = Parameters(V=1.191199063310231, hi=1.0, Nmod=60, layer_tau=1e-4, fracture="break",
+                   yield_strain=1.2499419400101782e-4)
+    default, tight = _breaks_at_default_and_tight(p, 2.64e-3)
+    assert [e.surface for e in tight] == ["lower", "lower"]
+    assert tight[1].time - tight[0].time == pytest.approx(3.6e-6, abs=0.1e-6)
+    assert tight[1].x == pytest.approx(0.176, abs=1e-3)
+    _assert_same_breaks(default, tight)
+
+
+@pytest.mark.heavy
+def test_a_short_peak_elsewhere_inside_a_step_breaks_there():
+    """After a break at 2.401 m a lower-surface peak at 0.9 m rises from 8 % below eps_Y to it
+    and falls back within one step at the default tolerance (N = 80), above eps_Y for less than
+    the locate's scan spacing: a run that breaks samples every step within BREAK_RIPPLE of the
+    level, searches the global peak at its samples (tension._elsewhere), and scans the step at
+    the observer's largest tension (locate_event's hint); it breaks at 1.68932 ms at 0.917 m as
+    at tolerance 3e-9. Without them it broke 10 us later at 0.79 m and the cascade after differed
+    (benchmarks/breaking_sweep.py --seed 21 --modes 60 80, case 2: its 31 output times set the
+    steps; with two output times the step sequence differs and the old run did not miss it)."""
+    p = Parameters(V=3.22172809812655, hi=1.0, Nmod=80, body_p=4.0, flat_width=0.1, fracture="break",
+                   yield_strain=2.0472864964281878e-4)
+    default, tight = (breaks[:2] for breaks in _breaks_at_default_and_tight(p, 4e-3, outputs=31))
+    assert [(e.surface, round(e.x, 3)) for e in tight] == [("upper", 2.401), ("lower", 0.917)]
+    _assert_same_breaks(default, tight)
+
+
 def test_a_crack_spacing_keeps_the_breaks_apart_and_its_band_unread():
     """crack_spacing = 1 (hi = 0.5 m; docs/model.md, "The crack spacing"): no break within 0.5 m
     of an earlier one (nor of the centre's), the tension records after each break read only beyond

@@ -7,6 +7,7 @@ Benchmark (tests/test_events.py): the bottoming time converges with the toleranc
 with DOP853's (test_bottoming_time_agrees_with_dop853); bottomed-out data never reaches delta = 1.
 """
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -19,6 +20,13 @@ from ..step import substep
 
 #: an event is bracketed by scanning its step at SCAN sub-steps, so the first crossing is found
 SCAN = 8
+#: where locate_event's scan starts and what it looks at: p0 the (value, rate) at the step's
+#: start; rearm: a value that starts at or above the level reaches it only after the scan found
+#: it below (a surface that breaks once its tension fell below the break level,
+#: solver.ending.arm_breaks); hint: a sub-step in (0, h) where the value is largest (an
+#: observer's sample, scanned in its turn: a crossing shorter than the scan's spacing is found
+#: there), or -1
+Scan = namedtuple("Scan", "p0 rearm hint")
 
 
 @kernel(nrt=True)
@@ -49,11 +57,12 @@ def value_after(stepper, kind, level, start, carried, t, s, out, value):
 
 
 @kernel
-def locate_event(stepper, kind, level, start, carried, t, h, p0, out, value):
+def locate_event(stepper, kind, level, start, carried, t, h, scan, out, value):
     """First time in the accepted step [t, t + h] at which event_value(kind) reaches level,
     found on true sub-steps of the integrator from (t, start): Illinois regula falsi, bisection
-    where a sub-step fails (a stage with delta >= 1 counts as past the level). p0: (value,
-    rate) at t (the step is scanned at SCAN points first).
+    where a sub-step fails (a stage with delta >= 1 counts as past the level). The step is
+    scanned at SCAN points first, from scan.p0, the (value, rate) at t (a Scan; unless
+    scan.rearm, the first scan point at or above the level brackets the event).
 
     On return out holds the state at t + s_lo, the last sub-step still below the level (so a
     located bottoming ends on a state with delta < 1 everywhere), value its event value.
@@ -61,12 +70,17 @@ def locate_event(stepper, kind, level, start, carried, t, h, p0, out, value):
     """
     # the first crossing: scan the step forward on sub-steps to the first point past the level
     # (the value may cross the level more than once within a step, as two peaks take turns)
-    lo, f_lo = 0.0, p0[0] - level
+    lo, f_lo, rearm, hint = 0.0, scan.p0[0] - level, scan.rearm, scan.hint
     hi, f_hi = -1.0, 0.0
-    for k in range(1, SCAN + 1):
+    k, hinted = 1, not 0.0 < hint < h
+    while k <= SCAN:
         sk = h * k / SCAN
+        if not hinted and hint < sk:
+            sk, hinted = hint, True
+        else:
+            k += 1
         f, F, jm, w = value_after(stepper, kind, level, start, carried, t, sk, out, value)
-        if f >= 0.0:
+        if f >= 0.0 and not (rearm and f_lo >= 0.0):
             hi, f_hi = sk, f
             break
         lo, f_lo = sk, f

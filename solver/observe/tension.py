@@ -39,24 +39,35 @@ RESOLVED = 0.4
 #: a step whose end interpolant stays RIPPLE (relative) below the running maximum cannot raise
 #: it (the wobble inside a step is ~3e-4): it is not sampled
 RIPPLE = 1e-2
+#: in a run that breaks, a step whose peak stays BREAK_RIPPLE (relative) below the break level
+#: is not sampled: another peak may rise and fall inside a step that does not resolve the
+#: waves (8 % within 4 us at N = 80, benchmarks/breaking_sweep.py --seed 21, case 2)
+BREAK_RIPPLE = 0.5
 #: samples of the global peak in a step where it passes from one local peak to another
 SWITCH_SAMPLES = 32
 #: a peak that moves more than SWITCH_DISTANCE nodes within one step is taken for a switch
 SWITCH_DISTANCE = 10
+#: in a run that breaks, a step's global peak above the followed one by more than this
+#: (relative: Newton's stop leaves the two refinements of one peak some 1e-12 apart) is another
+#: peak, and the step is sampled as a switch (_global_piece)
+ELSEWHERE = 1e-9
 
 #: the tension observer's state and scratch: track (9, 4), rows PEAKS + s each surface's (value,
 #: rate, x, node) at the current time, P0, P1 a step's start and end, PIECE one piece's and BEST
-#: the step's (max, time, x), BACK a backward track's (value, rate, x), STEP_BEST + s each
-#: surface's (max, time, x) over the last step (the impact zone's observer reads them); samples (TENSION_SAMPLES
+#: the step's (max, time, x, smallest sample), BACK a backward track's (value, rate, x), STEP_BEST
+#: + s each surface's (max, time, x, smallest sample) over the last step (the impact zone's
+#: observer reads the first three, a run that breaks the fourth); samples (TENSION_SAMPLES
 #: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
-#: switch of peaks (SWITCH_SAMPLES); marks (6,): RUN_MAX + s the running maximum of surface s,
+#: switch of peaks (SWITCH_SAMPLES); marks (7,): RUN_MAX + s the running maximum of surface s,
 #: JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1 when the step's dense
-#: states A, AD (A2, AD2) are computed, or given by the integrator (dense_due). (Few arrays: numba counts a reference to each array of a tuple at every binding.)
+#: states A, AD (A2, AD2) are computed, or given by the integrator (dense_due), LEVEL the break
+#: level of a run that breaks (inf otherwise: watch_level). (Few arrays: numba counts a
+#: reference to each array of a tuple at every binding.)
 TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 marks")
 #: rows of TensionWork.track
 PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
 #: entries of TensionWork.marks
-RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH = 0, 2, 4, 5
+RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH, LEVEL = 0, 2, 4, 5, 6
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
 #: what the tension observer reads of a step's two states: eps at its start; eps, a and a' at its
@@ -78,7 +89,28 @@ def tension_work(N, J):
                        np.empty((TENSION_SAMPLES - 1, N)), np.empty((TENSION_SAMPLES - 1, N)),
                        np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
                        np.empty((SWITCH_SAMPLES + 1, 3)),
-                       np.zeros(6))
+                       np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf]))
+
+
+@kernel
+def watch_level(tw, level):
+    """A run that breaks at the tension level (finite) has every step near it searched for the
+    global peak (_tension_piece): a peak that emerges elsewhere and rises and falls within one
+    step is a break the followed peak cannot see. A run that does not break (level inf) is
+    unchanged."""
+    tw.marks[LEVEL] = level
+
+
+@kernel(inline="llvm")
+def _watched(tw, s):
+    """The level below which a step's peak cannot matter, less the ripple a step may hide: the
+    running maximum of surface s less RIPPLE; in a run that breaks, the break level where that
+    is lower (after a break the carried peak may stand above it) less BREAK_RIPPLE."""
+    run_max = tw.marks[RUN_MAX + s]
+    if not tw.marks[LEVEL] < np.inf:
+        return run_max - RIPPLE * abs(run_max)
+    watched = min(run_max, tw.marks[LEVEL])
+    return watched - BREAK_RIPPLE * abs(watched)
 
 
 @kernel
@@ -144,10 +176,14 @@ def append_chain(t0, h, samples, rec, n, joinable):
 @kernel(nrt=True)
 def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
     """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
-    receives the (max, time, x) of the Hermite pieces between samples; the samples are stored
-    as consecutive record rows when that maximum rises above run_max. Returns (rec, n, stored)."""
+    receives the (max, time, x) of the Hermite pieces between samples and the smallest sample;
+    the samples are stored as consecutive record rows when that maximum rises above run_max.
+    Returns (rec, n, stored)."""
     hk = h / K
     best[0] = -np.inf
+    best[3] = samples[0, 0]
+    for k in range(1, K + 1):
+        best[3] = min(best[3], samples[k, 0])
     for k in range(K):
         c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
         vmax, th = cubic_max(c0, c1, c2, c3)
@@ -169,7 +205,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     from x1). Stored as consecutive record rows when it rises above the running maximum; track
     PIECE receives (max, time, x) of the piece. Returns (rec, n, stored)."""
     p0, p1, best, samples = tw.track[P0], tw.track[P1], tw.track[PIECE], tw.samples
-    joinable, run_max = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s]
+    joinable, run_max, watched = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s], _watched(tw, s)
     sign = 1.0 - 2.0 * s
     K = tw.A.shape[0] + 1
     c0, c1, c2, c3 = hermite(p0[0], p1[0], p0[1], p1[1], h)
@@ -177,7 +213,8 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     best[0] = vmax                               # from the ends; refined by the samples below
     best[1] = t0 + th * h
     best[2] = p0[2] + th * (p1[2] - p0[2])
-    if vmax < run_max - RIPPLE * abs(run_max):   # cannot raise the record: no samples needed
+    best[3] = min(p0[0], p1[0])
+    if vmax < watched:                           # cannot raise the record (nor reach a break level)
         return rec, n, False
     omega = model.plate.modes[OMEGA]
     if omega[omega.shape[0] - 1] * h <= RESOLVED:    # every mode resolved by the step: its ends suffice
@@ -206,7 +243,23 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
             copy_into(samples[k], back, 3)
     copy_into(samples[0], p0, 3)
     copy_into(samples[K], p1, 3)
+    if tw.marks[LEVEL] < np.inf and _elsewhere(model, tw, sign, K):
+        return _global_piece(model, tw, s, t0, h, dz, rec, n)
     return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
+
+
+@kernel(inline="llvm", nrt=True)
+def _elsewhere(model, tw, sign, K):
+    """Whether, at one of the step's inner samples, the global peak (over every node's local
+    peak, global_peak) stands above the peak followed there (samples[k]): another peak rose
+    inside the step."""
+    strain = model.plate.modes[STRAIN]
+    for k in range(1, K):
+        node_strain(model.basis.cosq, model.basis.floe, strain, tw.A[k - 1], tw.eps)
+        v = global_peak(tw.eps, sign, model.basis, strain, tw.A[k - 1])[0]
+        if v > tw.samples[k, 0] + ELSEWHERE * abs(tw.samples[k, 0]):
+            return True
+    return False
 
 
 @kernel(nrt=True)
@@ -217,13 +270,14 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     searched among all local peaks (global_peak); the states are computed once a step, unless
     marks DENSE_SWITCH says they are. Stored like _tension_piece."""
     p0, p1, best, samples = tw.track[P0], tw.track[P1], tw.track[PIECE], tw.samples2
-    joinable, run_max = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s]
+    joinable, run_max, watched = tw.marks[JOINABLE + s], tw.marks[RUN_MAX + s], _watched(tw, s)
     sign = 1.0 - 2.0 * s
     K = SWITCH_SAMPLES
-    if max(p0[0], p1[0]) < run_max - RIPPLE * abs(run_max):   # far below the record: not needed
+    if max(p0[0], p1[0]) < watched:              # far below the record: not needed
         best[0] = max(p0[0], p1[0])
         best[1] = t0 if p0[0] >= p1[0] else t0 + h
         best[2] = p0[2] if p0[0] >= p1[0] else p1[2]
+        best[3] = min(p0[0], p1[0])
         return rec, n, False
     if tw.marks[DENSE_SWITCH] == 0.0:
         dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
@@ -270,6 +324,7 @@ def observe_tension(model, tw, s, t0, h, ends, dz, rec, n):
     tw.marks[JOINABLE + s] = 1.0 if stored else 0.0
     if piece[0] > best[0]:
         copy_into(best, piece, 3)
+    best[3] = piece[3]
     if best[0] > tw.marks[RUN_MAX + s]:
         tw.marks[RUN_MAX + s] = best[0]
     copy_into(tw.track[PEAKS + s], p1, p1.shape[0])
@@ -287,7 +342,7 @@ def observe_tensions(model, tw, t, h, ends, dz, records, diag):
         else:
             rec_lo, n_lo = observe_tension(model, tw, s, t, h, ends, dz, rec_lo, n_lo)
         _largest(tw.track[BEST], s, diag)
-        copy_into(tw.track[STEP_BEST + s], tw.track[BEST], 3)
+        copy_into(tw.track[STEP_BEST + s], tw.track[BEST], 4)
     return SurfaceRows(rec_up, n_up, rec_lo, n_lo)
 
 
