@@ -58,16 +58,18 @@ ELSEWHERE = 1e-9
 #: + s each surface's (max, time, x, smallest sample) over the last step (the impact zone's
 #: observer reads the first three, a run that breaks the fourth); samples (TENSION_SAMPLES
 #: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
-#: switch of peaks (SWITCH_SAMPLES); marks (7,): RUN_MAX + s the running maximum of surface s,
-#: JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1 when the step's dense
-#: states A, AD (A2, AD2) are computed, or given by the integrator (dense_due), LEVEL the break
-#: level of a run that breaks (inf otherwise: watch_level). (Few arrays: numba counts a
-#: reference to each array of a tuple at every binding.)
-TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 marks")
+#: switch of peaks (SWITCH_SAMPLES); nodes (TENSION_SAMPLES - 1, J) the strain at every node
+#: at the dense states A (a run that breaks: _elsewhere); marks (8,): RUN_MAX + s the running
+#: maximum of surface s, JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1
+#: when the step's dense states A, AD (A2, AD2) are computed, or given by the integrator
+#: (dense_due), LEVEL the break level of a run that breaks (inf otherwise: watch_level), NODES 1
+#: when nodes holds the step's strains. (Few arrays: numba counts a reference to each array of
+#: a tuple at every binding.)
+TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 nodes marks")
 #: rows of TensionWork.track
 PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
 #: entries of TensionWork.marks
-RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH, LEVEL = 0, 2, 4, 5, 6
+RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH, LEVEL, NODES = 0, 2, 4, 5, 6, 7
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
 #: what the tension observer reads of a step's two states: eps at its start; eps, a and a' at its
@@ -88,8 +90,8 @@ def tension_work(N, J):
     return TensionWork(np.full((9, 4), -np.inf), np.empty((TENSION_SAMPLES + 1, 3)),
                        np.empty((TENSION_SAMPLES - 1, N)), np.empty((TENSION_SAMPLES - 1, N)),
                        np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
-                       np.empty((SWITCH_SAMPLES + 1, 3)),
-                       np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf]))
+                       np.empty((SWITCH_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, J)),
+                       np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf, 0.0]))
 
 
 @kernel
@@ -120,6 +122,7 @@ def dense_due(marks, h):
     (the DOP853 reference) fills A, AD, A2, AD2 and sets both marks to 1 instead."""
     marks[DENSE] = 0.0 if h > 0.0 else 1.0
     marks[DENSE_SWITCH] = marks[DENSE]
+    marks[NODES] = 0.0
 
 
 @kernel
@@ -252,11 +255,14 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
 def _elsewhere(model, tw, sign, K):
     """Whether, at one of the step's inner samples, the global peak (over every node's local
     peak, global_peak) stands above the peak followed there (samples[k]): another peak rose
-    inside the step."""
+    inside the step. The strains at the nodes are computed once a step, for both surfaces."""
     strain = model.plate.modes[STRAIN]
+    if tw.marks[NODES] == 0.0:
+        for k in range(1, K):
+            node_strain(model.basis.cosq, model.basis.floe, strain, tw.A[k - 1], tw.nodes[k - 1])
+        tw.marks[NODES] = 1.0
     for k in range(1, K):
-        node_strain(model.basis.cosq, model.basis.floe, strain, tw.A[k - 1], tw.eps)
-        v = global_peak(tw.eps, sign, model.basis, strain, tw.A[k - 1])[0]
+        v = global_peak(tw.nodes[k - 1], sign, model.basis, strain, tw.A[k - 1])[0]
         if v > tw.samples[k, 0] + ELSEWHERE * abs(tw.samples[k, 0]):
             return True
     return False
