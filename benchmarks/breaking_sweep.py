@@ -16,7 +16,12 @@ round-off or better); --dropped, seeds 1-4: none flagged, worst 7.2e-7. With --t
 surfaces as at the default tolerance (within 1e-4 and 1 cm); with --modes 60 80 (seed 21, 20
 cases) 5 differ, and 3 with --crack-speed 20000: each time the tight run makes a break the default
 does not (3 of them 1 to 16 us after an earlier break, 5 of them 68 us to 0.58 ms after), and the
-cascade after it differs (docs/model.md, "Why a stage starts with a short step").
+cascade after it differs (docs/model.md, "Why a stage starts with a short step, and how a run that
+breaks watches its steps"). Measured again 2026-12-07 (results revision breaking 5, a run that
+breaks watching every step near its level): --modes 60 80 --seed 21, 0 of 20 differ, and 0 of 20
+with --crack-speed 20000; seeds 11-13 (90 cases) and 20 dropped at seed 11, 0 differ; seeds 1-8
+(240 cases): none flagged, worst 4.1e-6 (the same viscoelastic case); --dropped --cases 30, seeds
+1-4: none flagged, worst 6.3e-7.
 """
 from __future__ import annotations
 
