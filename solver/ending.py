@@ -68,13 +68,14 @@ def _locate_break(ws, level, start, carried, t, h, upper, lower, observed):
     reach the break level in it (upper, lower) does, located on true sub-steps as the levels are
     (from each surface's peak at t, ws.peaks0; a surface not yet armed, ws.armed, from the first
     sub-step below the level: locate_event's rearm; observed: the tension observer saw the step,
-    and the scan takes in the time of its largest tension): (s, F, jmax, W, place, surface),
+    and the scan takes in the time of its largest tension after its first sample below the
+    level, tension.STEP_BEST's fourth entry): (s, F, jmax, W, place, surface),
     surface -1 where neither did, as a Located; ws.sub then holds the state at t + s (the last
     sub-step below the level)."""
     first, surface = h, -1
     for s in range(2):
         if upper if s == 0 else lower:
-            hint = ws.tension.track[STEP_BEST + s, 1] - t if observed else -1.0
+            hint = ws.tension.track[STEP_BEST + s, 3] - t if observed else -1.0
             lo, hi, F, jm, w, found = locate_event(ws.stepper, 1.0 - 2.0 * s, level, start, carried, t, h,
                                                    Scan(ws.peaks0[s], ws.armed[s] == 0.0, hint), ws.sub, ws.value)
             if found and (surface < 0 or lo < first):
@@ -121,13 +122,13 @@ def break_inside_step(model, ws, control, start, carried, t, h, new, diag):
     """After the observers saw the accepted step [t, t + h] (the run breaks, control.break_level
     finite, and no event cut it): a break an armed surface's peak tension reached only inside the
     step (the tension observer's largest over it), or a surface not yet armed whose peak fell
-    below the level inside the step (the observer's smallest sample) and reached it again,
+    below the level at one of the observer's samples inside the step and may reach it again,
     located on true sub-steps (the adapter then drops the tension records' rows past it); else
     each surface is armed once its peak at the step's end is below the level. Returns an
     EventCut."""
     level, tw, armed = control.break_level, ws.tension, ws.armed
-    upper = tw.track[STEP_BEST, 0] >= level and (armed[0] > 0.0 or tw.track[STEP_BEST, 3] < level)
-    lower = tw.track[STEP_BEST + 1, 0] >= level and (armed[1] > 0.0 or tw.track[STEP_BEST + 1, 3] < level)
+    upper = tw.track[STEP_BEST, 0] >= level and (armed[0] > 0.0 or tw.track[STEP_BEST, 3] >= 0.0)
+    lower = tw.track[STEP_BEST + 1, 0] >= level and (armed[1] > 0.0 or tw.track[STEP_BEST + 1, 3] >= 0.0)
     cut = _cut_at_break(model, ws, _locate_break(ws, level, start, carried, t, h, upper, lower, True), t, h, new,
                         diag)
     if cut.kind == NO_EVENT:

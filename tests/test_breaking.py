@@ -9,7 +9,7 @@ import pytest
 
 from helpers import BASE, NUMERICS, OPTIONS, SUBINTERVALS, assert_breaking_consistent
 from pipeline import case_dataset
-from solver import ParameterError, Parameters, Settings, solve
+from solver import ParameterError, Parameters, Settings, breaking, solve
 from solver.model import parts
 
 EPS_Y = 8e-5           # the paper's yield strain
@@ -162,6 +162,23 @@ def test_the_cascade_at_the_default_tolerance_is_the_tight_one():
         assert default.time == pytest.approx(tight.time, rel=1e-6)
         assert default.x == pytest.approx(tight.x, abs=1e-4)
     assert runs[0].breaks[2].time - runs[0].breaks[1].time < 1.5e-5
+
+
+def test_a_surface_rearmed_inside_a_long_step_breaks_at_the_largest_tension_after_its_dip(monkeypatch):
+    """After the reference case's second break (0.6255 ms, upper, at 0.33 m) the carried upper
+    tension stands above eps_Y, falls below it and rises to it again at 0.526 m, 11.5 us later.
+    A stage started with the last stage's largest step (RESTART_STEP = 1, 30 us) holds all of it
+    in its first step, with the step's largest tension at its start (the overshoot): the break
+    is scanned at the largest tension after the first sample below eps_Y (tension.STEP_BEST's
+    fourth entry), and found, as at tolerance 3e-9 (0.637001 ms); scanned at the step's largest
+    it was not, and the run broke next at 1.4956 ms."""
+    monkeypatch.setattr(breaking, "RESTART_STEP", 1.0)
+    p = Parameters(Nmod=60, fracture="break", yield_strain=EPS_Y)
+    r = solve(p, Settings(quadrature="gauss"), fields=(), times=[0.0, 7e-4], t_end=7e-4)
+    assert r.breaking.stages[2].largest_step > 2.5e-5
+    assert [(e.surface, round(e.x, 3)) for e in r.breaking.breaks] == [("lower", 0.0), ("upper", 0.332),
+                                                                         ("upper", 0.526)]
+    assert r.breaking.breaks[2].time == pytest.approx(0.637001e-3, abs=2e-9)
 
 
 def _breaks_at_default_and_tight(p, t_end, outputs=2):

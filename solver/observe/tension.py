@@ -54,9 +54,10 @@ ELSEWHERE = 1e-9
 
 #: the tension observer's state and scratch: track (9, 4), rows PEAKS + s each surface's (value,
 #: rate, x, node) at the current time, P0, P1 a step's start and end, PIECE one piece's and BEST
-#: the step's (max, time, x, smallest sample), BACK a backward track's (value, rate, x), STEP_BEST
-#: + s each surface's (max, time, x, smallest sample) over the last step (the impact zone's
-#: observer reads the first three, a run that breaks the fourth); samples (TENSION_SAMPLES
+#: the step's (max, time, x, after), BACK a backward track's (value, rate, x), STEP_BEST + s each
+#: surface's (max, time, x, after) over the last step, after the time of the largest tension
+#: from the first sample below the break level on, -1 where none was below it (the impact
+#: zone's observer reads the first three, a run that breaks the fourth); samples (TENSION_SAMPLES
 #: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
 #: switch of peaks (SWITCH_SAMPLES); nodes (TENSION_SAMPLES - 1, J) the strain at every node
 #: at the dense states A (a run that breaks: _elsewhere); marks (8,): RUN_MAX + s the running
@@ -176,17 +177,24 @@ def append_chain(t0, h, samples, rec, n, joinable):
     return rec, n
 
 
+@kernel(inline="llvm")
+def _after_dip(t_max, v0, level):
+    """The fourth entry of a step's best where only its ends are known: the time of its largest
+    tension where the step starts below level (a surface is armed below it, solver.ending), else
+    -1 (none below it)."""
+    return t_max if v0 < level else -1.0
+
+
 @kernel(nrt=True)
-def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
+def _store_samples(t0, h, K, level, samples, rec, n, joinable, run_max, best):
     """The peak sampled at t0 + k h / K, k = 0..K (rows of samples: value, rate, x): best
-    receives the (max, time, x) of the Hermite pieces between samples and the smallest sample;
-    the samples are stored as consecutive record rows when that maximum rises above run_max.
-    Returns (rec, n, stored)."""
+    receives the (max, time, x) of the Hermite pieces between samples, and the time of their
+    largest from the first sample below level on (-1: none below it; _after_dip); the samples
+    are stored as consecutive record rows when that maximum rises above run_max. Returns (rec,
+    n, stored)."""
     hk = h / K
-    best[0] = -np.inf
-    best[3] = samples[0, 0]
-    for k in range(1, K + 1):
-        best[3] = min(best[3], samples[k, 0])
+    best[0], best[3] = -np.inf, -1.0
+    after = -np.inf
     for k in range(K):
         c0, c1, c2, c3 = hermite(samples[k, 0], samples[k + 1, 0], samples[k, 1], samples[k + 1, 1], hk)
         vmax, th = cubic_max(c0, c1, c2, c3)
@@ -194,6 +202,9 @@ def _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best):
             best[0] = vmax
             best[1] = t0 + (k + th) * hk
             best[2] = samples[k, 2] + th * (samples[k + 1, 2] - samples[k, 2])
+        if (best[3] >= 0.0 or samples[k, 0] < level) and vmax > after:
+            after = vmax
+            best[3] = t0 + (k + th) * hk
     if not best[0] > run_max:
         return rec, n, False
     rec, n = append_chain(t0, h, samples[:K + 1], rec, n, joinable == 1.0)
@@ -216,7 +227,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     best[0] = vmax                               # from the ends; refined by the samples below
     best[1] = t0 + th * h
     best[2] = p0[2] + th * (p1[2] - p0[2])
-    best[3] = min(p0[0], p1[0])
+    best[3] = _after_dip(best[1], p0[0], tw.marks[LEVEL])
     if vmax < watched:                           # cannot raise the record (nor reach a break level)
         return rec, n, False
     omega = model.plate.modes[OMEGA]
@@ -248,7 +259,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     copy_into(samples[K], p1, 3)
     if tw.marks[LEVEL] < np.inf and _elsewhere(model, tw, sign, K):
         return _global_piece(model, tw, s, t0, h, dz, rec, n)
-    return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
+    return _store_samples(t0, h, K, tw.marks[LEVEL], samples, rec, n, joinable, run_max, best)
 
 
 @kernel(inline="llvm", nrt=True)
@@ -283,7 +294,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
         best[0] = max(p0[0], p1[0])
         best[1] = t0 if p0[0] >= p1[0] else t0 + h
         best[2] = p0[2] if p0[0] >= p1[0] else p1[2]
-        best[3] = min(p0[0], p1[0])
+        best[3] = _after_dip(best[1], p0[0], tw.marks[LEVEL])
         return rec, n, False
     if tw.marks[DENSE_SWITCH] == 0.0:
         dense_states(dz.z0, dz.N1, dz.Nm, dz.N5, model.plate, h, tw.A2, tw.AD2)
@@ -297,7 +308,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
         samples[k, 0] = v
         samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, Field(strain, 1), tw.AD2[k - 1], x)
         samples[k, 2] = x
-    return _store_samples(t0, h, K, p0, samples, rec, n, joinable, run_max, best)
+    return _store_samples(t0, h, K, tw.marks[LEVEL], samples, rec, n, joinable, run_max, best)
 
 
 @kernel(inline="llvm", nrt=True)
