@@ -11,6 +11,14 @@ one (layout R_*). Where the global peak passes from one local peak to another wi
 the global peak itself is sampled. Crack onset for eps_Y is then the first crossing of eps_Y by
 the record (solver.fracture), for every eps_Y from the one run.
 
+A run that breaks (watch_level: its break level finite) watches its steps more closely, since a
+break a step hides changes the run (docs/model.md, "Why a stage starts with a short step, and
+how a run that breaks watches its steps"): every step whose peak comes within BREAK_RIPPLE of the
+level is sampled, the global peak is searched at each sample (_elsewhere) and the step sampled
+as a switch where another peak stands above the followed one, and each step's best carries the
+time of its largest tension after its first sample below the level (solver.ending arms a
+surface there and scans its break at that time).
+
 Benchmark (tests/test_events.py): the record's crossing agrees with the crossing located on
 true sub-steps of the integrator (test_record_answers_any_eps_Y_as_exact_location), and one
 record answers ten eps_Y as ten separate runs would.
