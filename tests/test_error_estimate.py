@@ -60,6 +60,7 @@ def test_time_part_etd34_and_rk4_reference_case():
                          Settings(integrator="rk4", rk4_step_fraction=0.05)])
 
 
+@pytest.mark.heavy
 def test_modal_part_reference_case():
     _check_modal_part(Parameters(), modes=(10, 20, 40), reference_modes=120)
 

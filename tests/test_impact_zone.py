@@ -197,6 +197,7 @@ def test_peak_at_end_is_the_vertex_of_a_parabola_and_refuses_a_jump():
     assert peak_at_end(0.1, 0.5, 0.45, 1e-6, 1e-6, 0.024) == -1.0     # a jump: its vertex 0.034 m above
 
 
+@pytest.mark.heavy
 @pytest.mark.parametrize("settings", [dict(fixed_step=2.5e-4), dict(error_control="smoothness", tolerance=1e-10),
                                       dict(error_control="smoothness", tolerance=3e-11)])
 def test_the_contact_reach_between_steps_that_resolve_the_modes(settings):

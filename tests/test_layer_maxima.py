@@ -60,6 +60,7 @@ def test_the_located_force_is_above_every_output_sample():
     assert times[max(k - 1, 0)] <= r.diagnostics["max_force_time"] <= times[min(k + 1, times.size - 1)]
 
 
+@pytest.mark.heavy
 def test_the_paper_rule_and_the_floe_locate_too():
     """Under the paper's quadrature on a free floe (its own stepping): against DOP853 (measured
     5.0e-8 and 6.6e-9)."""
