@@ -61,13 +61,17 @@ PARAMETER_INFO = {
     "crack_speed": ("speed at which a crack crosses the ice's thickness (read with fracture = break): a break's "
                     "faces carry the moment and shear the ice carried there, released over hi / crack_speed (inf: "
                     "at once)", "m s-1"),
+    "edge_shapes": ("edge shapes at each free edge of a broken plate's parts (read with fracture = break): "
+                    "boundary layers cosh, sinh(beta (x - c)) at beta = 1, 1/2, 1/4, 1/8 of the parts' largest "
+                    "wavenumber, the first edge_shapes of them, which carry the bending a break leaves at its "
+                    "faces (0: none)", "1"),
 }
 
 #: the parameters only a run that breaks (fracture = "break") reads
-BREAKING_KEYS = ("yield_strain", "max_parts", "crack_spacing", "crack_speed")
+BREAKING_KEYS = ("yield_strain", "max_parts", "crack_spacing", "crack_speed", "edge_shapes")
 
 #: the parameters that are whole numbers
-INTEGER_PARAMETERS = ("Nmod", "max_parts")
+INTEGER_PARAMETERS = ("Nmod", "max_parts", "edge_shapes")
 
 #: parameters that take one of a few names: key -> the names (each module of solver.model that
 #: reads one declares its names)
@@ -78,7 +82,7 @@ CHOICES = {"layer_law": tuple(LAW_CODES), "edges": ("walls", "free"), "fracture"
 PAPER_DEFAULTS = {"H": math.inf, "body_mass": math.inf, "body_g": 9.81, "body_p": 2.0, "flat_width": 0.0,
                   "deadrise": 0.0, "tau": 0.0, "layer_tau": 0.0, "x0": 0.0, "layer_law": "paper", "edges": "walls",
                   "duration": 0.0, "fracture": "none", "yield_strain": 8e-5, "max_parts": 16,
-                  "crack_spacing": 0.0, "crack_speed": math.inf}
+                  "crack_spacing": 0.0, "crack_speed": math.inf, "edge_shapes": 0}
 
 #: key -> (lowest, highest) value the model is meant for [units of PARAMETER_INFO]: floating
 #: sea or lake ice and the bodies that strike it, with a wide margin. A study refuses values
@@ -91,6 +95,7 @@ PHYSICAL_RANGES = {
     "body_g": (0.0, 1e3), "body_p": (1.0, 10.0), "flat_width": (0.0, 1e4), "deadrise": (0.0, 80.0),
     "tau": (0.0, 10.0), "layer_tau": (0.0, 10.0), "duration": (1e-6, 1e4),
     "yield_strain": (1e-6, 1e-1), "crack_spacing": (0.0, 100.0), "crack_speed": (1.0, 1e5),
+    "edge_shapes": (0.0, 4.0),
 }
 
 
@@ -123,6 +128,7 @@ BEYOND_BOUNDS = {
     "yield_strain": (0.0, True, False, "a tension"),
     "crack_spacing": (0.0, False, False, "0: none, a break may follow next to another"),
     "crack_speed": (0.0, True, True, "inf: a crack opens at once"),
+    "edge_shapes": (0.0, False, False, "0: none"),
 }
 
 

@@ -28,6 +28,8 @@ from .keys import (BEYOND_BOUNDS, CHOICES, INTEGER_PARAMETERS, PAPER_DEFAULTS, P
 #: largest Nmod accepted (memory: the tables are Nmod x subintervals doubles; subintervals:
 #: solver.settings.MAX_SUBINTERVALS)
 MAX_MODES = 4096
+#: the most edge shapes a free edge of a broken plate's part may carry (solver.model.parts.EDGE_FACTORS)
+EDGE_SHAPES = 4
 #: the most parts a run that breaks may make (max_parts): each part carries its own modes (at least
 #: its heave), and a study stores max_parts - 1 break slots per case; the reference case's cascade
 #: makes 8 parts in 2 ms
@@ -166,6 +168,11 @@ class Parameters:
         "break": a break's faces first carry the moment and shear the ice carried there, released
         linearly over hi / crack_speed, their work the fracture's dissipated energy (docs/model.md,
         "A crack that opens over a time"). inf (the default): at once.
+    edge_shapes : int
+        How many edge shapes each free edge of a broken plate's parts carries, read with fracture =
+        "break" (0 to 4): boundary layers cosh and sinh of beta (x - c), beta = 1, 1/2, 1/4, 1/8 of
+        the parts' largest wavenumber, which carry the bending a break leaves at its faces
+        (docs/model.md, "Edge shapes"). 0 (the default): the parts' free-free modes alone.
     """
 
     K: float = 8e6
@@ -197,6 +204,7 @@ class Parameters:
     max_parts: int = 16
     crack_spacing: float = 0.0
     crack_speed: float = math.inf
+    edge_shapes: int = 0
 
     def __post_init__(self):
         for f in fields(self):
@@ -208,6 +216,9 @@ class Parameters:
             number = not isinstance(value, bool) and isinstance(value, (int, float, np.integer, np.floating))
             if f.name in BEYOND_BOUNDS:
                 check_bound(f.name, value, *BEYOND_BOUNDS[f.name])
+                if f.name == "edge_shapes" and (int(value) != value or value > EDGE_SHAPES):
+                    raise ParameterError(f"edge_shapes must be a whole number from 0 to {EDGE_SHAPES} (at 1, 1/2, "
+                                         f"1/4 and 1/8 of the parts' largest wavenumber), got {value!r}")
             elif f.name == "deadrise":
                 if not number or not 0.0 <= float(value) < 90.0:
                     raise ParameterError(f"deadrise must be in [0, 90) degrees (0: not a wedge), got {value!r}")
@@ -249,6 +260,9 @@ class Parameters:
         if self.edges == "free":
             raise ParameterError("fracture = 'break' with edges = 'free': a floe's parts are not built (its water "
                                  "is the half-plane's)")
+        if self.edge_shapes > 0 and self.crack_spacing == 0.0:
+            raise ParameterError("edge_shapes > 0 needs crack_spacing > 0: with edge shapes a free edge's w'' = 0 "
+                                 "holds only weakly, so the tension read at a new edge is the basis', not the ice's")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,

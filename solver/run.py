@@ -186,13 +186,14 @@ def _across_break(p, s, tab, spec):
         if not set(begin.breaks) < set(spec.breaks) or a.shape != old.omega.shape or adot.shape != a.shape:
             raise ParameterError("a broken plate's state carries only to the same plate broken at more places, "
                                  "as the kernel's amplitudes and rates of its wet modes")
-        scale = old.floe["scale"][:-1]
-        b_old, bdot_old = a[:-1] / scale, adot[:-1] / scale
+        wet_count = old.floe["wet"].omega.size                # (the last modes are null ones)
+        scale = old.floe["scale"][:wet_count]
+        b_old, bdot_old = a[:wet_count] / scale, adot[:wet_count] / scale
         b, bdot = parts.carry_parts(p, old.floe["wet"], wet, b_old, bdot_old)
         before = sum(parts.wet_energy(old.floe["wet"], b_old, bdot_old))
     after = sum(parts.wet_energy(wet, b, bdot))
-    scale = tab.floe["scale"]                             # (the last wet mode is the null one)
-    a_new, adot_new = np.append(b, 0.0) * scale, np.append(bdot, 0.0) * scale
+    null = np.zeros(tab.floe["scale"].size - b.size)       # (the last wet modes are null ones)
+    a_new, adot_new = np.append(b, null) * tab.floe["scale"], np.append(bdot, null) * tab.floe["scale"]
     # the layer's energy too (w at the nodes moves by what the projection leaves out)
     body = (math.nan, math.nan) if begin.body is None else begin.body[:2]
     t_start = spec.window.t_start

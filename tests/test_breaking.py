@@ -485,12 +485,26 @@ def test_breaking_composes_with_every_option_and_numerics(cell):
     contact-resolving rule), or is refused in one line for a stated reason: a floe (its parts),
     the paper's rule (it interpolates the
     modes across a break)."""
+    _composes(cell, {})
+
+
+@pytest.mark.heavy
+@pytest.mark.parametrize("cell", range(18))
+def test_edge_shapes_compose_with_every_option_and_numerics(cell):
+    """The same with 2 edge shapes at each new edge and a crack spacing of hi (docs/model.md,
+    "Edge shapes"): the same refusals, and every other cell runs with the energy identity."""
+    _composes(cell, dict(edge_shapes=2, crack_spacing=1.0))
+
+
+def _composes(cell, extra):
+    """Cell ``cell`` of _composition with the breaking parameters ``extra``: refused as stated, or
+    run to a status of the model with the energy identity through its breaks."""
     cells, refused = _composition()
     name, options, numerics = cells[cell]
     quadrature = numerics.get("quadrature", "gauss")
     settings = Settings(**dict(numerics, subintervals=SUBINTERVALS[quadrature], tolerance=1e-8, error_estimate=False))
     try:
-        r = solve(Parameters(**BASE, **options, fracture="break", yield_strain=EPS_Y), settings, fields=(),
+        r = solve(Parameters(**BASE, **options, fracture="break", yield_strain=EPS_Y, **extra), settings, fields=(),
                   times=np.linspace(0.0, 4e-3, 41), t_end=4e-3)
     except ParameterError as err:
         assert name in refused and refused[name] in str(err) and "\n" not in str(err), str(err)

@@ -8,7 +8,7 @@ import pytest
 from scipy.special import zeta
 
 from solver import Parameters, Settings, solve
-from solver.model import parts
+from solver.model import parts, tails
 
 L = 6.0
 
@@ -98,19 +98,19 @@ def _cosine_sum_from(n, theta):
 
 @pytest.mark.parametrize("theta", [0.0, 1e-7, 1e-4, 3e-3, 9e-3, 0.1, 1.0, math.pi, 2 * math.pi, -0.5, 7.0])
 def test_the_tails_of_the_cosine_and_sine_series_against_their_sums(theta):
-    """sum_{k > K} cos(k theta) / k^3 (parts.cosine_tail) within 3e-8 of its largest value,
+    """sum_{k > K} cos(k theta) / k^3 (tails.cosine_tail) within 3e-8 of its largest value,
     zeta(3, K + 1) = 1.2e-7 (9e-9 measured at 60 theta from 1e-8 to pi): 3e-15, the round-off of
     the whole sum, of order 1, that it is taken from less its first K terms where (K + 1) theta is
-    small (elsewhere within 1e-12); the sums of k^-4 and k^-5 (parts.power_tail, the tail's second
+    small (elsewhere within 1e-12); the sums of k^-4 and k^-5 (tails.power_tail, the tail's second
     order) within 1e-4 of theirs: against the terms K + 1 ... K + 2e6 summed, and the rest by
     Euler-Maclaurin."""
     K = 2048
     k = np.arange(K + 1.0, K + 1.0 + 2e6)
     brute3 = np.cos(k * theta) @ k**-3 + _cosine_sum_from(K + 1.0 + 2e6, theta)
-    assert abs(parts.cosine_tail(theta, K) - brute3) < 3e-8 * zeta(3.0, K + 1.0)
+    assert abs(tails.cosine_tail(theta, K) - brute3) < 3e-8 * zeta(3.0, K + 1.0)
     tail = np.exp(1j * k * theta)
     for p in (4, 5):
-        assert abs(parts.power_tail(theta, K, p) - tail @ k**-float(p)) < 1e-4 * zeta(float(p), K + 1.0)
+        assert abs(tails.power_tail(theta, K, p) - tail @ k**-float(p)) < 1e-4 * zeta(float(p), K + 1.0)
 
 
 @pytest.mark.parametrize("breaks", [[0.0], [0.0, 0.34], [0.0, 0.34, 0.56, 0.66, 0.77, 0.88, 0.99], [0.01, 0.02, 0.5]])

@@ -107,7 +107,7 @@ def free_free_roots(count: int, symmetric: bool) -> np.ndarray:
     return roots
 
 
-def _hyperbolic(beta, x, L, order, symmetric):
+def hyperbolic(beta, x, L, order, symmetric):
     """d^order/dx^order of cosh(beta x)/cosh(beta L) (symmetric) or sinh(beta x)/sinh(beta L),
     as decaying exponentials (numpy)."""
     ep = np.exp(beta * (x - L))
@@ -132,7 +132,7 @@ def dry_mode(kind, beta, L, x, order=0):
         trig = beta**order * np.cos(beta * x + shift) / math.cos(beta * L)
     else:
         trig = beta**order * np.sin(beta * x + shift) / math.sin(beta * L)
-    return trig + _hyperbolic(beta, x, L, order, symmetric)
+    return trig + hyperbolic(beta, x, L, order, symmetric)
 
 
 def dry_modes(L: float, count: int, antisymmetric: bool = True):

@@ -19,6 +19,16 @@ Every mode psi obeys psi'''' = beta^4 psi on its part, and the modes of a part a
 there in int psi psi dx and in int psi'' psi'' dx. Each is scaled to mean square 1 on its part,
 so int psi_m^2 dx is the part's length.
 
+**Edge shapes** (``edge_shapes`` > 0). Every free-free mode has psi'' = psi''' = 0 at a free edge,
+where the state a break leaves still bends: the carry then converges only as 1 / beta_max. Each
+part may take, at each free end, boundary layers that obey the same beam equation,
+
+    sliding-free   cosh(beta (x - c)) / cosh(beta l) about the sliding end (flat there),
+    free-free      that and sinh(beta (x - c)) / sinh(beta l) about the middle,
+
+at beta = EDGE_FACTORS beta_max (those with beta l >= EDGE_LENGTH). They are not orthogonal to
+the part's modes: the mass and bending Gram matrices take their rows by Gauss-Legendre (gram).
+
 **Water.** The channel between the walls, deep or of depth H, is the unbroken plate's: a normal
 velocity cos(mu_k x), mu_k = k pi / Lambda, has the added mass rho_w coth(mu_k H) / mu_k (as
 for the walled plate's modes), the water cannot be compressed (int w dx = 0 over the domain) and
@@ -37,7 +47,9 @@ is added in closed form to its second order, from the jumps of each mode's value
 its part's ends (jump_tail).
 
 **Wet modes.** With the dry amplitudes q (w = sum_m q_m psi_m), the part's mass and the added mass
-M = mirror m G + A, the stiffness K = mirror (D beta^4 + rho_w g) G (G = diag(int psi^2 dx)), and
+M = mirror m G + A, the stiffness K = mirror (D beta^4 + rho_w g) G (G = diag(int psi^2 dx); with
+edge shapes K = mirror (D G2 + rho_w g G), G and G2 the Gram matrices of psi and psi'', and q kept
+to the span less its directions of mass below SPAN_TOLERANCE), and
 the constraint sum_m q_m int psi_m dx = 0 (q = Z r, Z an orthonormal basis of its null space):
 K_r V = M_r V diag(omega^2), V^T M_r V = I, Q = Z V; the wet mode Psi_k = sum_m Q_mk psi_m. The
 eigenvalues come from K_r^-1/2 M_r K_r^-1/2 (1 / omega^2, which keeps the slow modes to full
@@ -65,13 +77,26 @@ import numpy as np
 
 from . import floe as fl
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
+from .tails import cosine_tail, power_tail
 
 #: the end conditions of a part: a wall or the symmetry plane (w_x = w_xxx = 0), a break (w_xx =
 #: w_xxx = 0)
 SLIDING, FREE = 0, 1
 #: the dry modes' kinds beyond the floe's HEAVE, PITCH, SYMMETRIC, ANTISYMMETRIC: cos(beta (x - c))
-#: on a sliding-sliding part
-COSINE = 4
+#: on a sliding-sliding part; and the edge shapes cosh(beta (x - c)) / cosh(beta l) and
+#: sinh(beta (x - c)) / sinh(beta l), boundary layers at a part's free ends (module docstring)
+COSINE, EDGE_SYMMETRIC, EDGE_ANTISYMMETRIC = 4, 5, 6
+#: the edge shapes' wavenumbers as fractions of the parts' beta_max (Parameters.edge_shapes: how
+#: many of them, from the largest): every free-free mode has psi'' = psi''' = 0 at a free edge,
+#: where the state carried across a break still bends
+EDGE_FACTORS = (1.0, 0.5, 0.25, 0.125)
+#: an edge shape is kept where beta l >= EDGE_LENGTH (l the part's length, or its half on a
+#: free-free part): shorter, it is nearly a part's heave or pitch (1 / cosh(3) = 0.1)
+EDGE_LENGTH = 3.0
+#: the wet modes are sought on the dry modes' span less its directions of mass below
+#: SPAN_TOLERANCE of the largest (edge shapes nearly dependent on a part's modes): the kernels take
+#: a null wet mode for each direction left out (wet_parts)
+SPAN_TOLERANCE = 1e-12
 #: cosine_integrals' closed form divides by beta^4 - mu^4: below RESONANCE mu^4 (|beta - mu| < 1.2 %
 #: of mu) it integrates by Gauss-Legendre instead (the closed form's rounding is then below
 #: eps mu / (4 |beta - mu|) of its terms, about 20 eps)
@@ -133,8 +158,9 @@ def centre_broken(breaks) -> bool:
     return bool(np.any(np.asarray(breaks, dtype=float) == 0.0))
 
 
-def _part(lo, hi, sliding_lo, sliding_hi, beta_max):
-    """[(kind, beta, centre, half, norm)] of one part's dry modes, wavenumbers up to beta_max."""
+def _part(lo, hi, sliding_lo, sliding_hi, beta_max, edges=0):
+    """[(kind, beta, centre, half, norm)] of one part's dry modes, wavenumbers up to beta_max, and
+    ``edges`` edge shapes at each free end (EDGE_FACTORS)."""
     length = hi - lo
     if sliding_lo and sliding_hi:
         count = int(beta_max * length / math.pi * (1.0 + 1e-12))
@@ -144,25 +170,34 @@ def _part(lo, hi, sliding_lo, sliding_hi, beta_max):
         centre = lo if sliding_lo else hi
         roots = free_free_roots(int(beta_max * length / math.pi) + 1, True) / length
         return [(HEAVE, 0.0, centre, length, 1.0)] + [(SYMMETRIC, b, centre, length, 1.0)
-                                                     for b in roots if b <= beta_max]
+                                                     for b in roots if b <= beta_max] + \
+            [(EDGE_SYMMETRIC, b, centre, length, 1.0) for b in _edge_betas(beta_max, length, edges)]
     half, centre = 0.5 * length, 0.5 * (lo + hi)
     count = int(beta_max * half / math.pi) + 1
     modes = [(HEAVE, 0.0, centre, half, 1.0), (PITCH, 0.0, centre, half, math.sqrt(3.0))]
     for b_sym, b_anti in zip(free_free_roots(count, True) / half, free_free_roots(count, False) / half):
         modes += [(kind, b, centre, half, 1.0) for kind, b in ((SYMMETRIC, b_sym), (ANTISYMMETRIC, b_anti))
                   if b <= beta_max]
-    return modes
+    return modes + [(kind, b, centre, half, 1.0) for b in _edge_betas(beta_max, half, edges)
+                    for kind in (EDGE_SYMMETRIC, EDGE_ANTISYMMETRIC)]
 
 
-def part_modes(domain: float, breaks, beta_max: float) -> PartModes:
+def _edge_betas(beta_max, length, edges):
+    """The wavenumbers [m-1] of a part's edge shapes: the first ``edges`` of EDGE_FACTORS beta_max,
+    those with beta length >= EDGE_LENGTH."""
+    return [f * beta_max for f in EDGE_FACTORS[:edges] if f * beta_max * length >= EDGE_LENGTH]
+
+
+def part_modes(domain: float, breaks, beta_max: float, edges: int = 0) -> PartModes:
     """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide, but x = 0
     where it is a break: the symmetry plane of a half plate broken at its centre), each part's
-    with wavenumbers up to beta_max [m-1] (module docstring)."""
-    edges = part_edges(domain, breaks)
+    with wavenumbers up to beta_max [m-1], and ``edges`` edge shapes at each free end (module
+    docstring)."""
+    ends = part_edges(domain, breaks)
     rows = []
-    for i, (lo, hi) in enumerate(zip(edges[:-1], edges[1:])):
+    for i, (lo, hi) in enumerate(zip(ends[:-1], ends[1:])):
         sliding_lo = i == 0 and not centre_broken(breaks)
-        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, sliding_lo, i == edges.size - 2, beta_max)]
+        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, sliding_lo, i == ends.size - 2, beta_max, edges)]
     kinds, betas, centres, halves, norms, lows, highs, parts = (np.array(c, dtype=float) for c in zip(*rows))
     return PartModes(kinds, betas, centres, halves, lows, highs, norms, parts.astype(int))
 
@@ -172,6 +207,8 @@ def raw_mode(kind, beta, centre, half, x, order=0):
     x = np.asarray(x, dtype=float)
     if kind == COSINE:
         return beta**order * np.cos(beta * (x - centre) + order * math.pi / 2.0)
+    if kind in (EDGE_SYMMETRIC, EDGE_ANTISYMMETRIC):
+        return fl.hyperbolic(beta, x - centre, half, order, kind == EDGE_SYMMETRIC)
     return dry_mode(int(kind), beta, half, x - centre, order)
 
 
@@ -214,7 +251,12 @@ def mode_block(modes: PartModes, x, order=0) -> np.ndarray:
         even = (order % 2 == 0) == symmetric
         den = 1.0 + np.exp(-2.0 * b * L) if symmetric else 1.0 - np.exp(-2.0 * b * L)
         out[on] = b**order * trig(b * y + order * math.pi / 2) / end + b**order * (ep + em if even else ep - em) / den
-    for m in np.flatnonzero(~np.isin(kinds, (HEAVE, PITCH, COSINE, SYMMETRIC, ANTISYMMETRIC))):
+    for kind, symmetric in ((EDGE_SYMMETRIC, True), (EDGE_ANTISYMMETRIC, False)):
+        on = kinds == kind
+        if np.any(on):
+            out[on] = fl.hyperbolic(betas[on], xs[on], halves[on], order, symmetric)
+    for m in np.flatnonzero(~np.isin(kinds, (HEAVE, PITCH, COSINE, SYMMETRIC, ANTISYMMETRIC, EDGE_SYMMETRIC,
+                                             EDGE_ANTISYMMETRIC))):
         out[m] = raw_mode(kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x, order)
     return out
 
@@ -312,64 +354,6 @@ def jump_tail(modes: PartModes, other: PartModes, domain: float, K: int) -> np.n
     return (2.0 / domain) * out
 
 
-#: Gauss-Laguerre nodes and weights (weight e^-u) of cosine_tail, and the (K + 1) theta below which it
-#: takes the whole sum less the first K terms instead (the integrand's pole at u = i (K + 1) theta is
-#: then near the nodes): within 3e-15, the round-off of the whole sum (tests/test_parts.py)
-LAGUERRE_U, LAGUERRE_W = np.polynomial.laguerre.laggauss(40)
-LAGUERRE_FROM = 20.0
-
-
-def cosine_tail(theta, K: int) -> np.ndarray:
-    """sum_{k > K} cos(k theta) / k^3 for each theta [rad]. With k^-3 = int t^2 e^-kt dt / 2 and
-    the geometric sum under the integral, it is Re z^(K+1) int_0^inf u^2 e^-u / (1 - z e^(-u / (K
-    + 1))) du / (2 (K + 1)^3), z = e^(i theta), taken by Gauss-Laguerre (the denominator as 2 e^-s
-    sin^2(theta / 2) - expm1(-s) - i e^-s sin(theta): no cancellation); where (K + 1) theta (theta
-    taken to [0, pi]) is below LAGUERRE_FROM, as clausen_cosine(theta) less the first K terms
-    (zeta(3, K + 1) at theta = 0)."""
-    from scipy.special import zeta
-    theta = np.asarray(theta, dtype=float)
-    reduced = np.abs(np.remainder(theta.ravel() + math.pi, 2.0 * math.pi) - math.pi)    # cos(k theta): even, 2 pi periodic
-    n = K + 1.0
-    s = LAGUERRE_U / n
-    decay = np.exp(-s)
-    denominator = (2.0 * decay * np.sin(0.5 * reduced[:, None]) ** 2 - np.expm1(-s)) - 1j * decay * np.sin(reduced[:, None])
-    integral = (LAGUERRE_U**2 / denominator) @ LAGUERRE_W
-    out = np.real(np.exp(1j * n * reduced) * integral) / (2.0 * n**3)
-    near = (n * reduced < LAGUERRE_FROM) & (reduced > 0.0)
-    if np.any(near):
-        k = np.arange(1.0, n)
-        out[near] = clausen_cosine(reduced[near]) - np.cos(np.outer(reduced[near], k)) @ k**-3.0
-    out[reduced == 0.0] = zeta(3.0, n)
-    return out.reshape(theta.shape)
-
-
-def power_tail(theta, K: int, p: int) -> np.ndarray:
-    """sum_{k > K} e^(i k theta) / k^p for each theta [rad], by cosine_tail's Gauss-Laguerre alone
-    (within 1e-4 of the sum's largest, zeta(p, K + 1), where (K + 1) theta is small: enough for the
-    tail's second order, p = 4 and 5)."""
-    theta = np.asarray(theta, dtype=float)[..., None]
-    n = K + 1.0
-    s = LAGUERRE_U / n
-    decay = np.exp(-s)
-    denominator = (2.0 * decay * np.sin(0.5 * theta) ** 2 - np.expm1(-s)) - 1j * decay * np.sin(theta)
-    integral = np.sum(LAGUERRE_W * LAGUERRE_U ** (p - 1) / denominator, axis=-1)
-    return np.exp(1j * n * theta[..., 0]) * integral / (math.gamma(p) * n**p)
-
-
-def clausen_cosine(theta) -> np.ndarray:
-    """sum_{k >= 1} cos(k theta) / k^3 for 0 <= theta <= pi: zeta(3) - 3 theta^2 / 4 + theta^2
-    ln(theta) / 2 - sum_{n >= 1} zeta(2n) theta^(2n+2) / (n (2n+1) (2n+2) (2 pi)^(2n)) (twice
-    integrated from the Clausen function's series; 30 terms: 4^-30 at theta = pi)."""
-    from scipy.special import zeta
-    theta = np.asarray(theta, dtype=float)
-    n = np.arange(1, 31, dtype=float)
-    series = (zeta(2.0 * n) / (n * (2 * n + 1) * (2 * n + 2) * (2.0 * math.pi) ** (2 * n))) @ \
-        (theta[None, :] ** (2 * n[:, None] + 2))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        log_term = np.where(theta > 0.0, 0.5 * theta**2 * np.log(np.where(theta > 0.0, theta, 1.0)), 0.0)
-    return zeta(3.0) - 0.75 * theta**2 + log_term - series
-
-
 def _jumps(modes: PartModes, b, order: int = 0) -> np.ndarray:
     """(Nd,): each mode's jump at the break b, of its value (order 0) or a derivative (its value at a
     part's upper end minus at its lower)."""
@@ -383,8 +367,31 @@ def _jumps(modes: PartModes, b, order: int = 0) -> np.ndarray:
 
 
 def part_lengths(modes: PartModes) -> np.ndarray:
-    """int psi_m^2 dx of the scaled dry modes: their parts' lengths [m]."""
+    """int psi_m^2 dx of the scaled dry modes but the edge shapes: their parts' lengths [m]."""
     return modes.highs - modes.lows
+
+
+def edge_shaped(modes: PartModes) -> np.ndarray:
+    """(Nd,) bool: which dry modes are edge shapes."""
+    return modes.kinds >= EDGE_SYMMETRIC
+
+
+def gram(modes: PartModes, order: int) -> np.ndarray:
+    """(Nd, Nd): int psi_m^(order) psi_n^(order) dx, of order 0 (mass) or 2 (bending) [m, m-3]. A
+    part's modes but its edge shapes are orthogonal, int psi^2 dx the part's length and int
+    psi''^2 dx beta^4 times it; the edge shapes' rows and columns by Gauss-Legendre on their part
+    (exact to round-off: _gauss)."""
+    edge = edge_shaped(modes)
+    out = np.diag(part_lengths(modes) * (modes.betas**4 if order == 2 else 1.0))
+    for part in np.unique(modes.parts[edge]):
+        on = np.flatnonzero(modes.parts == part)
+        x, w = _gauss(modes, on[np.argmax(modes.betas[on])], np.max(modes.betas[on]))
+        values = modes.norms[on, None] * mode_block(PartModes(*(field[on] for field in modes)), x, order)
+        block = (values * w) @ values.T
+        rows = edge[on]
+        out[on[rows, None], on[None, :]] = block[rows]
+        out[on[:, None], on[None, rows]] = block[:, rows]
+    return out
 
 
 def mode_means(modes: PartModes) -> np.ndarray:
@@ -397,15 +404,23 @@ def mode_means(modes: PartModes) -> np.ndarray:
 
 
 def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetParts:
-    """The wet modes of the plate of parameters p (Parameters: hi, rho_i, rho_w, g, H, rigidity)
-    broken at ``breaks`` on the kernel's domain [0, domain] (module docstring)."""
+    """The wet modes of the plate of parameters p (Parameters: hi, rho_i, rho_w, g, H, rigidity,
+    edge_shapes) broken at ``breaks`` on the kernel's domain [0, domain] (module docstring)."""
     from scipy.linalg import cholesky, eigh, null_space, solve_triangular      # (a broken plate's tables only)
-    modes = part_modes(domain, breaks, beta_max)
-    G = part_lengths(modes)
-    M = mirror * p.plate_mass * np.diag(G) + channel_added_mass(modes, domain, mirror, p.rho_w, p.H)
-    K = mirror * (p.rigidity * modes.betas**4 + p.rho_w * p.g) * G
+    modes = part_modes(domain, breaks, beta_max, p.edge_shapes)
     Z = null_space(mode_means(modes)[None, :])             # q = Z r keeps int w dx = 0
-    Kr = Z.T @ (K[:, None] * Z)
+    A = channel_added_mass(modes, domain, mirror, p.rho_w, p.H)
+    if np.any(edge_shaped(modes)):
+        G0 = gram(modes, 0)
+        g, U = eigh(Z.T @ G0 @ Z)                          # the span less its near-dependent directions
+        Z = Z @ U[:, g > SPAN_TOLERANCE * np.max(g)]
+        M = mirror * p.plate_mass * G0 + A
+        Kr = Z.T @ (mirror * (p.rigidity * gram(modes, 2) + p.rho_w * p.g * G0)) @ Z
+    else:
+        G = part_lengths(modes)
+        M = mirror * p.plate_mass * np.diag(G) + A
+        K = mirror * (p.rigidity * modes.betas**4 + p.rho_w * p.g) * G
+        Kr = Z.T @ (K[:, None] * Z)
     Mr = Z.T @ M @ Z
     R = cholesky(0.5 * (Kr + Kr.T))                       # Kr = R^T R
     S = solve_triangular(R, solve_triangular(R, Mr, trans="T").T, trans="T")      # R^-T Mr R^-1
@@ -496,20 +511,25 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     scale = np.max(np.abs(wet.Q.T @ part_values(modes, fine)), axis=1)
     Qs = wet.Q / scale
     values = [Qs.T @ part_values(modes, x, order) for order in range(3)]
-    # the kernels pair wet and dry modes one to one, and int w dx = 0 leaves one wet mode fewer:
-    # the last wet mode is a null one (no shape, never forced, at rest)
+    # the kernels pair wet and dry modes one to one, and int w dx = 0 leaves one wet mode fewer
+    # (and a near-dependent edge shape one more, wet_parts): the last wet modes are null ones
+    # (no shape, never forced, at rest)
     N = modes.kinds.size
-    Qs = np.hstack([Qs, np.zeros((N, 1))])
-    values = [np.vstack([v, np.zeros((1, v.shape[1]))]) for v in values]
-    omega, scale = np.append(wet.omega, wet.omega[-1]), np.append(scale, 1.0)
-    Q = np.hstack([wet.Q, np.zeros((N, 1))])
+    null = N - wet.omega.size
+    Qs = np.hstack([Qs, np.zeros((N, null))])
+    values = [np.vstack([v, np.zeros((null, v.shape[1]))]) for v in values]
+    omega, scale = np.append(wet.omega, np.full(null, wet.omega[-1])), np.append(scale, np.ones(null))
+    Q = np.hstack([wet.Q, np.zeros((N, null))])
     tables = np.empty((4,) + values[0].shape)
     tables[fl.TABLE_STRAIN] = -0.5 * p.hi * values[2]
     tables[fl.TABLE_SLOPE], tables[fl.TABLE_CURVATURE] = values[1], values[2]
     tables[fl.TABLE_HAT] = _hat_weights(Qs, modes, x)
     shapes = np.zeros((fl.SHAPE_ROWS + 2 * N, N))
-    shapes[fl.KINDS], shapes[fl.BETAS], shapes[fl.NORMS] = modes.kinds, modes.betas, modes.norms
-    shapes[fl.TRIG], shapes[fl.HYP] = fl.edge_factors(modes.kinds, modes.betas * modes.halves)
+    edge = edge_shaped(modes)            # to the kernels an elastic mode with no trigonometric part
+    kinds = np.where(edge, modes.kinds - (EDGE_SYMMETRIC - SYMMETRIC), modes.kinds)
+    shapes[fl.KINDS], shapes[fl.BETAS], shapes[fl.NORMS] = kinds, modes.betas, modes.norms
+    shapes[fl.TRIG], shapes[fl.HYP] = fl.edge_factors(kinds, modes.betas * modes.halves)
+    shapes[fl.TRIG, edge] = 0.0
     shapes[fl.CENTRES], shapes[fl.HALVES] = modes.centres, modes.halves
     shapes[fl.LOWS] = np.where(modes.lows <= 0.0, -np.inf, modes.lows)
     shapes[fl.HIGHS] = np.where(modes.highs >= domain, np.inf, modes.highs)
@@ -524,9 +544,12 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     header[fl.FIRST_BREAK:fl.FIRST_BREAK + cuts.size] = cuts
     header[fl.CRACK_BAND] = p.crack_spacing * p.hi
     header[fl.CENTRE_CUT] = 1.0 if centre_broken(breaks) and not full else 0.0
-    bending = Q.T @ (Q * (mirror * p.rigidity * modes.betas**4 * part_lengths(modes))[:, None])
+    if np.any(edge):
+        bending = Q.T @ (mirror * p.rigidity * gram(modes, 2)) @ Q
+    else:
+        bending = Q.T @ (Q * (mirror * p.rigidity * modes.betas**4 * part_lengths(modes))[:, None])
     damping = p.tau * np.diag(bending).copy()
-    damping[-1] = damping[-2]            # (the null mode's, at rest: the last mode is damped if any is)
+    damping[wet.omega.size:] = damping[wet.omega.size - 1]      # (the null modes', at rest: damped if any is)
     return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
             "damping": damping,
             "damping_matrix": p.tau * bending * scale[:, None] / scale[None, :],
