@@ -50,6 +50,7 @@ from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
 from .run import Result, checked_breaks, cosines_to_kernel, run_case
 from .model.assemble import Tables
+from .model.parts import blas_alone
 from .spec import Begin, Breaking, BreakEvent, Crack, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
@@ -98,6 +99,7 @@ def broken_through(breaks, x0, full) -> bool:
     return bool(np.any(b > 0.0))
 
 
+@blas_alone
 def solve_breaking(p, s, spec: RunSpec) -> Result:
     """The run of ``spec`` (solver.spec.RunSpec, from the unbroken plate at rest) in which the plate
     breaks where its tension first reaches p.yield_strain, and again on its parts, to at most

@@ -19,7 +19,7 @@ from .layout import ETD34, RK4
 from .loop import integrate, new_records
 from .model import parts
 from .model.assemble import Tables
-from .model.crack import Cracks
+from .model.crack import Cracks, crack_loads
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import BITS, plan as plan_outputs
 from .observe.reach import zone_ends
@@ -324,7 +324,7 @@ def run_case(p, s, spec: RunSpec) -> Result:
     observers, answer, asked = _plan(p, spec)
     tab = Tables(p, s.subintervals, spec.full_plate, s.quadrature, s.quadrature_density, breaks=spec.breaks)
     if spec.cracks:                                   # the cracks still opening (solver.model.crack)
-        loads = parts.crack_loads(p, tab.floe, spec.cracks, spec.full_plate)
+        loads = crack_loads(p, tab.floe, spec.cracks, spec.full_plate)
         tab.model = tab.model._replace(cracks=Cracks(loads, np.array([c.time for c in spec.cracks]),
                                                      p.crack_opening_time))
     a0, v0, carried = _begun(p, s, tab, spec)

@@ -11,6 +11,7 @@ import pytest
 from solver import ParameterError, Parameters, Settings, solve
 from solver.model import parts
 from solver.model.assemble import Tables
+from solver.model.crack import crack_loads
 from solver.spec import Crack
 
 EPS_Y = 8e-5
@@ -30,7 +31,7 @@ def test_the_faces_carry_the_force_the_unbroken_plate_carried(place):
     whole = Tables(p, s.subintervals, False, s.quadrature, s.quadrature_density)
     broken = Tables(p, s.subintervals, False, s.quadrature, s.quadrature_density, breaks=np.array([place]))
     moment, shear = (p.rigidity * float(whole.derivative(a, place, k)[0]) for k in (2, 3))
-    G = parts.crack_loads(p, broken.floe, [Crack(0.0, place, moment, shear)], False)[0]
+    G = crack_loads(p, broken.floe, [Crack(0.0, place, moment, shear)], False)[0]
     wet = broken.floe["wet"]
     b, _ = parts.carry_state(p, wet, a, np.zeros_like(a))
     scale = broken.floe["scale"]

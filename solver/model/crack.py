@@ -8,7 +8,7 @@ r(t) = max(0, 1 - (t - t_b) / tau). On the wet modes that is a forcing of known 
 
     a_k'' + omega_k^2 a_k = P_k(layer) + r(t) G_k,
 
-G_k the faces' generalised force on mode k over its generalised mass (solver.model.parts.crack_loads:
+G_k the faces' generalised force on mode k over its generalised mass (crack_loads:
 -M psi'(b+) + V psi(b+) on the face above the break, M psi'(b-) - V psi(b-) on the one below). The
 work these loads do on the plate, sum_k m_k r G_k a_k' dt, is the fracture's: it enters the
 energy identity as dissipated energy (the plate's damping's place), so E_plate + E_layer + D = W
@@ -23,6 +23,7 @@ from collections import namedtuple
 import numpy as np
 
 from ..compile.jit import kernel
+from .parts import raw_mode
 from .plate import MASS, mode_a, mode_adot
 
 #: the cracks still opening on the kernel's modes: loads (C, N) each crack's G_k [m s-2 per unit
@@ -72,3 +73,23 @@ def crack_power(cracks, t, z, plate):
 def opening(cracks):
     """Whether any crack is still to open (the run then takes their power, crack_power)."""
     return cracks.loads.shape[0] > 0
+
+
+def crack_loads(p, tables: dict, cracks, full: bool) -> np.ndarray:
+    """(C, N): each opening crack's forcing G_ck [m s-2] on the kernel's modes of the broken plate
+    of these tables (parts_tables; solver.model.crack): its faces' generalised force, -M psi'(b) +
+    V psi(b) on the part above the break b and M psi'(b) - V psi(b) on the part below (M = D w_xx,
+    V = D w_xxx the ice carried there: a solver.spec.Crack, b in kernel coordinates), over each
+    mode's generalised mass; on the half plate each face stands for its mirror too."""
+    modes, Qs, mass = tables["wet"].modes, tables["Q"], tables["mass"]
+    out = np.zeros((len(cracks), Qs.shape[1]))
+    for c, crack in enumerate(cracks):
+        force = np.zeros(modes.kinds.size)
+        for m in range(modes.kinds.size):
+            for face, sign in ((modes.lows[m], 1.0), (modes.highs[m], -1.0)):
+                if face == crack.x:
+                    shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], crack.x)
+                    value, slope = (modes.norms[m] * float(raw_mode(*shape, order)) for order in (0, 1))
+                    force[m] += sign * (crack.shear * value - crack.moment * slope)
+        out[c] = (1.0 if full else 2.0) * (Qs.T @ force) / mass
+    return out

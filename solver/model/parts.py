@@ -70,6 +70,7 @@ one sliding part, whose wet modes are the walled plate's cosines to round-off.
 """
 from __future__ import annotations
 
+import functools
 import math
 from collections import namedtuple
 
@@ -141,6 +142,18 @@ def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray
                 held -= _PART_ROWS.pop(next(iter(_PART_ROWS))).nbytes
         out[on] = rows
     return out
+
+
+def blas_alone(function):
+    """``function`` with BLAS on one thread: a broken plate's matrices are small (a hundred rows),
+    and BLAS's threads cost more than they save on them (with two threads the reference case's
+    tables took twice as long: docs/model.md, "Cost")."""
+    @functools.wraps(function)
+    def call(*args, **kwargs):
+        from threadpoolctl import threadpool_limits           # (scans the loaded libraries: 0.4 ms)
+        with threadpool_limits(limits=1, user_api="blas"):
+            return function(*args, **kwargs)
+    return call
 
 
 def part_edges(domain: float, breaks) -> np.ndarray:
@@ -440,6 +453,7 @@ def cosine_state_energy(p, domain: float, mirror: float, a, adot) -> tuple[float
     return 0.5 * float(np.sum(weight * np.asarray(adot) ** 2)), 0.5 * float(np.sum(weight * omega**2 * np.asarray(a) ** 2))
 
 
+@blas_alone
 def carry_state(p, wet: WetParts, a, adot):
     """The wet amplitudes (b, b') of the broken plate that carry the unbroken plate's state a, a'
     (on the cosines cos(n pi x / domain), n = 1..N) across the break: the displacement projected
@@ -461,6 +475,7 @@ def carry_state(p, wet: WetParts, a, adot):
     return b, bdot
 
 
+@blas_alone
 def carry_parts(p, old: WetParts, new: WetParts, b, bdot):
     """The wet amplitudes (b, b') of a plate broken further (new: its parts refine old's) that
     carry the state b, b' of the plate broken at fewer places across the new breaks: as
@@ -494,6 +509,7 @@ def wet_values(wet: WetParts, x, order=0) -> np.ndarray:
     return wet.Q.T @ part_values(wet.modes, x, order)
 
 
+@blas_alone
 def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     """Everything the kernels need of the plate of parameters p broken at ``breaks`` (kernel
     coordinates: 0..L on the half plate of a centred impact, 0..2L on the whole), in the form of
@@ -576,23 +592,3 @@ def _hat_weights(Qs, modes: PartModes, x):
     np.add.at(hat.T, j, np.einsum("kpg,pg->pk", vals, w * (1.0 - t)))
     np.add.at(hat.T, j + 1, np.einsum("kpg,pg->pk", vals, w * t))
     return hat
-
-
-def crack_loads(p, tables: dict, cracks, full: bool) -> np.ndarray:
-    """(C, N): each opening crack's forcing G_ck [m s-2] on the kernel's modes of the broken plate
-    of these tables (parts_tables; solver.model.crack): its faces' generalised force, -M psi'(b) +
-    V psi(b) on the part above the break b and M psi'(b) - V psi(b) on the part below (M = D w_xx,
-    V = D w_xxx the ice carried there: a solver.spec.Crack, b in kernel coordinates), over each
-    mode's generalised mass; on the half plate each face stands for its mirror too."""
-    modes, Qs, mass = tables["wet"].modes, tables["Q"], tables["mass"]
-    out = np.zeros((len(cracks), Qs.shape[1]))
-    for c, crack in enumerate(cracks):
-        force = np.zeros(modes.kinds.size)
-        for m in range(modes.kinds.size):
-            for face, sign in ((modes.lows[m], 1.0), (modes.highs[m], -1.0)):
-                if face == crack.x:
-                    shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], crack.x)
-                    value, slope = (modes.norms[m] * float(raw_mode(*shape, order)) for order in (0, 1))
-                    force[m] += sign * (crack.shear * value - crack.moment * slope)
-        out[c] = (1.0 if full else 2.0) * (Qs.T @ force) / mass
-    return out
