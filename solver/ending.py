@@ -18,7 +18,7 @@ from .model.basis import global_peak, node_strain
 from .model.body import body_position, body_speed
 from .model.contact import gap_peak
 from .model.plate import STRAIN, mode_a, mode_adot
-from .observe.events import Scan, event_value, locate_event, value_after
+from .observe.events import Scan, event_value, from_start, locate_event, value_after
 from .observe.tension import PEAKS, STEP_BEST
 
 #: an event that ends the run inside an accepted step: its kind (NO_EVENT, BOTTOMING, BREAK), and
@@ -101,7 +101,7 @@ def ending_event(model, ws, control, start, carried, t, h, new, diag):
     level, tw, armed = control.break_level, ws.tension, ws.armed
     if _may_bottom(model, control, ws.gap0, ws.gap1, h):
         s_b, _, F, jm, w, found = locate_event(ws.stepper, 0.0, 1.0 - control.bottom_gap, start, carried, t, h,
-                                               Scan(ws.gap0, False, -1.0), ws.sub, ws.value)
+                                               from_start(ws.gap0), ws.sub, ws.value)
         if found:                    # (where the interpolant's crossing was not real, the step stays)
             copy_into(ws.gap1, ws.value, 3)
             copy_state(ws.sub, new)

@@ -39,7 +39,7 @@ from .observe.asked import CONTACTS, FLOE_MAXIMA, LAYER_MAXIMA, TENSION, ZONE, a
 from .observe.body import observe_body
 from .observe.contacts import Snapshot, contact_work, observe_contacts
 from .observe.dense_maxima import dense_maxima_work, finish_dense_maxima, observe_candidates
-from .observe.events import Scan, locate_event
+from .observe.events import from_start, locate_event
 from .observe.layer_maxima import LayerEnds, finish_layer_maxima, maxima_work, observe_layer_maxima
 from .observe.record import Rows, SurfaceRows, append_row
 from .observe.tension import (PEAKS, RUN_MAX, STEP_BEST, Dense, DenseStates, StepStrains, dense_due, global_state,
@@ -267,7 +267,7 @@ def _locate_levels(ws, levels, out, start, carried, t, h):
         for i in range(levels.shape[0]):
             if math.isnan(out.level_t[s, i]) and levels[i] <= rm:
                 lo, hi, _, _, _, found = locate_event(ws.stepper, 1.0 - 2.0 * s, levels[i], start, carried, t, h,
-                                                      Scan(ws.peaks0[s], False, -1.0), ws.sub, ws.value)
+                                                      from_start(ws.peaks0[s]), ws.sub, ws.value)
                 if found:
                     out.level_t[s, i] = t + 0.5 * (lo + hi)
                     out.level_x[s, i] = ws.value[2]

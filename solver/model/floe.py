@@ -416,6 +416,8 @@ def _dry_row(shapes, m, origin, xk, row):
     else:
         sym = kind == 2.0
         for k in range(K):
+            if not low <= xk[k] + origin < high:          # (off its part: 0 below, not computed)
+                continue
             x = xk[k] + origin - centre
             ep, em = _hyperbolic_parts(beta, L, x)
             if sym:

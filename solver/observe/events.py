@@ -29,6 +29,13 @@ SCAN = 8
 Scan = namedtuple("Scan", "p0 rearm hint")
 
 
+@kernel(inline="always")
+def from_start(p0):
+    """The Scan of a value that counts as soon as it reaches the level, with no hint: p0 its
+    (value, rate) at the step's start."""
+    return Scan(p0, False, -1.0)
+
+
 @kernel(nrt=True)
 def event_value(model, kind, t, jm, state, out):
     """The quantity an event is defined on, at a state: kind 0, the largest delta on the plate
