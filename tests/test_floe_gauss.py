@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from solver import Parameters, Settings, solve
-from solver.model import floe
+from solver.model import floe, points
 from solver.model.assemble import Tables
 
 #: the reference floe: 6 m half-length, 40 symmetric modes, 20 ms (the paper's ice and body)
@@ -35,11 +35,11 @@ def test_dry_mode_kernels_are_the_modes(full):
     for field, order, scale in ((0, 0, 1.0), (1, 2, -0.5 * p.hi)):
         exact = [scale * (fl["Q"].T @ floe.dry_values(fl["kinds"], fl["betas"], fl["norms"], p.L,
                                                           x + tab.origin, order + k)).T @ c for k in range(3)]
-        got = np.array([floe.floe_dry_sums(packed, d, xi, field) for xi in x]).T
+        got = np.array([points.floe_dry_sums(packed, d, xi, field) for xi in x]).T
         for k in range(3):
             assert np.max(np.abs(got[k] - exact[k])) < 1e-12 * np.max(np.abs(exact[k]))
     table = np.empty((N, x.size))
-    floe.dry_table(packed, x, table)
+    points.dry_table(packed, x, table)
     assert np.max(np.abs(d @ table - tab.mode_values(x + tab.origin if full else x) @ c)) < 1e-13 * np.max(np.abs(c))
     q = np.random.default_rng(2).standard_normal(N)
     P = np.empty(N)

@@ -25,8 +25,8 @@ from collections import namedtuple
 
 import numpy as np
 
-from .floe import (BREAK_COUNT, CENTRE_CUT, CRACK_BAND, FIRST_BREAK, HEADER, TABLE_STRAIN, floe_dry, floe_dry_sums,
-                   floe_plane, floe_sums)
+from .floe import BREAK_COUNT, CENTRE_CUT, CRACK_BAND, FIRST_BREAK, HEADER, TABLE_STRAIN, floe_dry, floe_plane
+from .points import floe_dry_sums, floe_sums
 from ..compile.jit import kernel
 
 #: the basis on the nodes: lam1 = lambda_1 [m-1], dx [m], cosq (N, J) cos(lambda_n x_j), wq (N,)
@@ -447,7 +447,7 @@ def field_sums(lam1, floe, field, c, x):
     a Basis's lam1 and floe (not the Basis: numba counts a reference to each of its arrays at
     every call): field a Field, on the cosines (floe empty) sum_n w_n c_n cos(lambda_n x)
     (mode_sums), on a floe's wet modes the field of that code, 0 the deflection and 1 the
-    upper-surface strain (solver.model.floe.floe_sums)."""
+    upper-surface strain (solver.model.points.floe_sums)."""
     w, code = field.weights, field.code
     if floe.shape[0] == 0:
         return mode_sums(w, c, lam1, x)

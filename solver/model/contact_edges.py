@@ -13,7 +13,8 @@ import math
 
 from ..compile.jit import kernel
 from .body import body_profile, body_slope_curvature
-from .floe import BREAK_COUNT, FIRST_BREAK, floe_dry_sums, floe_header
+from .floe import BREAK_COUNT, FIRST_BREAK, floe_header
+from .points import floe_dry_sums
 
 #: the roots of delta at the contact edges are refined until their step is below this fraction
 #: of dx (their error enters the integrals at second order, f vanishing there: 1e-10 dx moves

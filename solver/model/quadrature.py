@@ -47,7 +47,8 @@ import numpy as np
 from .basis import modal_projection, modal_sum_range
 from .body import body_corners, body_profile
 from .contact_edges import EDGE_STOP, break_count, broken_intervals, contact_edge, gap_and_slope
-from .floe import BREAK_COUNT, FIRST_BREAK, MAX_BREAKS, dry_table, floe_dry, floe_header, floe_wet
+from .floe import BREAK_COUNT, FIRST_BREAK, MAX_BREAKS, floe_dry, floe_header, floe_wet
+from .points import dry_table
 from ..compile.jit import kernel
 from .law import law_energy, law_pressure
 from .plate import Modes

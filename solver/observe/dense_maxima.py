@@ -30,7 +30,8 @@ import numpy as np
 from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X, D_ZONE_UPPER, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import dry_newton_peak
-from ..model.floe import floe_dry, floe_dry_sums
+from ..model.floe import floe_dry
+from ..model.points import floe_dry_sums
 from ..step import dense_state_at
 from .tension import TENSION_SAMPLES
 

@@ -44,7 +44,8 @@ from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import Field, dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
-from ..model.floe import floe_dry, floe_dry_sums
+from ..model.floe import floe_dry
+from ..model.points import floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
 from .reach import Reach, Span, contact_extent, reach_after_step, zone_ends, zone_track
 from .record import SurfaceRows
