@@ -62,11 +62,15 @@ first sample below the level, not at the step's largest (the overshoot at the st
 make bit-for-bit BASE=503afef: all 30 cases bit for bit); breaking 7 (2026-12-07: a broken
 plate's tables and carries run BLAS on one thread (solver.model.parts.blas_alone): their round-off
 no longer depends on how many threads BLAS takes on the machine; make bit-for-bit BASE=29e6175:
-the whole plate's breaking case within 9e-9 of its largest values (its strain field; break times 4e-10), the other 29 bit for bit).
+the whole plate's breaking case within 9e-9 of its largest values (its strain field; break times 4e-10), the other 29 bit for bit);
+breaking 8 (2026-12-07: a broken plate's modes at a point take a part's evenly spaced
+wavenumbers by rotation and their exponentials by products, solver.model.points._part_sums;
+make bit-for-bit BASE=8b40335: the 5 breaking cases within 6.1e-9 of their largest values, the
+25 others bit for bit).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
 #: "smoothness": of etd34's adaptive runs under the smoothness control (in addition); "breaking":
 #: of the runs in which the ice breaks (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 7}
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 8}

@@ -74,7 +74,7 @@ class Tables:
         panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(lam[-1])
         basis = Basis(float(lam[0]), float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
-                      0.0, np.zeros(0))
+                      0.0, np.zeros(0), np.zeros(0))
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]),
                            no_cracks(self.omega.size))
@@ -130,7 +130,7 @@ class Tables:
         panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]))
         basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
-                      1.0, fl["packed"])
+                      1.0, fl["packed"], np.empty(fl["omega"].size))
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]),
                            no_cracks(self.omega.size))

@@ -35,8 +35,10 @@ from ..compile.jit import kernel
 #: forcing's rule (QUADRATURE_CODES: 0 the paper's, 1 the contact-resolving one) with, for the
 #: latter, its Gauss-Legendre nodes gauss_x and weights gauss_w on [-1, 1] and the widest panel [m];
 #: kind (0: these cosines; 1: a free floe's wet modes, solver.model.floe, whose node table is cosq
-#: and whose other tables and shapes are packed in floe; empty on the cosines)
-Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe")
+#: and whose other tables and shapes are packed in floe; empty on the cosines); dry (N,), on a
+#: floe's wet modes, a state's dry coefficients for the Newton searches on the modes (load_dry,
+#: point_sums: each search loads its state once and holds it only while it runs; empty on the cosines)
+Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe dry")
 #: a modal field: its weights on the cosines (sum_n w_n c_n cos(lambda_n x)) and, on a floe's wet
 #: modes, its code instead (0 the deflection, 1 the upper-surface strain; solver.model.floe)
 Field = namedtuple("Field", "weights code")
@@ -310,13 +312,14 @@ def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     v, x = refine(vals, sign, j, n, dx)
     xlo = (j - 1) * dx
     xhi = (j + 1) * dx
+    load_dry(basis, c)
     for _ in range(8):
-        s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
+        s0, s1, s2 = point_sums(basis, field, c, x)
         x, done = newton_move(x, sign * scale * s1 + 2.0 * q2 * x, sign * scale * s2 + 2.0 * q2, xlo, xhi,
                                NEWTON_STOP * dx)
         if done:
             break
-    s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
+    s0, s1, s2 = point_sums(basis, field, c, x)
     return sign * scale * s0 + q2 * x * x + q0, x
 
 
@@ -363,15 +366,16 @@ def read_peak(vals, sign, j, n, basis, field, c):
         return sign * vals[j], x0                      # (an end of the plate: the node, as continuous_peak)
     lo, hi = read_interval(basis.floe, x0, x0 - dx, x0 + dx)
     x = min(max(refine(vals, sign, j, n, dx)[1], lo), hi)
+    load_dry(basis, c)
     for _ in range(8):
-        s0, s1, s2 = field_sums(basis.lam1, basis.floe, field, c, x)
+        s0, s1, s2 = point_sums(basis, field, c, x)
         x, done = newton_move(x, sign * s1, sign * s2, lo, hi, NEWTON_STOP * dx)
         if done:
             break
-    best, bx = sign * field_sums(basis.lam1, basis.floe, field, c, x)[0], x
+    best, bx = sign * point_sums(basis, field, c, x)[0], x
     for edge in (lo, hi):
         if abs(edge - x0) < dx and edge != x:        # an end the band sets
-            v = sign * field_sums(basis.lam1, basis.floe, field, c, edge)[0]
+            v = sign * point_sums(basis, field, c, edge)[0]
             if v > best:
                 best, bx = v, edge
     return best, bx
@@ -452,6 +456,23 @@ def field_sums(lam1, floe, field, c, x):
     if floe.shape[0] == 0:
         return mode_sums(w, c, lam1, x)
     return floe_sums(floe, c, x, code)
+
+
+@kernel(inline="always")
+def load_dry(basis, c):
+    """On a floe's wet modes basis.dry = the dry coefficients of the wet amplitudes c (floe_dry,
+    O(N^2)), once for the many points of a search (point_sums); nothing on the cosines."""
+    if basis.floe.shape[0] != 0:
+        floe_dry(basis.floe, c, basis.dry)
+
+
+@kernel(inline="always")
+def point_sums(basis, field, c, x):
+    """field_sums at x of the state c whose dry coefficients load_dry loaded: O(N) on a floe as on
+    the cosines."""
+    if basis.floe.shape[0] == 0:
+        return mode_sums(field.weights, c, basis.lam1, x)
+    return floe_dry_sums(basis.floe, basis.dry, x, field.code)
 
 
 @kernel(inline="always")

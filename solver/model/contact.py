@@ -18,8 +18,8 @@ step; the contact observer on the bounded nodes equals the observer on every nod
 """
 import numpy as np
 
-from .basis import (NEWTON_STOP, Field, newton_move, argmax_node, continuous_peak, field_sum, field_sums,
-                    modal_sum_range, refine)
+from .basis import (NEWTON_STOP, Field, newton_move, argmax_node, continuous_peak, field_sum, load_dry,
+                    modal_sum_range, point_sums, refine)
 from .body import body_corners, body_extent, body_profile, body_slope_curvature, is_parabola
 from ..compile.jit import kernel
 from .floe import BREAK_COUNT, FIRST_BREAK, floe_header
@@ -171,13 +171,14 @@ def shape_peak(model, delta, j, n, a, s):
     v, x = refine(delta, 1.0, j, n, dx)
     xlo = (j - 1) * dx
     xhi = (j + 1) * dx
+    load_dry(model.basis, a)
     for _ in range(8):
-        s0, s1, s2 = field_sums(model.basis.lam1, model.basis.floe, deflection, a, x)
+        s0, s1, s2 = point_sums(model.basis, deflection, a, x)
         b1, b2 = body_slope_curvature(x, model.body)
         x, done = newton_move(x, s1 - b1, s2 - b2, xlo, xhi, NEWTON_STOP * dx)
         if done:
             break
-    s0, s1, s2 = field_sums(model.basis.lam1, model.basis.floe, deflection, a, x)
+    s0, s1, s2 = point_sums(model.basis, deflection, a, x)
     value = (s0 + s - body_profile(x, model.body)) / he
     if value < delta[j]:                 # a corner the iteration could not settle on: the node
         return delta[j], j * dx

@@ -4,17 +4,21 @@ the sums of the dry coefficients against them at one point (floe_dry_sums, floe_
 point), and a table of the modes at many points (dry_table), each mode 0 off its part.
 
 On the free floe the wavenumbers from the header's FIRST_EVEN on are evenly spaced, and
-exp(i beta_m x) goes by rotation, one complex product a mode.
+exp(i beta_m x) goes by rotation, one complex product a mode. On a broken plate's parts
+(FIRST_EVEN = N) each mode is computed on its own part only, and a part's modes beyond beta l =
+ASYMPTOTIC, evenly spaced to round-off, take exp(i beta y) and their two exponentials from their
+predecessor's by a product each (_part_sums; docs/model.md, "Cost").
 
-Benchmark (tests/test_floe_gauss.py): the sums and the table against solver.model.floe.dry_mode.
+Benchmark (tests/test_floe_gauss.py, tests/test_parts.py): the sums and the table against the
+modes in numpy (solver.model.floe.dry_mode, solver.model.parts.part_values).
 """
 import math
 
 import numpy as np
 
 from ..compile.jit import kernel
-from .floe import (BETAS, CENTRES, FIRST_EVEN, HALF_LENGTH, HALVES, HIGHS, HYP, HYP_NEGLIGIBLE, KINDS, LOWS,
-                   ORIGIN, SPACING, STRAIN_FACTOR, TRIG, floe_dry, floe_header, floe_shapes)
+from .floe import (ASYMPTOTIC, BETAS, CENTRES, FIRST_EVEN, HALF_LENGTH, HALVES, HIGHS, HYP, HYP_NEGLIGIBLE, KINDS,
+                   LOWS, ORIGIN, SPACING, STRAIN_FACTOR, TRIG, floe_dry, floe_header, floe_shapes)
 
 
 @kernel(inline="always")
@@ -55,8 +59,14 @@ def _raw3(shapes, m, x, order):
 @kernel(inline="always")
 def _elastic3(shapes, m, c, s, L, x, order):
     """_raw3 of elastic dry mode m given c = cos(beta x) and s = sin(beta x)."""
+    ep, em = _hyperbolic_parts(shapes[BETAS, m], L, x)
+    return _elastic_parts(shapes, m, c, s, ep, em, order)
+
+
+@kernel(inline="always")
+def _elastic_parts(shapes, m, c, s, ep, em, order):
+    """_elastic3 given its exponentials ep, em (_hyperbolic_parts) too."""
     beta = shapes[BETAS, m]
-    ep, em = _hyperbolic_parts(beta, L, x)
     trig, hyp = shapes[TRIG, m], shapes[HYP, m]
     b0 = beta**order
     b1 = b0 * beta
@@ -85,12 +95,7 @@ def floe_dry_sums(floe, d, x, field):
     order = 0 if field == 0 else 2
     xp = x + header[ORIGIN]
     m0 = min(int(header[FIRST_EVEN]), N)
-    v0 = v1 = v2 = 0.0
-    for m in range(m0):
-        r0, r1, r2 = _raw3(shapes, m, xp, order)
-        v0 += d[m] * r0
-        v1 += d[m] * r1
-        v2 += d[m] * r2
+    v0, v1, v2 = _part_sums(shapes, m0, xp, order, d, d[:0])
     if m0 < N:
         b = shapes[BETAS, m0]
         cur = complex(math.cos(b * xp), math.sin(b * xp))
@@ -102,6 +107,69 @@ def floe_dry_sums(floe, d, x, field):
             v1 += d[m] * r1
             v2 += d[m] * r2
     return factor * v0, factor * v1, factor * v2
+
+
+@kernel(inline="always")
+def _run_spacing(shapes, m):
+    """The spacing [m-1] by which dry mode m's wavenumber continues mode m - 1's on the same part, or
+    0: both elastic with a trigonometric part (not edge shapes), about the same centre and
+    half-length l, beyond beta l = ASYMPTOTIC (their roots (k + 3/4) pi and (k + 5/4) pi to
+    round-off), beta_m - beta_(m-1) within 1e-12 of the spacing: pi / l between two symmetric
+    modes (a sliding-free part), pi / 2l where the parities alternate (a free-free part)."""
+    if m == 0 or shapes[KINDS, m - 1] < 2.0 or shapes[TRIG, m - 1] == 0.0 or shapes[TRIG, m] == 0.0:
+        return 0.0
+    L = shapes[HALVES, m]
+    if shapes[HALVES, m - 1] != L or shapes[CENTRES, m - 1] != shapes[CENTRES, m] or \
+            shapes[LOWS, m - 1] != shapes[LOWS, m] or not shapes[BETAS, m - 1] * L > ASYMPTOTIC:
+        return 0.0
+    spacing = math.pi / L if shapes[KINDS, m - 1] == shapes[KINDS, m] else 0.5 * math.pi / L
+    return spacing if abs(shapes[BETAS, m] - shapes[BETAS, m - 1] - spacing) <= 1e-12 * spacing else 0.0
+
+
+@kernel
+def _part_sums(shapes, m0, xp, order, d, column):
+    """Over the dry modes m < m0 at one point xp (the floe's coordinate): sum_m d_m r_m of _raw3's
+    three orders where d is given, and each r_m of the first order into column where it is. A
+    mode that continues its predecessor's run of evenly spaced wavenumbers (_run_spacing: a broken
+    plate's parts beyond beta l = ASYMPTOTIC; none of a floe's modes below FIRST_EVEN) takes
+    exp(i beta y) and its two exponentials from the predecessor's by one product each (the
+    rounding grows as the run's length times eps); every other mode as _raw3."""
+    v0 = v1 = v2 = 0.0
+    cur, rot = complex(1.0, 0.0), complex(1.0, 0.0)
+    ep = em = fp = fm = 0.0
+    along = 0.0                  # the spacing rot, fp and fm are for (0: none yet)
+    previous = False             # mode m - 1 elastic and computed at xp
+    for m in range(m0):
+        if not shapes[LOWS, m] <= xp < shapes[HIGHS, m]:
+            r0 = r1 = r2 = 0.0
+            previous = False
+        elif shapes[KINDS, m] < 2.0:
+            r0, r1, r2 = _raw3(shapes, m, xp, order)
+            previous = False
+        else:
+            L, y, beta = shapes[HALVES, m], xp - shapes[CENTRES, m], shapes[BETAS, m]
+            spacing = _run_spacing(shapes, m) if previous else 0.0
+            if spacing > 0.0:
+                if spacing != along:
+                    rot = complex(math.cos(spacing * y), math.sin(spacing * y))
+                    fp, fm = math.exp(spacing * (y - L)), math.exp(-spacing * (y + L))
+                    along = spacing
+                cur *= rot
+                ep *= fp
+                em *= fm
+            else:
+                cur = complex(math.cos(beta * y), math.sin(beta * y))
+                ep, em = _hyperbolic_parts(beta, L, y)
+                along = 0.0
+            r0, r1, r2 = _elastic_parts(shapes, m, cur.real, cur.imag, ep, em, order)
+            previous = True
+        if d.shape[0] > 0:
+            v0 += d[m] * r0
+            v1 += d[m] * r1
+            v2 += d[m] * r2
+        if column.shape[0] > 0:
+            column[m] = r0
+    return v0, v1, v2
 
 
 @kernel(nrt=True)
@@ -117,10 +185,15 @@ def dry_table(floe, xk, table):
     L = header[HALF_LENGTH]
     origin = header[ORIGIN]
     m0 = int(header[FIRST_EVEN])
+    if m0 >= N:                  # a broken plate's parts: a point at a time, each mode on its part
+        column = np.empty(N)
+        for k in range(K):
+            _part_sums(shapes, N, xk[k] + origin, 0, column[:0], column)
+            for m in range(N):
+                table[m, k] = column[m]
+        return
     for m in range(m0):
         _dry_row(shapes, m, origin, xk, table[m])
-    if m0 >= N:
-        return
     spacing = header[SPACING]
     cur = np.empty(K, np.complex128)
     rot = np.empty(K, np.complex128)
