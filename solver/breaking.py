@@ -46,11 +46,11 @@ from dataclasses import replace
 import numpy as np
 
 from . import layout as kn
+from .blas import blas_alone
 from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
 from .run import Result, checked_breaks, cosines_to_kernel, run_case
 from .model.assemble import Tables
-from .model.parts import blas_alone
 from .spec import Begin, Breaking, BreakEvent, Crack, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")

@@ -60,7 +60,7 @@ make bit-for-bit BASE=3d3d27b: all 30 cases, the 5 that break included, bit for 
 (2026-12-07: a surface not yet armed is scanned for its break at its largest tension after its
 first sample below the level, not at the step's largest (the overshoot at the step's start);
 make bit-for-bit BASE=503afef: all 30 cases bit for bit); breaking 7 (2026-12-07: a broken
-plate's tables and carries run BLAS on one thread (solver.model.parts.blas_alone): their round-off
+plate's tables and carries run BLAS on one thread (solver.blas.blas_alone): their round-off
 no longer depends on how many threads BLAS takes on the machine; make bit-for-bit BASE=29e6175:
 the whole plate's breaking case within 9e-9 of its largest values (its strain field; break times 4e-10), the other 29 bit for bit);
 breaking 8 (2026-12-07: a broken plate's modes at a point take a part's evenly spaced

@@ -1,7 +1,8 @@
 """Helpers the test files share: the repository's root, the command line (in this process, or in
 a process of its own as a user runs it), a results directory's batch files, determinism of
 study.nc on one machine, a small grid study, a figure's axes drawn without writing it, and the
-sockets a process tree listens on, the composition matrix's options."""
+sockets a process tree listens on, the composition matrix's options, and a composite
+Gauss-Legendre rule independent of the solver's."""
 import os
 import signal
 import socket
@@ -439,3 +440,13 @@ def assert_breaking_study_consistent(ds):
 def pytest_approx(value):
     import pytest
     return pytest.approx(value, rel=1e-12, abs=1e-12)
+
+
+def composite_gauss(lo, hi, panels=400):
+    """(x, w): composite Gauss-Legendre of 16 nodes on ``panels`` panels of [lo, hi] (independent
+    of solver.model.parts._gauss)."""
+    g, w = np.polynomial.legendre.leggauss(16)
+    edges = np.linspace(lo, hi, panels + 1)
+    half = 0.5 * np.diff(edges)
+    x = (edges[:-1] + half)[:, None] + half[:, None] * g
+    return x.ravel(), (half[:, None] * w).ravel()

@@ -8,6 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from helpers import composite_gauss
 from solver import Parameters, Settings, solve
 from solver.parameters import ParameterError
 from solver.model import parts
@@ -15,16 +16,6 @@ from solver.model import parts
 L = 6.0
 #: the reference case's first break at N = 60 (the lower surface at x = 0; tests/test_parts.py)
 FIRST_BREAK = 0.4925754402552841e-3
-
-
-def _quadrature(lo, hi, panels=400):
-    """Composite Gauss-Legendre of 16 nodes on ``panels`` panels of [lo, hi] (independent of
-    parts._gauss)."""
-    g, w = np.polynomial.legendre.leggauss(16)
-    edges = np.linspace(lo, hi, panels + 1)
-    half = 0.5 * np.diff(edges)
-    x = (edges[:-1] + half)[:, None] + half[:, None] * g
-    return x.ravel(), (half[:, None] * w).ravel()
 
 
 def test_edge_shapes_stand_at_free_ends_obey_the_beam_equation_and_their_gram_is_exact():
@@ -50,7 +41,7 @@ def test_edge_shapes_stand_at_free_ends_obey_the_beam_equation_and_their_gram_is
         fine = np.zeros_like(G)
         for part, (lo, hi) in enumerate(((0.0, 1.3), (1.3, L))):
             on = np.flatnonzero(modes.parts == part)
-            xq, wq = _quadrature(lo, hi)
+            xq, wq = composite_gauss(lo, hi)
             v = parts.part_values(modes, xq, order)[on]
             fine[np.ix_(on, on)] = (v * wq) @ v.T
         d = np.diag(fine)

@@ -7,20 +7,11 @@ import numpy as np
 import pytest
 from scipy.special import zeta
 
+from helpers import composite_gauss
 from solver import Parameters, Settings, solve
 from solver.model import parts, tails
 
 L = 6.0
-
-
-def _quadrature(lo, hi, panels=400):
-    """Composite Gauss-Legendre of 16 nodes on ``panels`` panels of [lo, hi] (independent of
-    parts._gauss)."""
-    g, w = np.polynomial.legendre.leggauss(16)
-    edges = np.linspace(lo, hi, panels + 1)
-    half = 0.5 * np.diff(edges)
-    x = (edges[:-1] + half)[:, None] + half[:, None] * g
-    return x.ravel(), (half[:, None] * w).ravel()
 
 
 def _shape(modes, m, x, order=0):
@@ -43,7 +34,7 @@ def test_the_parts_dry_modes_meet_their_ends_and_are_orthogonal():
                 assert abs(float(_shape(modes, m, end, k))) < 1e-9 * beta**k, (m, end, k)
     for part in range(3):
         ms = np.flatnonzero(modes.parts == part)
-        x, w = _quadrature(modes.lows[ms[0]], modes.highs[ms[0]])
+        x, w = composite_gauss(modes.lows[ms[0]], modes.highs[ms[0]])
         values = np.array([_shape(modes, m, x) for m in ms])
         curvatures = np.array([_shape(modes, m, x, 2) for m in ms])
         length = modes.highs[ms[0]] - modes.lows[ms[0]]
@@ -66,7 +57,7 @@ def test_the_closed_form_cosine_integrals_are_quadratures():
         mu = math.pi * k / L
         ours = parts.cosine_integrals(modes, mu)
         for m in range(0, modes.kinds.size, 3):
-            x, w = _quadrature(modes.lows[m], modes.highs[m], panels)
+            x, w = composite_gauss(modes.lows[m], modes.highs[m], panels)
             brute = (w * _shape(modes, m, x)) @ np.cos(np.outer(x, mu))
             assert np.max(np.abs(ours[m] - brute)) < 2e-12, m
 

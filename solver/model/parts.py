@@ -70,7 +70,6 @@ one sliding part, whose wet modes are the walled plate's cosines to round-off.
 """
 from __future__ import annotations
 
-import functools
 import math
 from collections import namedtuple
 
@@ -79,6 +78,7 @@ import numpy as np
 from . import floe as fl
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
 from .tails import cosine_tail, power_tail
+from ..blas import blas_alone
 
 #: the end conditions of a part: a wall or the symmetry plane (w_x = w_xxx = 0), a break (w_xx =
 #: w_xxx = 0)
@@ -142,18 +142,6 @@ def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray
                 held -= _PART_ROWS.pop(next(iter(_PART_ROWS))).nbytes
         out[on] = rows
     return out
-
-
-def blas_alone(function):
-    """``function`` with BLAS on one thread: a broken plate's matrices are small (a hundred rows),
-    and BLAS's threads cost more than they save on them (with two threads the reference case's
-    tables took twice as long: docs/model.md, "Cost")."""
-    @functools.wraps(function)
-    def call(*args, **kwargs):
-        from threadpoolctl import threadpool_limits           # (scans the loaded libraries: 0.4 ms)
-        with threadpool_limits(limits=1, user_api="blas"):
-            return function(*args, **kwargs)
-    return call
 
 
 def part_edges(domain: float, breaks) -> np.ndarray:
