@@ -58,10 +58,12 @@ Segment = namedtuple("Segment", "alpha beta ga gb")
 #: and 1 / (1 +- exp(-2 beta L)) (solver.model.points), CENTRES and HALVES the centre c and
 #: half-length l of the free-free beam the mode belongs to (a floe's: 0 and L), LOWS and HIGHS
 #: the part of the plate it lives on, zero elsewhere (a floe's: -inf, inf; a broken plate's,
-#: solver.model.parts, the parts' ends); rows SHAPE_ROWS.. the scaled wet-mode matrix Q (row m:
-#: dry mode m), then its transpose (row k: wet mode k; floe_dry's sums run along rows)
-KINDS, BETAS, NORMS, TRIG, HYP, CENTRES, HALVES, LOWS, HIGHS = range(9)
-SHAPE_ROWS = 9
+#: solver.model.parts, the parts' ends), RUNS the spacing by which a mode's wavenumber continues
+#: its predecessor's run of evenly spaced ones on the same part, or 0 (run_spacings); rows
+#: SHAPE_ROWS.. the scaled wet-mode matrix Q (row m: dry mode m), then its transpose (row k: wet
+#: mode k; floe_dry's sums run along rows)
+KINDS, BETAS, NORMS, TRIG, HYP, CENTRES, HALVES, LOWS, HIGHS, RUNS = range(10)
+SHAPE_ROWS = 10
 #: the header: the strain factor -hi/2, L, x at the kernel's 0 (-L on the full floe, 0 on the
 #: half floe of a centred impact), the first dry mode m0 from which the wavenumbers are evenly
 #: spaced (to round-off: beta L > ASYMPTOTIC) and that spacing (pi / L on the half floe, pi / 2L
@@ -90,19 +92,34 @@ TABLE_STRAIN, TABLE_HAT, TABLE_SLOPE, TABLE_CURVATURE = range(4)
 GAUSS4_X, GAUSS4_W = (np.ascontiguousarray(v) for v in np.polynomial.legendre.leggauss(4))
 
 
+#: the roots free_free_roots has found, symmetric (True) and antisymmetric (False), kept for the
+#: process: each root is the same number whatever count asks for it (a broken plate's parts ask
+#: again at every break)
+_ROOTS = {True: np.empty(0), False: np.empty(0)}
+
+
 def free_free_roots(count: int, symmetric: bool) -> np.ndarray:
     """beta L of the first ``count`` symmetric (tan + tanh = 0) or antisymmetric (tan = tanh)
-    elastic modes of a free-free beam of half-length L (brentq on each branch of tan)."""
+    elastic modes of a free-free beam of half-length L (brentq on each branch of tan; found once
+    a process: _ROOTS)."""
+    known = _ROOTS[symmetric]
+    if known.size < count:
+        _ROOTS[symmetric] = known = np.concatenate([known, _find_roots(known.size, count, symmetric)])
+    return known[:count].copy()
+
+
+def _find_roots(first: int, count: int, symmetric: bool) -> np.ndarray:
+    """free_free_roots' roots first .. count - 1."""
     from scipy.optimize import brentq        # (here, not at the top: 0.3 s of every import of solver)
-    roots = np.empty(count)
-    for k in range(count):
+    roots = np.empty(count - first)
+    for i, k in enumerate(range(first, count)):
         if symmetric:       # tan y = -tanh y: one root in ((k + 1/2) pi, (k + 1) pi)
             lo, hi = (k + 0.5) * math.pi + 1e-12, (k + 1.0) * math.pi
-            roots[k] = brentq(lambda y: math.sin(y) * math.cosh(y) + math.cos(y) * math.sinh(y), lo, hi,
+            roots[i] = brentq(lambda y: math.sin(y) * math.cosh(y) + math.cos(y) * math.sinh(y), lo, hi,
                               xtol=1e-15, rtol=1e-15) if k < 40 else (k + 0.75) * math.pi
         else:               # tan y = tanh y: one root in ((k + 1) pi, (k + 3/2) pi)
             lo, hi = (k + 1.0) * math.pi, (k + 1.5) * math.pi - 1e-12
-            roots[k] = brentq(lambda y: math.sin(y) - math.cos(y) * math.tanh(y), lo, hi,
+            roots[i] = brentq(lambda y: math.sin(y) - math.cos(y) * math.tanh(y), lo, hi,
                               xtol=1e-15, rtol=1e-15) if k < 40 else (k + 1.25) * math.pi
     return roots
 
@@ -232,6 +249,29 @@ def floe_header(floe):
     return floe[floe.shape[0] - HEADER:]
 
 
+@kernel
+def run_spacings(shapes, N):
+    """shapes[RUNS, m] = the spacing by which dry mode m's wavenumber continues mode m - 1's on the
+    same part, or 0 (solver.model.points: such a mode's exponentials come from its predecessor's by
+    a product each): both elastic with a trigonometric part (not edge shapes), about the same
+    centre and half-length l, beyond beta l = ASYMPTOTIC (their roots (k + 3/4) pi and (k + 5/4)
+    pi to round-off), beta_m - beta_(m-1) within 1e-12 of the spacing: pi / l between two
+    symmetric modes (a sliding-free part), pi / 2l where the parities alternate (a free-free
+    part)."""
+    shapes[RUNS, 0] = 0.0
+    for m in range(1, N):
+        shapes[RUNS, m] = 0.0
+        if shapes[KINDS, m - 1] < 2.0 or shapes[TRIG, m - 1] == 0.0 or shapes[TRIG, m] == 0.0:
+            continue
+        L = shapes[HALVES, m]
+        if shapes[HALVES, m - 1] != L or shapes[CENTRES, m - 1] != shapes[CENTRES, m] or \
+                shapes[LOWS, m - 1] != shapes[LOWS, m] or not shapes[BETAS, m - 1] * L > ASYMPTOTIC:
+            continue
+        spacing = math.pi / L if shapes[KINDS, m - 1] == shapes[KINDS, m] else 0.5 * math.pi / L
+        if abs(shapes[BETAS, m] - shapes[BETAS, m - 1] - spacing) <= 1e-12 * spacing:
+            shapes[RUNS, m] = spacing
+
+
 def pack_floe(tables, shapes, header):
     """The packed 1-D array of the tables (4, N, J), shapes (SHAPE_ROWS + 2N, N) and header."""
     return np.ascontiguousarray(np.concatenate([tables.ravel(), shapes.ravel(), header]))
@@ -349,6 +389,7 @@ def floe_tables(p, xq, full: bool):
     header[FIRST_EVEN] = late[0] if late.size else kinds.size
     header[SPACING] = math.pi / (2.0 * L) if full else math.pi / L
     shapes[TRIG], shapes[HYP] = edge_factors(kinds, betas * L)
+    run_spacings(shapes, N)
     shapes[SHAPE_ROWS:SHAPE_ROWS + N] = Qs
     shapes[SHAPE_ROWS + N:] = Qs.T
     # Kelvin-Voigt ice, D -> D (1 + tau d/dt): the damping tau Q^T K_b Q of the bending stiffness

@@ -344,8 +344,8 @@ def jump_tail(modes: PartModes, other: PartModes, domain: float, K: int) -> np.n
     every pair of ends, the oscillating sums included, 1e-12 of the largest entry at 2048 terms
     (tests/test_parts.py)."""
     e = np.unique(np.concatenate([modes.lows, modes.highs, other.lows, other.highs]))
-    J, P = (np.array([_jumps(modes, b, order) for b in e]) for order in (0, 1))         # (E, Nd)
-    J_o, P_o = (J, P) if other is modes else (np.array([_jumps(other, b, order) for b in e]) for order in (0, 1))
+    J, P = (_jumps(modes, e, order) for order in (0, 1))         # (E, Nd)
+    J_o, P_o = (J, P) if other is modes else (_jumps(other, e, order) for order in (0, 1))
     minus, plus = (math.pi * (e[:, None] - e[None, :]) / domain, math.pi * (e[:, None] + e[None, :]) / domain)
     C3 = 0.5 * (cosine_tail(minus, K) - cosine_tail(plus, K))
     S4 = 0.5 * (np.imag(power_tail(plus, K, 4)) + np.imag(power_tail(minus, K, 4)))      # [e, f]: sin(e) cos(f)
@@ -355,15 +355,17 @@ def jump_tail(modes: PartModes, other: PartModes, domain: float, K: int) -> np.n
     return (2.0 / domain) * out
 
 
-def _jumps(modes: PartModes, b, order: int = 0) -> np.ndarray:
-    """(Nd,): each mode's jump at the break b, of its value (order 0) or a derivative (its value at a
-    part's upper end minus at its lower)."""
-    jump = np.zeros(modes.kinds.size)
-    at = np.flatnonzero((modes.highs == b) | (modes.lows == b))
-    if at.size:
-        sub = PartModes(*(field[at] for field in modes))
-        value = sub.norms * mode_block(sub, np.array([float(b)]), order)[:, 0]
-        jump[at] = np.where(sub.highs == b, value, -value)
+def _jumps(modes: PartModes, ends, order: int = 0) -> np.ndarray:
+    """(E, Nd): each mode's jump at each of the sorted ``ends`` (which hold its part's), of its
+    value (order 0) or a derivative: its value at its part's upper end, minus at its lower, 0 at
+    the other ends (each part's end values computed once, _by_part)."""
+    def at_ends(sub):            # (the modes of one part: its two ends)
+        return sub.norms[:, None] * mode_block(sub, np.array([sub.lows[0], sub.highs[0]]), order)
+    values = _by_part(modes, ("ends", order), at_ends, 2)
+    jump = np.zeros((np.size(ends), modes.kinds.size))
+    m = np.arange(modes.kinds.size)
+    jump[np.searchsorted(ends, modes.highs), m] = values[:, 1]
+    jump[np.searchsorted(ends, modes.lows), m] = -values[:, 0]
     return jump
 
 
@@ -396,12 +398,14 @@ def gram(modes: PartModes, order: int) -> np.ndarray:
 
 
 def mode_means(modes: PartModes) -> np.ndarray:
-    """int psi_m dx over each mode's part [m] (Gauss-Legendre)."""
-    out = np.empty(modes.kinds.size)
-    for m in range(modes.kinds.size):
-        x, w = _gauss(modes, m, 0.0)
-        out[m] = w @ (modes.norms[m] * raw_mode(modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m], x))
-    return out
+    """int psi_m dx over each mode's part [m] (Gauss-Legendre; each part's kept, _by_part)."""
+    def means(sub):
+        out = np.empty((sub.kinds.size, 1))
+        for m in range(sub.kinds.size):
+            x, w = _gauss(sub, m, 0.0)
+            out[m] = w @ (sub.norms[m] * raw_mode(sub.kinds[m], sub.betas[m], sub.centres[m], sub.halves[m], x))
+        return out
+    return _by_part(modes, ("means",), means, 1)[:, 0]
 
 
 def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetParts:
@@ -537,6 +541,7 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     shapes[fl.CENTRES], shapes[fl.HALVES] = modes.centres, modes.halves
     shapes[fl.LOWS] = np.where(modes.lows <= 0.0, -np.inf, modes.lows)
     shapes[fl.HIGHS] = np.where(modes.highs >= domain, np.inf, modes.highs)
+    fl.run_spacings(shapes, N)
     shapes[fl.SHAPE_ROWS:fl.SHAPE_ROWS + N] = Qs
     shapes[fl.SHAPE_ROWS + N:] = Qs.T
     header = np.zeros(fl.HEADER)

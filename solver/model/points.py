@@ -17,8 +17,8 @@ import math
 import numpy as np
 
 from ..compile.jit import kernel
-from .floe import (ASYMPTOTIC, BETAS, CENTRES, FIRST_EVEN, HALF_LENGTH, HALVES, HIGHS, HYP, HYP_NEGLIGIBLE, KINDS,
-                   LOWS, ORIGIN, SPACING, STRAIN_FACTOR, TRIG, floe_dry, floe_header, floe_shapes)
+from .floe import (BETAS, CENTRES, FIRST_EVEN, HALF_LENGTH, HALVES, HIGHS, HYP, HYP_NEGLIGIBLE, KINDS,
+                   LOWS, ORIGIN, RUNS, SPACING, STRAIN_FACTOR, TRIG, floe_dry, floe_header, floe_shapes)
 
 
 @kernel(inline="always")
@@ -109,29 +109,12 @@ def floe_dry_sums(floe, d, x, field):
     return factor * v0, factor * v1, factor * v2
 
 
-@kernel(inline="always")
-def _run_spacing(shapes, m):
-    """The spacing [m-1] by which dry mode m's wavenumber continues mode m - 1's on the same part, or
-    0: both elastic with a trigonometric part (not edge shapes), about the same centre and
-    half-length l, beyond beta l = ASYMPTOTIC (their roots (k + 3/4) pi and (k + 5/4) pi to
-    round-off), beta_m - beta_(m-1) within 1e-12 of the spacing: pi / l between two symmetric
-    modes (a sliding-free part), pi / 2l where the parities alternate (a free-free part)."""
-    if m == 0 or shapes[KINDS, m - 1] < 2.0 or shapes[TRIG, m - 1] == 0.0 or shapes[TRIG, m] == 0.0:
-        return 0.0
-    L = shapes[HALVES, m]
-    if shapes[HALVES, m - 1] != L or shapes[CENTRES, m - 1] != shapes[CENTRES, m] or \
-            shapes[LOWS, m - 1] != shapes[LOWS, m] or not shapes[BETAS, m - 1] * L > ASYMPTOTIC:
-        return 0.0
-    spacing = math.pi / L if shapes[KINDS, m - 1] == shapes[KINDS, m] else 0.5 * math.pi / L
-    return spacing if abs(shapes[BETAS, m] - shapes[BETAS, m - 1] - spacing) <= 1e-12 * spacing else 0.0
-
-
 @kernel
 def _part_sums(shapes, m0, xp, order, d, column):
     """Over the dry modes m < m0 at one point xp (the floe's coordinate): sum_m d_m r_m of _raw3's
     three orders where d is given, and each r_m of the first order into column where it is. A
-    mode that continues its predecessor's run of evenly spaced wavenumbers (_run_spacing: a broken
-    plate's parts beyond beta l = ASYMPTOTIC; none of a floe's modes below FIRST_EVEN) takes
+    mode that continues its predecessor's run of evenly spaced wavenumbers (the shapes row RUNS: a broken
+    plate's parts beyond beta l = floe.ASYMPTOTIC; none of a floe's modes below FIRST_EVEN) takes
     exp(i beta y) and its two exponentials from the predecessor's by one product each (the
     rounding grows as the run's length times eps); every other mode as _raw3."""
     v0 = v1 = v2 = 0.0
@@ -140,15 +123,17 @@ def _part_sums(shapes, m0, xp, order, d, column):
     along = 0.0                  # the spacing rot, fp and fm are for (0: none yet)
     previous = False             # mode m - 1 elastic and computed at xp
     for m in range(m0):
-        if not shapes[LOWS, m] <= xp < shapes[HIGHS, m]:
-            r0 = r1 = r2 = 0.0
+        if not shapes[LOWS, m] <= xp < shapes[HIGHS, m]:      # (off its part: adds nothing)
+            if column.shape[0] > 0:
+                column[m] = 0.0
             previous = False
-        elif shapes[KINDS, m] < 2.0:
+            continue
+        if shapes[KINDS, m] < 2.0:
             r0, r1, r2 = _raw3(shapes, m, xp, order)
             previous = False
         else:
             L, y, beta = shapes[HALVES, m], xp - shapes[CENTRES, m], shapes[BETAS, m]
-            spacing = _run_spacing(shapes, m) if previous else 0.0
+            spacing = shapes[RUNS, m] if previous else 0.0
             if spacing > 0.0:
                 if spacing != along:
                     rot = complex(math.cos(spacing * y), math.sin(spacing * y))
@@ -185,12 +170,8 @@ def dry_table(floe, xk, table):
     L = header[HALF_LENGTH]
     origin = header[ORIGIN]
     m0 = int(header[FIRST_EVEN])
-    if m0 >= N:                  # a broken plate's parts: a point at a time, each mode on its part
-        column = np.empty(N)
-        for k in range(K):
-            _part_sums(shapes, N, xk[k] + origin, 0, column[:0], column)
-            for m in range(N):
-                table[m, k] = column[m]
+    if m0 >= N:                  # a broken plate's parts: each part's modes over its points
+        _parts_table(shapes, origin, xk, table)
         return
     for m in range(m0):
         _dry_row(shapes, m, origin, xk, table[m])
@@ -218,6 +199,81 @@ def dry_table(floe, xk, table):
             if beta * (L - abs(x)) < HYP_NEGLIGIBLE:
                 ep, em = _hyperbolic_parts(beta, L, x)
                 row[k] += (ep + sign * em) * hyp
+
+
+@kernel(nrt=True)
+def _parts_table(shapes, origin, xk, table):
+    """dry_table on a broken plate's parts (the header's FIRST_EVEN = N): each part's modes, which
+    follow one another in the shapes table with one [LOWS, HIGHS), over the points on that part,
+    a mode at a time (_part_rows); 0 elsewhere."""
+    N, K = table.shape
+    table[:, :] = 0.0
+    idx = np.empty(K, np.int64)
+    xp = np.empty(K)
+    turns = np.empty((2, K), np.complex128)
+    work = np.empty((4, K))
+    m = 0
+    while m < N:
+        low, high = shapes[LOWS, m], shapes[HIGHS, m]
+        end = m + 1
+        while end < N and shapes[LOWS, end] == low and shapes[HIGHS, end] == high:
+            end += 1
+        n = 0
+        for k in range(K):
+            if low <= xk[k] + origin < high:
+                idx[n] = k
+                xp[n] = xk[k] + origin
+                n += 1
+        if n > 0:
+            _part_rows(shapes, m, end, xp[:n], idx[:n], table, turns[:, :n], work[:, :n])
+        m = end
+
+
+@kernel
+def _part_rows(shapes, first, end, xp, idx, table, turns, work):
+    """table[m, idx[i]] for the modes first <= m < end of one part at its points xp (the floe's
+    coordinate): _part_sums' arithmetic, point for point (the same numbers), each mode a pass over
+    the points; turns (2, n) complex and work (4, n): scratch for exp(i beta y) and its rotation,
+    and the exponentials and their factors."""
+    cur, rot = turns[0], turns[1]
+    ep, em, fp, fm = work[0], work[1], work[2], work[3]
+    n = xp.shape[0]
+    along = 0.0                  # the spacing rot, fp and fm are for (0: none yet)
+    previous = False             # mode m - 1 elastic
+    for m in range(first, end):
+        row = table[m]
+        if shapes[KINDS, m] < 2.0:
+            for i in range(n):
+                row[idx[i]] = _raw3(shapes, m, xp[i], 0)[0]
+            previous = False
+            continue
+        L, centre, beta = shapes[HALVES, m], shapes[CENTRES, m], shapes[BETAS, m]
+        spacing = shapes[RUNS, m] if previous else 0.0
+        if spacing > 0.0:
+            if spacing != along:
+                for i in range(n):
+                    y = xp[i] - centre
+                    rot[i] = complex(math.cos(spacing * y), math.sin(spacing * y))
+                    fp[i], fm[i] = math.exp(spacing * (y - L)), math.exp(-spacing * (y + L))
+                along = spacing
+            for i in range(n):
+                cur[i] *= rot[i]
+                ep[i] *= fp[i]
+                em[i] *= fm[i]
+        else:
+            for i in range(n):
+                y = xp[i] - centre
+                cur[i] = complex(math.cos(beta * y), math.sin(beta * y))
+                ep[i], em[i] = _hyperbolic_parts(beta, L, y)
+            along = 0.0
+        trig, hyp = shapes[TRIG, m], shapes[HYP, m]          # (_elastic_parts' value, order 0)
+        if shapes[KINDS, m] == 2.0:
+            for i in range(n):
+                row[idx[i]] = cur[i].real * trig + (ep[i] + em[i]) * hyp
+        else:
+            for i in range(n):
+                row[idx[i]] = cur[i].imag * trig + (ep[i] - em[i]) * hyp
+        previous = True
 
 
 @kernel

@@ -31,7 +31,7 @@ from ..arrays import copy_into
 from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
-from ..model.basis import Field, climb, field_sum, field_sums, global_peak, newton_peak, node_strain, read_interval
+from ..model.basis import Field, climb, field_sum, global_peak, node_strain, peak_and_rate, read_interval
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
 from .record import SurfaceRows, append_row
@@ -143,11 +143,7 @@ def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     lo, hi = read_interval(floe, x, xlo, xhi)
     if lo <= x <= hi:
         xlo, xhi = lo, hi
-    x = newton_peak(x, xlo, xhi, sign, field, a, lam1, floe)
-    s0, s1, s2 = field_sums(lam1, floe, field, a, x)
-    track[0] = sign * s0
-    track[1] = sign * field_sum(lam1, floe, field, adot, x)
-    track[2] = x
+    track[0], track[1], track[2] = peak_and_rate(x, xlo, xhi, sign, field, a, adot, lam1, floe)
 
 
 @kernel(inline="llvm")
