@@ -65,9 +65,12 @@ def _elastic3(shapes, m, c, s, L, x, order):
 
 @kernel(inline="always")
 def _elastic_parts(shapes, m, c, s, ep, em, order):
-    """_elastic3 given its exponentials ep, em (_hyperbolic_parts) too."""
+    """_elastic3 given its exponentials ep, em (_hyperbolic_parts) too. The orders the fields ask,
+    0 (deflection) and 2 (strain), with their signs written out (_even_orders); others by _turn."""
     beta = shapes[BETAS, m]
     trig, hyp = shapes[TRIG, m], shapes[HYP, m]
+    if order == 0 or order == 2:
+        return _even_orders(shapes[KINDS, m] == 2.0, c * trig, s * trig, ep, em, hyp, beta, order)
     b0 = beta**order
     b1 = b0 * beta
     b2 = b1 * beta
@@ -80,6 +83,21 @@ def _elastic_parts(shapes, m, c, s, ep, em, order):
     return (b0 * (_turn(s, -c, order) * trig + (even if order % 2 == 0 else odd)),
             b1 * (_turn(s, -c, order + 1) * trig + (odd if order % 2 == 0 else even)),
             b2 * (_turn(s, -c, order + 2) * trig + (even if order % 2 == 0 else odd)))
+
+
+@kernel(inline="always")
+def _even_orders(symmetric, ct, st, ep, em, hyp, beta, order):
+    """_elastic_parts of order 0 or 2, ct = c trig and st = s trig: the same operations, the
+    quarter turns' signs written out (a negation is exact) and beta^2 = beta beta (numba's power)."""
+    b0 = 1.0 if order == 0 else beta * beta
+    b1 = b0 * beta
+    b2 = b1 * beta
+    sign = 1.0 if order == 0 else -1.0
+    if symmetric:
+        even, odd = (ep + em) * hyp, (ep - em) * hyp
+        return b0 * (sign * ct + even), b1 * (-sign * st + odd), b2 * (-sign * ct + even)
+    even, odd = (ep - em) * hyp, (ep + em) * hyp
+    return b0 * (sign * st + even), b1 * (sign * ct + odd), b2 * (-sign * st + even)
 
 
 @kernel(nrt=True)
@@ -95,7 +113,7 @@ def floe_dry_sums(floe, d, x, field):
     order = 0 if field == 0 else 2
     xp = x + header[ORIGIN]
     m0 = min(int(header[FIRST_EVEN]), N)
-    v0, v1, v2 = _part_sums(shapes, m0, xp, order, d, d[:0])
+    v0, v1, v2 = _part_sums(shapes, m0, xp, order, d)
     if m0 < N:
         b = shapes[BETAS, m0]
         cur = complex(math.cos(b * xp), math.sin(b * xp))
@@ -110,9 +128,9 @@ def floe_dry_sums(floe, d, x, field):
 
 
 @kernel
-def _part_sums(shapes, m0, xp, order, d, column):
+def _part_sums(shapes, m0, xp, order, d):
     """Over the dry modes m < m0 at one point xp (the floe's coordinate): sum_m d_m r_m of _raw3's
-    three orders where d is given, and each r_m of the first order into column where it is. A
+    three orders, each mode on its own part only (0 elsewhere). A
     mode that continues its predecessor's run of evenly spaced wavenumbers (the shapes row RUNS: a broken
     plate's parts beyond beta l = floe.ASYMPTOTIC; none of a floe's modes below FIRST_EVEN) takes
     exp(i beta y) and its two exponentials from the predecessor's by one product each (the
@@ -124,8 +142,6 @@ def _part_sums(shapes, m0, xp, order, d, column):
     previous = False             # mode m - 1 elastic and computed at xp
     for m in range(m0):
         if not shapes[LOWS, m] <= xp < shapes[HIGHS, m]:      # (off its part: adds nothing)
-            if column.shape[0] > 0:
-                column[m] = 0.0
             previous = False
             continue
         if shapes[KINDS, m] < 2.0:
@@ -148,12 +164,9 @@ def _part_sums(shapes, m0, xp, order, d, column):
                 along = 0.0
             r0, r1, r2 = _elastic_parts(shapes, m, cur.real, cur.imag, ep, em, order)
             previous = True
-        if d.shape[0] > 0:
-            v0 += d[m] * r0
-            v1 += d[m] * r1
-            v2 += d[m] * r2
-        if column.shape[0] > 0:
-            column[m] = r0
+        v0 += d[m] * r0
+        v1 += d[m] * r1
+        v2 += d[m] * r2
     return v0, v1, v2
 
 
