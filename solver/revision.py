@@ -66,11 +66,15 @@ the whole plate's breaking case within 9e-9 of its largest values (its strain fi
 breaking 8 (2026-12-07: a broken plate's modes at a point take a part's evenly spaced
 wavenumbers by rotation and their exponentials by products, solver.model.points._part_sums;
 make bit-for-bit BASE=8b40335: the 5 breaking cases within 6.1e-9 of their largest values, the
-25 others bit for bit).
+25 others bit for bit); breaking 9 (2026-12-07: a broken plate's tables and carries take the parts'
+mode values from the kernels' table (solver.model.points.parts_table: a part's evenly spaced
+wavenumbers by rotation, within 2e-13 of numpy's direct values, solver.model.parts.part_values);
+make bit-for-bit BASE=6625207: the 5 breaking cases within 3.9e-9 of their largest values, break
+times within 1.2e-11, the 25 others bit for bit).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
 #: "smoothness": of etd34's adaptive runs under the smoothness control (in addition); "breaking":
 #: of the runs in which the ice breaks (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 8}
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 9}

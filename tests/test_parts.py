@@ -9,7 +9,7 @@ from scipy.special import zeta
 
 from helpers import composite_gauss
 from solver import Parameters, Settings, solve
-from solver.model import parts, tails
+from solver.model import part_tables, parts, tails
 
 L = 6.0
 
@@ -329,14 +329,14 @@ def test_a_parts_rows_are_kept_for_the_later_stages_bit_for_bit():
     xq = np.linspace(0.0, p.L, 201)
     beta_max = np.pi * p.Nmod / p.L
     parts._PART_ROWS.clear()
-    fresh = parts.parts_tables(p, xq, [0.0, 0.3, 1.1], False, beta_max)
+    fresh = part_tables.parts_tables(p, xq, [0.0, 0.3, 1.1], False, beta_max)
     parts._PART_ROWS.clear()
-    parts.parts_tables(p, xq, [0.0, 0.3], False, beta_max)            # the stage before
+    part_tables.parts_tables(p, xq, [0.0, 0.3], False, beta_max)            # the stage before
     computed = []
     original = parts._cosine_rows
     parts._cosine_rows = lambda sub, mu: computed.append((sub.lows[0], sub.highs[0])) or original(sub, mu)
     try:
-        kept = parts.parts_tables(p, xq, [0.0, 0.3, 1.1], False, beta_max)
+        kept = part_tables.parts_tables(p, xq, [0.0, 0.3, 1.1], False, beta_max)
     finally:
         parts._cosine_rows = original
     for name, value in fresh.items():
@@ -354,7 +354,7 @@ def test_the_kernels_point_sums_and_table_on_the_parts_match_their_modes(breaks,
     exercised (some modes continue a run)."""
     from solver.model import floe, points
     p = Parameters(Nmod=60, fracture="break", edge_shapes=edges, crack_spacing=1.0 if edges else 0.0)
-    tables = parts.parts_tables(p, np.linspace(0.0, L, 301), breaks, False, math.pi * 60 / L)
+    tables = part_tables.parts_tables(p, np.linspace(0.0, L, 301), breaks, False, math.pi * 60 / L)
     packed, modes, Q = tables["packed"], tables["wet"].modes, tables["Q"]
     N = modes.kinds.size
     shapes = floe.floe_shapes(packed, N)

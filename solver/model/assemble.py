@@ -19,7 +19,8 @@ from .basis import QUADRATURE_CODES, Basis
 from .body import Body
 from .crack import no_cracks
 from .floe import dry_values, floe_tables
-from .parts import part_values, parts_tables
+from .part_tables import parts_tables
+from .parts import part_values
 from .layer import LAW_CODES, Layer
 from .plate import COEF, MASS, STRAIN, Plate, make_plate
 from .quadrature import PANEL_POINTS, legendre_rule

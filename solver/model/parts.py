@@ -75,7 +75,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from . import floe as fl
+from . import floe as fl, points
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
 from .tails import cosine_tail, power_tail
 from ..blas import blas_alone
@@ -222,10 +222,35 @@ def part_values(modes: PartModes, x, order=0) -> np.ndarray:
     def rows(sub):                   # (the modes of one part: one interval)
         out = np.zeros((sub.kinds.size, x.size))
         on = (x >= sub.lows[0]) & ((x < sub.highs[0]) | (sub.highs[0] == last))
-        if np.any(on):
+        if not np.any(on):
+            return out
+        if np.any(sub.kinds == COSINE):              # (a sliding-sliding part: the kernels have no cosines)
             out[:, on] = sub.norms[:, None] * mode_block(sub, x[on], order)
+            return out
+        block = np.empty((sub.kinds.size, int(np.count_nonzero(on))))
+        points.parts_table(kernel_shapes(sub, -np.inf, last), 0.0, np.ascontiguousarray(x[on]), order, block)
+        out[:, on] = sub.norms[:, None] * block
         return out
     return _by_part(modes, ("values", x.tobytes(), order, float(last)), rows, x.size)
+
+
+def kernel_shapes(modes: PartModes, low_end: float, high_end: float, rows: int = fl.SHAPE_ROWS) -> np.ndarray:
+    """(rows, Nd): the shapes table the kernels read the dry modes from (solver.model.floe): an
+    edge shape as an elastic mode with no trigonometric part, each mode's part [LOWS, HIGHS), open
+    below where it starts at or below low_end and above where it ends at or beyond high_end, and
+    the runs of evenly spaced wavenumbers (floe.run_spacings); the rows beyond SHAPE_ROWS 0."""
+    N = modes.kinds.size
+    shapes = np.zeros((rows, N))
+    edge = edge_shaped(modes)
+    kinds = np.where(edge, modes.kinds - (EDGE_SYMMETRIC - SYMMETRIC), modes.kinds)
+    shapes[fl.KINDS], shapes[fl.BETAS], shapes[fl.NORMS] = kinds, modes.betas, modes.norms
+    shapes[fl.TRIG], shapes[fl.HYP] = fl.edge_factors(kinds, modes.betas * modes.halves)
+    shapes[fl.TRIG, edge] = 0.0
+    shapes[fl.CENTRES], shapes[fl.HALVES] = modes.centres, modes.halves
+    shapes[fl.LOWS] = np.where(modes.lows <= low_end, -np.inf, modes.lows)
+    shapes[fl.HIGHS] = np.where(modes.highs >= high_end, np.inf, modes.highs)
+    fl.run_spacings(shapes, N)
+    return shapes
 
 
 def mode_block(modes: PartModes, x, order=0) -> np.ndarray:
@@ -499,89 +524,3 @@ def wet_energy(wet: WetParts, b, bdot) -> tuple[float, float]:
 def wet_values(wet: WetParts, x, order=0) -> np.ndarray:
     """(Nw, X): the wet modes Psi_k (or a derivative) at x [m]."""
     return wet.Q.T @ part_values(wet.modes, x, order)
-
-
-@blas_alone
-def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
-    """Everything the kernels need of the plate of parameters p broken at ``breaks`` (kernel
-    coordinates: 0..L on the half plate of a centred impact, 0..2L on the whole), in the form of
-    a floe's tables (solver.model.floe.floe_tables, whose kernels read each dry mode's centre,
-    half-length and part from the shapes table): omega, mass (the generalised masses 1 / s_k^2
-    [kg m-1]), damping and damping_matrix (Kelvin-Voigt), cosq (N, J) the wet modes at the nodes
-    xq, packed, strain_scale, scale (max |Psi_k|: the kernel's amplitude of wet mode k is b_k
-    scale_k), Q (the scaled wet modes, Nd x Nd: the last a null mode, as the kernels pair wet and
-    dry modes one to one), the dry modes' betas, and the WetParts. The parts' wavenumbers go up to
-    beta_max [m-1]."""
-    domain, mirror = (2.0 if full else 1.0) * p.L, 1.0 if full else 2.0
-    wet = wet_parts(p, domain, mirror, breaks, beta_max)
-    modes, x = wet.modes, np.asarray(xq, dtype=float)
-    fine = np.linspace(0.0, domain, 8 * (x.size - 1) + 1)
-    scale = np.max(np.abs(wet.Q.T @ part_values(modes, fine)), axis=1)
-    Qs = wet.Q / scale
-    values = [Qs.T @ part_values(modes, x, order) for order in range(3)]
-    # the kernels pair wet and dry modes one to one, and int w dx = 0 leaves one wet mode fewer
-    # (and a near-dependent edge shape one more, wet_parts): the last wet modes are null ones
-    # (no shape, never forced, at rest)
-    N = modes.kinds.size
-    null = N - wet.omega.size
-    Qs = np.hstack([Qs, np.zeros((N, null))])
-    values = [np.vstack([v, np.zeros((null, v.shape[1]))]) for v in values]
-    omega, scale = np.append(wet.omega, np.full(null, wet.omega[-1])), np.append(scale, np.ones(null))
-    Q = np.hstack([wet.Q, np.zeros((N, null))])
-    tables = np.empty((4,) + values[0].shape)
-    tables[fl.TABLE_STRAIN] = -0.5 * p.hi * values[2]
-    tables[fl.TABLE_SLOPE], tables[fl.TABLE_CURVATURE] = values[1], values[2]
-    tables[fl.TABLE_HAT] = _hat_weights(Qs, modes, x)
-    shapes = np.zeros((fl.SHAPE_ROWS + 2 * N, N))
-    edge = edge_shaped(modes)            # to the kernels an elastic mode with no trigonometric part
-    kinds = np.where(edge, modes.kinds - (EDGE_SYMMETRIC - SYMMETRIC), modes.kinds)
-    shapes[fl.KINDS], shapes[fl.BETAS], shapes[fl.NORMS] = kinds, modes.betas, modes.norms
-    shapes[fl.TRIG], shapes[fl.HYP] = fl.edge_factors(kinds, modes.betas * modes.halves)
-    shapes[fl.TRIG, edge] = 0.0
-    shapes[fl.CENTRES], shapes[fl.HALVES] = modes.centres, modes.halves
-    shapes[fl.LOWS] = np.where(modes.lows <= 0.0, -np.inf, modes.lows)
-    shapes[fl.HIGHS] = np.where(modes.highs >= domain, np.inf, modes.highs)
-    fl.run_spacings(shapes, N)
-    shapes[fl.SHAPE_ROWS:fl.SHAPE_ROWS + N] = Qs
-    shapes[fl.SHAPE_ROWS + N:] = Qs.T
-    header = np.zeros(fl.HEADER)
-    header[fl.STRAIN_FACTOR], header[fl.HALF_LENGTH], header[fl.FIRST_EVEN] = -0.5 * p.hi, p.L, N
-    cuts = part_edges(domain, breaks)[1:-1]
-    if cuts.size > fl.MAX_BREAKS:
-        raise ValueError(f"at most {fl.MAX_BREAKS} breaks, got {cuts.size}")
-    header[fl.BREAK_COUNT] = cuts.size
-    header[fl.FIRST_BREAK:fl.FIRST_BREAK + cuts.size] = cuts
-    header[fl.CRACK_BAND] = p.crack_spacing * p.hi
-    header[fl.CENTRE_CUT] = 1.0 if centre_broken(breaks) and not full else 0.0
-    if np.any(edge):
-        bending = Q.T @ (mirror * p.rigidity * gram(modes, 2)) @ Q
-    else:
-        bending = Q.T @ (Q * (mirror * p.rigidity * modes.betas**4 * part_lengths(modes))[:, None])
-    damping = p.tau * np.diag(bending).copy()
-    damping[wet.omega.size:] = damping[wet.omega.size - 1]      # (the null modes', at rest: damped if any is)
-    return {"omega": omega, "mass": 1.0 / scale**2, "cosq": np.ascontiguousarray(values[0]),
-            "damping": damping,
-            "damping_matrix": p.tau * bending * scale[:, None] / scale[None, :],
-            "packed": fl.pack_floe(tables, shapes, header),
-            "strain_scale": np.max(np.abs(tables[fl.TABLE_STRAIN]), axis=1), "betas": modes.betas, "wet": wet,
-            "scale": scale, "Q": Qs}
-
-
-def _hat_weights(Qs, modes: PartModes, x):
-    """int hat_j Psi_k dx [m] (N, J) on the evenly spaced nodes x: 8 Gauss-Legendre nodes on each
-    piece of a subinterval between the breaks (the modes are smooth there)."""
-    gx, gw = np.polynomial.legendre.leggauss(8)
-    dx = x[1] - x[0]
-    cuts = np.unique(np.concatenate([modes.lows, modes.highs]))
-    cuts = cuts[(cuts > x[0]) & (cuts < x[-1]) & (np.abs(cuts / dx - np.round(cuts / dx)) > 1e-12)]
-    ends = np.sort(np.concatenate([x, cuts]))
-    lo, hi = ends[:-1], ends[1:]
-    j = np.minimum(np.searchsorted(x, lo, side="right") - 1, x.size - 2)      # the subinterval of each piece
-    pts = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * gx[None, :]
-    vals = (Qs.T @ part_values(modes, pts.ravel())).reshape(Qs.shape[1], lo.size, gx.size)
-    t = (pts - x[j][:, None]) / dx
-    w = 0.5 * (hi - lo)[:, None] * gw[None, :]
-    hat = np.zeros((Qs.shape[1], x.size))
-    np.add.at(hat.T, j, np.einsum("kpg,pg->pk", vals, w * (1.0 - t)))
-    np.add.at(hat.T, j + 1, np.einsum("kpg,pg->pk", vals, w * t))
-    return hat

@@ -184,7 +184,7 @@ def dry_table(floe, xk, table):
     origin = header[ORIGIN]
     m0 = int(header[FIRST_EVEN])
     if m0 >= N:                  # a broken plate's parts: each part's modes over its points
-        _parts_table(shapes, origin, xk, table)
+        parts_table(shapes, origin, xk, 0, table)
         return
     for m in range(m0):
         _dry_row(shapes, m, origin, xk, table[m])
@@ -215,10 +215,12 @@ def dry_table(floe, xk, table):
 
 
 @kernel(nrt=True)
-def _parts_table(shapes, origin, xk, table):
-    """dry_table on a broken plate's parts (the header's FIRST_EVEN = N): each part's modes, which
-    follow one another in the shapes table with one [LOWS, HIGHS), over the points on that part,
-    a mode at a time (_part_rows); 0 elsewhere."""
+def parts_table(shapes, origin, xk, order, table):
+    """table[m, k]: the raw dry mode m's derivative of the given order at x_k + origin (the floe's
+    coordinate), 0 off its part: dry_table on a broken plate's parts (order 0; the header's
+    FIRST_EVEN = N), and the parts' mode values (solver.model.parts.part_values). Each part's
+    modes, which follow one another in the shapes table with one [LOWS, HIGHS), over the points on
+    that part, a mode at a time (_part_rows)."""
     N, K = table.shape
     table[:, :] = 0.0
     idx = np.empty(K, np.int64)
@@ -238,16 +240,16 @@ def _parts_table(shapes, origin, xk, table):
                 xp[n] = xk[k] + origin
                 n += 1
         if n > 0:
-            _part_rows(shapes, m, end, xp[:n], idx[:n], table, turns[:, :n], work[:, :n])
+            _part_rows(shapes, m, end, xp[:n], idx[:n], table, turns[:, :n], work[:, :n], order)
         m = end
 
 
 @kernel
-def _part_rows(shapes, first, end, xp, idx, table, turns, work):
+def _part_rows(shapes, first, end, xp, idx, table, turns, work, order):
     """table[m, idx[i]] for the modes first <= m < end of one part at its points xp (the floe's
-    coordinate): _part_sums' arithmetic, point for point (the same numbers), each mode a pass over
-    the points; turns (2, n) complex and work (4, n): scratch for exp(i beta y) and its rotation,
-    and the exponentials and their factors."""
+    coordinate), their derivative of the given order: _part_sums' arithmetic, point for point
+    (the same numbers), each mode a pass over the points; turns (2, n) complex and work (4, n):
+    scratch for exp(i beta y) and its rotation, and the exponentials and their factors."""
     cur, rot = turns[0], turns[1]
     ep, em, fp, fm = work[0], work[1], work[2], work[3]
     n = xp.shape[0]
@@ -257,7 +259,7 @@ def _part_rows(shapes, first, end, xp, idx, table, turns, work):
         row = table[m]
         if shapes[KINDS, m] < 2.0:
             for i in range(n):
-                row[idx[i]] = _raw3(shapes, m, xp[i], 0)[0]
+                row[idx[i]] = _raw3(shapes, m, xp[i], order)[0]
             previous = False
             continue
         L, centre, beta = shapes[HALVES, m], shapes[CENTRES, m], shapes[BETAS, m]
@@ -280,7 +282,10 @@ def _part_rows(shapes, first, end, xp, idx, table, turns, work):
                 ep[i], em[i] = _hyperbolic_parts(beta, L, y)
             along = 0.0
         trig, hyp = shapes[TRIG, m], shapes[HYP, m]          # (_elastic_parts' value, order 0)
-        if shapes[KINDS, m] == 2.0:
+        if order != 0:
+            for i in range(n):
+                row[idx[i]] = _elastic_parts(shapes, m, cur[i].real, cur[i].imag, ep[i], em[i], order)[0]
+        elif shapes[KINDS, m] == 2.0:
             for i in range(n):
                 row[idx[i]] = cur[i].real * trig + (ep[i] + em[i]) * hyp
         else:
