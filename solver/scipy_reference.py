@@ -38,7 +38,7 @@ from .model.body import body_accel, body_residual, start_body
 from .model.contact import count_contacts, gap_peak
 from .model.layer import layer_energy, layer_forcing_at
 from .model.plate import mode_acceleration
-from .observe.tension import DENSE, DENSE_SWITCH, Dense
+from .observe.tension import Dense, dense_given
 from .step import Carried
 
 
@@ -92,7 +92,7 @@ class _Observers:
                 ys = dense(t0 + hk * fractions)
                 A[:] = ys[:N].T
                 AD[:] = ys[N:2 * N].T
-            tw.marks[DENSE] = tw.marks[DENSE_SWITCH] = 1.0       # given: not computed from a Dense
+            dense_given(tw.marks)                          # given: not computed from a Dense
             y1 = dense(t0 + hk)
             self._body(t0 + hk, y1, self.new)
             _, F1, j1, _ = state_at(self.model, t0 + hk, np.ascontiguousarray(y1[:N]),

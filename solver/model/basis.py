@@ -501,20 +501,16 @@ def newton_peak(x, xlo, xhi, sign, field, c, lam1, floe):
     return x
 
 
-@kernel(nrt=True)
+@kernel
 def peak_and_rate(x, xlo, xhi, sign, field, c, cdot, lam1, floe):
     """(sign * the modal field, sign * that field of cdot, x*) at the peak x* of sign * the field
-    of c near x (newton_peak). On a floe the dry coefficients of c once for the search and the
-    value, then cdot's (the values floe_sums gives, computed once each)."""
+    of c near x (newton_peak). On a floe c and cdot are the dry coefficients (floe_dry) of the
+    state and its rate: O(N) a point."""
     if floe.shape[0] == 0:
         x = newton_peak(x, xlo, xhi, sign, field, c, lam1, floe)
         return sign * field_sums(lam1, floe, field, c, x)[0], sign * field_sum(lam1, floe, field, cdot, x), x
-    d = np.empty(c.shape[0])
-    floe_dry(floe, c, d)
-    x = dry_newton_peak(floe, d, x, xlo, xhi, sign, field.code)
-    value = sign * floe_dry_sums(floe, d, x, field.code)[0]
-    floe_dry(floe, cdot, d)
-    return value, sign * floe_dry_sums(floe, d, x, field.code)[0], x
+    x = dry_newton_peak(floe, c, x, xlo, xhi, sign, field.code)
+    return sign * floe_dry_sums(floe, c, x, field.code)[0], sign * floe_dry_sums(floe, cdot, x, field.code)[0], x
 
 
 @kernel

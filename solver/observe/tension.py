@@ -32,6 +32,7 @@ from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_MAX_UPPER, D_MAX_UPPER_T, D_MAX_UPPER_X
 from ..model.basis import Field, climb, field_sum, global_peak, node_strain, peak_and_rate, read_interval
+from ..model.floe import floe_dry
 from ..model.plate import OMEGA, STRAIN
 from ..step import dense_states
 from .record import SurfaceRows, append_row
@@ -68,17 +69,19 @@ ELSEWHERE = 1e-9
 #: zone's observer reads the first three, a run that breaks the fourth); samples (TENSION_SAMPLES
 #: + 1, 3), A, AD (TENSION_SAMPLES - 1, N) the dense states; A2, AD2, eps, samples2 the same for a
 #: switch of peaks (SWITCH_SAMPLES); nodes (TENSION_SAMPLES - 1, J) the strain at every node
-#: at the dense states A (a run that breaks: _elsewhere); marks (8,): RUN_MAX + s the running
+#: at the dense states A (a run that breaks: _elsewhere); dry (2, TENSION_SAMPLES - 1, N) on a
+#: floe-form basis the dry coefficients of A and AD (solver.model.floe.floe_dry: once a step for
+#: the fourteen searches of each surface, _dry_states); marks (9,): RUN_MAX + s the running
 #: maximum of surface s, JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1
 #: when the step's dense states A, AD (A2, AD2) are computed, or given by the integrator
 #: (dense_due), LEVEL the break level of a run that breaks (inf otherwise: watch_level), NODES 1
-#: when nodes holds the step's strains. (Few arrays: numba counts a reference to each array of
+#: when nodes holds the step's strains, DRY 1 when dry holds the step's coefficients. (Few arrays: numba counts a reference to each array of
 #: a tuple at every binding.)
-TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 nodes marks")
+TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 nodes dry marks")
 #: rows of TensionWork.track
 PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
 #: entries of TensionWork.marks
-RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH, LEVEL, NODES = 0, 2, 4, 5, 6, 7
+RUN_MAX, JOINABLE, DENSE, DENSE_SWITCH, LEVEL, NODES, DRY = 0, 2, 4, 5, 6, 7, 8
 #: the dense output's inputs for one step: z and forcing at its start, its mid stage, its end
 Dense = namedtuple("Dense", "z0 N1 Nm N5")
 #: what the tension observer reads of a step's two states: eps at its start; eps, a and a' at its
@@ -100,7 +103,7 @@ def tension_work(N, J):
                        np.empty((TENSION_SAMPLES - 1, N)), np.empty((TENSION_SAMPLES - 1, N)),
                        np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
                        np.empty((SWITCH_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, J)),
-                       np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf, 0.0]))
+                       np.empty((2, TENSION_SAMPLES - 1, N)), np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf, 0.0, 0.0]))
 
 
 @kernel
@@ -128,17 +131,27 @@ def _watched(tw, s):
 def dense_due(marks, h):
     """A new step's dense states are due: computed on demand from its Dense by the first observer
     that needs them (none for a step of length 0). An integrator with a dense output of its own
-    (the DOP853 reference) fills A, AD, A2, AD2 and sets both marks to 1 instead."""
+    (the DOP853 reference) fills A, AD, A2, AD2 and calls dense_given instead."""
     marks[DENSE] = 0.0 if h > 0.0 else 1.0
     marks[DENSE_SWITCH] = marks[DENSE]
     marks[NODES] = 0.0
+    marks[DRY] = 0.0
+
+
+@kernel
+def dense_given(marks):
+    """A new step's dense states A, AD, A2, AD2 given by an integrator with a dense output of its
+    own (the DOP853 reference): what is computed from them is due."""
+    marks[DENSE] = marks[DENSE_SWITCH] = 1.0
+    marks[NODES] = 0.0
+    marks[DRY] = 0.0
 
 
 @kernel
 def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
     near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
-    track[:3] = (value, rate, x). On a plate broken with a crack spacing the bracket stays where
+    track[:3] = (value, rate, x); on a floe-form basis a and adot are dry coefficients (_dry_states). On a plate broken with a crack spacing the bracket stays where
     the tension is read (read_interval)."""
     lo, hi = read_interval(floe, x, xlo, xhi)
     if lo <= x <= hi:
@@ -243,18 +256,19 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
         rec, n = append_row(rec, n, t0 + h, p1[0], p1[1], p1[2], 1.0)
         return rec, n, True
     ensure_dense(model, h, dz, tw.A, tw.AD, tw.marks)
+    A, AD = _dry_states(model, tw)
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
     field, dx, L = Field(model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length
     xf = p0[2]
     for k in range(1, K):
-        peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, field, tw.A[k - 1], tw.AD[k - 1],
+        peak_near(xf, max(0.0, xf - 3.0 * dx), min(L, xf + 3.0 * dx), sign, field, A[k - 1], AD[k - 1],
                   model.basis.lam1, model.basis.floe, samples[k])
         xf = samples[k, 2]
     xb = p1[2]
     back = tw.track[BACK]
     for k in range(K - 1, 0, -1):
-        peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, field, tw.A[k - 1], tw.AD[k - 1],
+        peak_near(xb, max(0.0, xb - 3.0 * dx), min(L, xb + 3.0 * dx), sign, field, A[k - 1], AD[k - 1],
                   model.basis.lam1, model.basis.floe, back)
         xb = back[2]
         if back[0] > samples[k, 0]:
@@ -264,6 +278,22 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     if tw.marks[LEVEL] < np.inf and _elsewhere(model, tw, sign, K):
         return _global_piece(model, tw, s, t0, h, dz, rec, n)
     return _store_samples(t0, h, K, tw.marks[LEVEL], samples, rec, n, joinable, run_max, best)
+
+
+@kernel(inline="llvm", nrt=True)
+def _dry_states(model, tw):
+    """The step's dense states as the peak searches read them: A, AD on the cosines; on a
+    floe-form basis their dry coefficients (floe_dry), computed once a step (marks DRY) for both
+    surfaces' searches forward and back."""
+    floe = model.basis.floe
+    if floe.shape[0] == 0:
+        return tw.A, tw.AD
+    if tw.marks[DRY] == 0.0:
+        for k in range(tw.A.shape[0]):
+            floe_dry(floe, tw.A[k], tw.dry[0, k])
+            floe_dry(floe, tw.AD[k], tw.dry[1, k])
+        tw.marks[DRY] = 1.0
+    return tw.dry[0], tw.dry[1]
 
 
 @kernel(inline="llvm", nrt=True)
