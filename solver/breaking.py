@@ -71,6 +71,15 @@ def _restart_step(stages):
     return h if math.isfinite(h) and h > 0.0 else None
 
 
+def _growth_from(p, spec, t0):
+    """The time the next stage's step growth cap counts from (solver.control.GROWTH): the run's
+    first touch where each crack opens at once (the stage starts from a carried state, not a
+    self-similar one: its short first step grows by the PI control, docs/model.md, "Why a stage
+    starts with a short step"); the stage's start t0 [s] where cracks open over a time (their
+    faces' power is taken on the steps' stages, which then stay short beside the opening)."""
+    return spec.window.t_start if p.crack_opening_time == 0.0 else t0
+
+
 def _crack(p, s, full, kernel_breaks, amplitudes, time, x):
     """The crack opening at the break at x [m] at time [s] (a solver.spec.Crack): the moment D w_xx
     and shear D w_xxx the plate broken at kernel_breaks carried there in the state of kernel
@@ -120,7 +129,7 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
         kernel_breaks = checked_breaks(p, s, breaks, full) if breaks else None
         stage = run_case(p, s, replace(spec, window=replace(spec.window, times=times[later], t_start=t0), begin=begin,
                                        breaks=kernel_breaks, break_level=float(yield_strain),
-                                       first_step=_restart_step(stages),
+                                       first_step=_restart_step(stages), growth_from=_growth_from(p, spec, t0),
                                        cracks=tuple(c for c in cracks if c.time + opening > t0)))
         stages.append((later, stage))
         end = stage.end

@@ -57,7 +57,10 @@ ENERGY_JUMP = 1e-3
 RESOLVED_NODES = 4
 #: an adaptive step is at most GROWTH (t - t_start) (after a first step h_init): the tension
 #: grows like t^3.5 from first touch, and a cubic Hermite interpolant of t^a over a step h at
-#: time t misplaces a level by about 0.005 (h/t)^4 of t, 5e-7 at GROWTH = 0.1
+#: time t misplaces a level by about 0.005 (h/t)^4 of t, 5e-7 at GROWTH = 0.1. The stages of a
+#: run that breaks count it from the run's first touch (Control.growth_from): a stage starts from
+#: a carried state, not from a self-similar one, and its short first step (solver.breaking) grows
+#: by the PI control
 GROWTH = 0.1
 #: when the layer is within GAP_WATCH of bottoming, a step's local error of delta at the gap
 #: must stay below GAP_ACCURACY times the gap 1 - delta
@@ -80,10 +83,11 @@ ENERGY_BOUND = 1e-3
 #: norm's floor, a fraction of V sqrt(L M_1): error_scale); break_level (the run ends where a
 #: surface's tension reaches it, inf: none); body_start (a free body at t_start: its penetration s
 #: [m] and speed U [m/s], and its first stop's time [s] and deepest penetration [m] before t_start;
-#: NaN: s = V t_start, U = V, no stop, as at first touch)
+#: NaN: s = V t_start, U = V, no stop, as at first touch); growth_from (the time [s] the GROWTH cap
+#: counts from: t_start, or a run that breaks its first touch for every stage)
 Control = namedtuple("Control", "t_start t_end tolerance fixed_step h_init h_min h_max max_steps bottom_gap "
                                 "until_separation zone_margin observers answer smoothness floor break_level "
-                                "body_start")
+                                "body_start growth_from")
 
 #: the smoothness estimate's exponent: its local error falls as h^5
 SMOOTH_EXPONENT = 0.2
@@ -100,14 +104,16 @@ SMOOTH_FLOOR = 0.01
 
 def make_control(t_start, t_end, tolerance, fixed_step, h_init, h_min, h_max, max_steps, bottom_gap,
                  until_separation=False, zone_margin=1.0, observers=ALL, answer=(math.inf,) * 4, smoothness=False,
-                 break_level=math.inf, body_start=(math.nan,) * 4):
+                 break_level=math.inf, body_start=(math.nan,) * 4, growth_from=None):
     """The :data:`Control` of a run (plain Python: built once per run); by default every observer
     runs, the run goes to t_end and only the embedded estimate judges a step, with the error norm's
-    floor at V sqrt(L M_1) (SMOOTH_FLOOR of it under the smoothness control)."""
+    floor at V sqrt(L M_1) (SMOOTH_FLOOR of it under the smoothness control), and the steps' GROWTH
+    cap counts from t_start."""
     return Control(float(t_start), float(t_end), float(tolerance), float(fixed_step), float(h_init), float(h_min),
                    float(h_max), float(max_steps), float(bottom_gap), bool(until_separation), float(zone_margin),
                    int(observers), tuple(float(level) for level in answer), 1.0 if smoothness else 0.0,
-                   SMOOTH_FLOOR if smoothness else 1.0, float(break_level), tuple(float(v) for v in body_start))
+                   SMOOTH_FLOOR if smoothness else 1.0, float(break_level), tuple(float(v) for v in body_start),
+                   float(t_start if growth_from is None else growth_from))
 
 
 @kernel(inline="llvm")
@@ -250,7 +256,7 @@ def next_step(control, t, target, h, fixed):
         landing = remaining <= 1.5 * fixed[1]
         h_step = remaining if landing else fixed[1]
     else:
-        h_step = min(h, max(control.h_init, GROWTH * (t - control.t_start)))
+        h_step = min(h, max(control.h_init, GROWTH * (t - control.growth_from)))
         if h_step >= remaining * (1.0 - 1e-12) or remaining - h_step < 0.01 * h_step:
             h_step = remaining
         landing = h_step >= remaining * (1.0 - 1e-12)

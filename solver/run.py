@@ -411,7 +411,7 @@ def _control(p, s, spec, tab, integrator, observers, answer):
     return make_control(float(window.t_start), float(window.t_end), s.tolerance, fixed, h_init, 1e-13 * window.t_end,
                         h_max, s.max_steps, s.bottoming_gap, spec.until_separation, s.impact_zone_margin, observers,
                         answer, s.error_control == "smoothness", spec.break_level,
-                        (math.nan,) * 4 if body is None else body)
+                        (math.nan,) * 4 if body is None else body, spec.growth_from)
 
 
 #: what the kernels gave back: their status code, the output times filled, the Records, a

@@ -133,7 +133,8 @@ class RunSpec:
     it begins from, the plate it runs on (``breaks`` in kernel coordinates, None: unbroken; the
     full plate or the half plate of a centred impact), and how it ends besides t_end (at a free
     body's separation; where a surface's tension reaches ``break_level``, inf: never); the first
-    step [s] (None: first touch's, short); the cracks still opening (Crack, solver.model.crack)."""
+    step [s] (None: first touch's, short); the cracks still opening (Crack, solver.model.crack); the
+    time the steps' growth cap counts from (solver.control.GROWTH; None: the window's start)."""
 
     window: Window
     asked: Asked
@@ -144,6 +145,7 @@ class RunSpec:
     break_level: float = math.inf
     first_step: float | None = None
     cracks: tuple = ()
+    growth_from: float | None = None
 
 
 @dataclass(frozen=True)
