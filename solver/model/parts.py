@@ -79,6 +79,7 @@ from . import floe as fl, points
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
 from .tails import cosine_tail, power_tail
 from ..blas import blas_alone
+from ..compile.jit import kernel
 
 #: the end conditions of a part: a wall or the symmetry plane (w_x = w_xxx = 0), a break (w_xx =
 #: w_xxx = 0)
@@ -117,12 +118,31 @@ PartModes = namedtuple("PartModes", "kinds betas centres halves lows highs norms
 #: the wet modes of a broken plate: omega (Nw,) [rad s-1], Q (Nd, Nw) (Q^T M Q = I, Q^T K Q =
 #: diag(omega^2)), the dry modes, the domain Lambda [m] and the mirror (2 on the half plate)
 WetParts = namedtuple("WetParts", "omega Q modes domain mirror")
+#: the bytes _PART_ROWS may hold (the oldest entries go first)
+PART_ROWS_BYTES = 256 * 2**20
+
+
+class _PartRows(dict):
+    """Each part's rows by their key, and the bytes they hold (held): beyond PART_ROWS_BYTES the
+    oldest go first."""
+    held = 0
+
+    def keep(self, key, rows):
+        self[key] = rows
+        self.held += rows.nbytes
+        while self.held > PART_ROWS_BYTES and len(self) > 1:
+            self.held -= self.pop(next(iter(self))).nbytes
+        return rows
+
+    def clear(self):
+        super().clear()
+        self.held = 0
+
+
 #: each part's rows of the tables whose rows depend on a mode's own part only (its cosine integrals,
 #: its values on a grid), kept across a run's stages: a new break changes one or two parts, the
 #: others' rows are the same numbers (the same operations on the same inputs: bit for bit)
-_PART_ROWS: dict = {}
-#: the bytes _PART_ROWS may hold (the oldest entries go first)
-PART_ROWS_BYTES = 256 * 2**20
+_PART_ROWS = _PartRows()
 
 
 def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray:
@@ -136,10 +156,7 @@ def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray
                sub.lows.tobytes(), sub.highs.tobytes(), sub.norms.tobytes())
         rows = _PART_ROWS.get(key)
         if rows is None:
-            rows = _PART_ROWS[key] = compute(sub)
-            held = sum(r.nbytes for r in _PART_ROWS.values())
-            while held > PART_ROWS_BYTES and len(_PART_ROWS) > 1:
-                held -= _PART_ROWS.pop(next(iter(_PART_ROWS))).nbytes
+            rows = _PART_ROWS.keep(key, compute(sub))
         out[on] = rows
     return out
 
@@ -316,21 +333,37 @@ def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
     Nd = modes.kinds.size
     ends = np.unique(np.concatenate([modes.lows, modes.highs]))
     cos_e, sin_e = np.cos(np.outer(ends, mu)), np.sin(np.outer(ends, mu))       # (E, K)
-    out = np.zeros((Nd, mu.size))
     at_ends = [modes.norms[:, None] * mode_block(modes, ends, j) for j in range(4)]     # (Nd, E) each
-    for end_of, sign in ((modes.highs, 1.0), (modes.lows, -1.0)):
-        e = np.searchsorted(ends, end_of)
-        d = np.stack([values[np.arange(Nd), e] for values in at_ends], axis=1)          # (Nd, 4)
-        c, sn = cos_e[e], sin_e[e]
-        out += sign * ((d[:, 3:4] - mu**2 * d[:, 1:2]) * c + (mu * d[:, 2:3] - mu**3 * d[:, 0:1]) * sn)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        out /= modes.betas[:, None] ** 4 - mu[None, :] ** 4
+    e = np.array([np.searchsorted(ends, modes.highs), np.searchsorted(ends, modes.lows)])       # (2, Nd)
+    d = np.array([np.stack([values[np.arange(Nd), side] for values in at_ends], axis=1) for side in e])
+    out = np.empty((Nd, mu.size))
+    _closed_form(d, e, (mu, mu**2, mu**3, mu**4), cos_e, sin_e, modes.betas**4, out)
     near = np.abs(modes.betas[:, None] ** 4 - mu[None, :] ** 4) < RESONANCE * mu[None, :] ** 4
     for m in np.flatnonzero(np.any(near, axis=1)):
         shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
         x, w = _gauss(modes, m, np.max(mu[near[m]]))
         out[m, near[m]] = (w * modes.norms[m] * raw_mode(*shape, x)) @ np.cos(np.outer(x, mu[near[m]]))
     return out
+
+
+@kernel
+def _closed_form(d, e, powers, cos_e, sin_e, b4, out):
+    """_cosine_rows' closed form, numpy's operations element by element (the same numbers): out[m, k]
+    = sum over mode m's upper end (+) and lower end (-) of (d3 - mu^2 d1) cos(mu_k x_e) + (mu d2 -
+    mu^3 d0) sin(mu_k x_e), over beta_m^4 - mu_k^4 (NaN where they are equal: Gauss-Legendre
+    replaces it). d (2, Nd, 4) each end's four derivatives, e (2, Nd) its row of cos_e and sin_e
+    (E, K), powers (mu, mu^2, mu^3, mu^4) (K,) each, b4 (Nd,) beta^4."""
+    mu, mu2, mu3, mu4 = powers
+    for m in range(out.shape[0]):
+        for k in range(out.shape[1]):
+            acc = 0.0
+            for side in range(2):
+                row = e[side, m]
+                term = (d[side, m, 3] - mu2[k] * d[side, m, 1]) * cos_e[row, k] + \
+                    (mu[k] * d[side, m, 2] - mu3[k] * d[side, m, 0]) * sin_e[row, k]
+                acc += term if side == 0 else -term
+            den = b4[m] - mu4[k]
+            out[m, k] = acc / den if den != 0.0 else math.nan
 
 
 def _coth_over(mu, H):
