@@ -72,11 +72,14 @@ wavenumbers by rotation, within 2e-13 of numpy's direct values, solver.model.par
 make bit-for-bit BASE=6625207: the 5 breaking cases within 3.9e-9 of their largest values, break
 times within 1.2e-11, the 25 others bit for bit); breaking 10 (2026-12-07: a stage whose cracks open at
 once grows its steps by the PI control, its GROWTH cap counted from the run's first touch,
-solver.breaking._growth_from: another step sequence, within the runs' tolerance).
+solver.breaking._growth_from: another step sequence, within the runs' tolerance); breaking 11
+(2026-12-07: a broken plate's modes' means over their parts in closed form, parts.mode_means;
+make bit-for-bit BASE=17c6cd2: the 5 breaking cases within 1.1e-7 of their largest values, the
+25 others bit for bit).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
 #: "smoothness": of etd34's adaptive runs under the smoothness control (in addition); "breaking":
 #: of the runs in which the ice breaks (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 10}
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 11}

@@ -239,16 +239,22 @@ def part_values(modes: PartModes, x, order=0) -> np.ndarray:
     def rows(sub):                   # (the modes of one part: one interval)
         out = np.zeros((sub.kinds.size, x.size))
         on = (x >= sub.lows[0]) & ((x < sub.highs[0]) | (sub.highs[0] == last))
-        if not np.any(on):
-            return out
-        if np.any(sub.kinds == COSINE):              # (a sliding-sliding part: the kernels have no cosines)
-            out[:, on] = sub.norms[:, None] * mode_block(sub, x[on], order)
-            return out
-        block = np.empty((sub.kinds.size, int(np.count_nonzero(on))))
-        points.parts_table(kernel_shapes(sub, -np.inf, last), 0.0, np.ascontiguousarray(x[on]), order, block)
-        out[:, on] = sub.norms[:, None] * block
+        if np.any(on):
+            out[:, on] = values_at(sub, x[on], order, last)
         return out
     return _by_part(modes, ("values", x.tobytes(), order, float(last)), rows, x.size)
+
+
+def values_at(modes: PartModes, x, order=0, high_end=np.inf) -> np.ndarray:
+    """(Nd, X): the scaled modes of one part (or its derivative of the given order) at points x on
+    it, from the kernels' table (solver.model.points.parts_table; mode_block on a sliding-sliding
+    part, whose cosines the kernels do not have), the part's upper end included where it is at or
+    beyond high_end [m]. Not kept (part_values keeps each part's rows)."""
+    if np.any(modes.kinds == COSINE):
+        return modes.norms[:, None] * mode_block(modes, x, order)
+    block = np.empty((modes.kinds.size, np.size(x)))
+    points.parts_table(kernel_shapes(modes, -np.inf, high_end), 0.0, np.ascontiguousarray(x, dtype=float), order, block)
+    return modes.norms[:, None] * block
 
 
 def kernel_shapes(modes: PartModes, low_end: float, high_end: float, rows: int = fl.SHAPE_ROWS) -> np.ndarray:
@@ -417,14 +423,20 @@ def _jumps(modes: PartModes, ends, order: int = 0) -> np.ndarray:
     """(E, Nd): each mode's jump at each of the sorted ``ends`` (which hold its part's), of its
     value (order 0) or a derivative: its value at its part's upper end, minus at its lower, 0 at
     the other ends (each part's end values computed once, _by_part)."""
-    def at_ends(sub):            # (the modes of one part: its two ends)
-        return sub.norms[:, None] * mode_block(sub, np.array([sub.lows[0], sub.highs[0]]), order)
-    values = _by_part(modes, ("ends", order), at_ends, 2)
+    values = end_values(modes, order)
     jump = np.zeros((np.size(ends), modes.kinds.size))
     m = np.arange(modes.kinds.size)
     jump[np.searchsorted(ends, modes.highs), m] = values[:, 1]
     jump[np.searchsorted(ends, modes.lows), m] = -values[:, 0]
     return jump
+
+
+def end_values(modes: PartModes, order: int) -> np.ndarray:
+    """(Nd, 2): each scaled mode's derivative of the given order at its part's lower and upper end
+    (each part's computed once, _by_part)."""
+    def at_ends(sub):            # (the modes of one part: its two ends)
+        return sub.norms[:, None] * mode_block(sub, np.array([sub.lows[0], sub.highs[0]]), order)
+    return _by_part(modes, ("ends", order), at_ends, 2)
 
 
 def part_lengths(modes: PartModes) -> np.ndarray:
@@ -456,14 +468,19 @@ def gram(modes: PartModes, order: int) -> np.ndarray:
 
 
 def mode_means(modes: PartModes) -> np.ndarray:
-    """int psi_m dx over each mode's part [m] (Gauss-Legendre; each part's kept, _by_part)."""
-    def means(sub):
-        out = np.empty((sub.kinds.size, 1))
-        for m in range(sub.kinds.size):
-            x, w = _gauss(sub, m, 0.0)
-            out[m] = w @ (sub.norms[m] * raw_mode(sub.kinds[m], sub.betas[m], sub.centres[m], sub.halves[m], x))
-        return out
-    return _by_part(modes, ("means",), means, 1)[:, 0]
+    """int psi_m dx over each mode's part [lo, hi] [m], in closed form: the part's length for heave,
+    ((hi - c)^2 - (lo - c)^2) / 2l for pitch, and the jump of psi''' over the part over beta^4 for
+    every other mode (psi'''' = beta^4 psi; 0 to round-off for a part's elastic modes, orthogonal
+    to its heave). Benchmark (tests/test_parts.py): Gauss-Legendre on each mode."""
+    out = np.empty(modes.kinds.size)
+    heave, pitch = modes.kinds == HEAVE, modes.kinds == PITCH
+    out[heave] = modes.norms[heave] * (modes.highs[heave] - modes.lows[heave])
+    hi, lo = modes.highs[pitch] - modes.centres[pitch], modes.lows[pitch] - modes.centres[pitch]
+    out[pitch] = modes.norms[pitch] * (hi * hi - lo * lo) / (2.0 * modes.halves[pitch])
+    rest = ~(heave | pitch)
+    third = end_values(modes, 3)
+    out[rest] = (third[rest, 1] - third[rest, 0]) / modes.betas[rest] ** 4
+    return out
 
 
 def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetParts:
