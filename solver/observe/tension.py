@@ -75,8 +75,8 @@ ELSEWHERE = 1e-9
 #: maximum of surface s, JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1
 #: when the step's dense states A, AD (A2, AD2) are computed, or given by the integrator
 #: (dense_due), LEVEL the break level of a run that breaks (inf otherwise: watch_level), NODES 1
-#: when nodes holds the step's strains, DRY 1 when dry holds the step's coefficients. (Few arrays: numba counts a reference to each array of
-#: a tuple at every binding.)
+#: when nodes holds the step's strains, DRY 1 when dry holds the step's coefficients. (Few
+#: arrays: numba counts a reference to each array of a tuple at every binding.)
 TensionWork = namedtuple("TensionWork", "track samples A AD A2 AD2 eps samples2 nodes dry marks")
 #: rows of TensionWork.track
 PEAKS, P0, P1, PIECE, BEST, BACK, STEP_BEST = 0, 2, 3, 4, 5, 6, 7
@@ -103,7 +103,8 @@ def tension_work(N, J):
                        np.empty((TENSION_SAMPLES - 1, N)), np.empty((TENSION_SAMPLES - 1, N)),
                        np.empty((SWITCH_SAMPLES - 1, N)), np.empty((SWITCH_SAMPLES - 1, N)), np.empty(J),
                        np.empty((SWITCH_SAMPLES + 1, 3)), np.empty((TENSION_SAMPLES - 1, J)),
-                       np.empty((2, TENSION_SAMPLES - 1, N)), np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf, 0.0, 0.0]))
+                       np.empty((2, TENSION_SAMPLES - 1, N)),
+                       np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, np.inf, 0.0, 0.0]))
 
 
 @kernel
@@ -151,8 +152,9 @@ def dense_given(marks):
 def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
     near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
-    track[:3] = (value, rate, x); on a floe-form basis a and adot are dry coefficients (_dry_states). On a plate broken with a crack spacing the bracket stays where
-    the tension is read (read_interval)."""
+    track[:3] = (value, rate, x); on a floe-form basis a and adot are dry coefficients
+    (_dry_states). On a plate broken with a crack spacing the bracket stays where the tension is
+    read (read_interval)."""
     lo, hi = read_interval(floe, x, xlo, xhi)
     if lo <= x <= hi:
         xlo, xhi = lo, hi
