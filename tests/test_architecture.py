@@ -423,14 +423,15 @@ def test_the_doors_import_no_heavy_library():
 def test_the_reference_integrator_runs_the_kernels_observers():
     """One set of observers: the DOP853 reference (solver/scipy_reference.py) calls the loop's
     observe_step and defines no observer of its own: it imports no peak finder, no Hermite, and
-    none of solver.observe's observers (its tension module's marks and Dense only)."""
+    none of solver.observe's observers (its tension module's Dense, and dense_given, which sets the
+    marks of the dense states it gives)."""
     modules = _modules("solver")
     path, tree = modules["solver.scipy_reference"]
     imported = {(node.module, a.name) for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)
                 for a in node.names}
     assert ("loop", "observe_step") in imported
     assert not {name for module, name in imported if module and module.startswith("observe.")} - {
-        "DENSE", "DENSE_SWITCH", "Dense"}
+        "dense_given", "Dense"}
     assert not {name for _, name in imported} & {"global_peak", "field_sum", "node_strain", "hermite", "cubic_max",
                                                   "observe_zone", "observe_body", "observe_tensions"}
 

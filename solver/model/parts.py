@@ -343,7 +343,7 @@ def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
     e = np.array([np.searchsorted(ends, modes.highs), np.searchsorted(ends, modes.lows)])       # (2, Nd)
     d = np.array([np.stack([values[np.arange(Nd), side] for values in at_ends], axis=1) for side in e])
     out = np.empty((Nd, mu.size))
-    _closed_form(d, e, (mu, mu**2, mu**3, mu**4), cos_e, sin_e, modes.betas**4, out)
+    _closed_form(d, e, np.array([mu, mu**2, mu**3, mu**4]), cos_e, sin_e, modes.betas**4, out)
     near = np.abs(modes.betas[:, None] ** 4 - mu[None, :] ** 4) < RESONANCE * mu[None, :] ** 4
     for m in np.flatnonzero(np.any(near, axis=1)):
         shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
@@ -358,8 +358,8 @@ def _closed_form(d, e, powers, cos_e, sin_e, b4, out):
     = sum over mode m's upper end (+) and lower end (-) of (d3 - mu^2 d1) cos(mu_k x_e) + (mu d2 -
     mu^3 d0) sin(mu_k x_e), over beta_m^4 - mu_k^4 (NaN where they are equal: Gauss-Legendre
     replaces it). d (2, Nd, 4) each end's four derivatives, e (2, Nd) its row of cos_e and sin_e
-    (E, K), powers (mu, mu^2, mu^3, mu^4) (K,) each, b4 (Nd,) beta^4."""
-    mu, mu2, mu3, mu4 = powers
+    (E, K), powers (4, K) the rows mu, mu^2, mu^3, mu^4, b4 (Nd,) beta^4."""
+    mu, mu2, mu3, mu4 = powers[0], powers[1], powers[2], powers[3]
     for m in range(out.shape[0]):
         for k in range(out.shape[1]):
             acc = 0.0
