@@ -365,10 +365,14 @@ def assert_breaking_consistent(result):
     through = [e.time for e in events if e.broken_through]
     assert (np.isnan(summary.breakthrough_time) if not through else summary.breakthrough_time == through[0])
     made = [e for e in events if not np.isnan(e.removed_energy)]      # (a break the run ended at removes none)
+    # each removed energy is a difference of the plate's and the layer's energies before and after
+    # the carry, which are at most the work done: its rounding is a few eps of the work (1.4e-12
+    # J/m on a haswell target where the work is 1.1e4 J/m, tests/test_breaking.py::test_the_cascade)
+    rounding = 8 * np.finfo(float).eps * max(abs(result.diagnostics["work"]), 1.0)
     for e in made:
-        assert e.removed_plate_energy >= -1e-12 * abs(e.removed_energy + 1.0)
+        assert e.removed_plate_energy >= -rounding
         assert e.removed_energy == pytest.approx(e.removed_plate_energy + e.removed_layer_energy, rel=1e-12,
-                                                    abs=1e-12)
+                                                    abs=rounding)
     ok = result.valid
     if made and ok.any():
         assert result.breaking.removed_energy[ok][-1] == pytest.approx(sum(e.removed_energy for e in made),
