@@ -336,14 +336,11 @@ def cosine_integrals(modes: PartModes, mu) -> np.ndarray:
 
 def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
     """cosine_integrals of the modes of one part."""
-    Nd = modes.kinds.size
-    ends = np.unique(np.concatenate([modes.lows, modes.highs]))
-    cos_e, sin_e = np.cos(np.outer(ends, mu)), np.sin(np.outer(ends, mu))       # (E, K)
-    at_ends = [modes.norms[:, None] * mode_block(modes, ends, j) for j in range(4)]     # (Nd, E) each
-    e = np.array([np.searchsorted(ends, modes.highs), np.searchsorted(ends, modes.lows)])       # (2, Nd)
-    d = np.array([np.stack([values[np.arange(Nd), side] for values in at_ends], axis=1) for side in e])
-    out = np.empty((Nd, mu.size))
-    _closed_form(d, e, np.array([mu, mu**2, mu**3, mu**4]), cos_e, sin_e, modes.betas**4, out)
+    ends = np.array([modes.lows[0], modes.highs[0]])                               # (one part's)
+    cos_e, sin_e = np.cos(np.outer(ends, mu)), np.sin(np.outer(ends, mu))       # (2, K)
+    d = np.stack([end_values(modes, j) for j in range(4)], axis=2)              # (Nd, 2 ends, 4 orders)
+    out = np.empty((modes.kinds.size, mu.size))
+    _closed_form(d, np.array([mu, mu**2, mu**3, mu**4]), cos_e, sin_e, modes.betas**4, out)
     near = np.abs(modes.betas[:, None] ** 4 - mu[None, :] ** 4) < RESONANCE * mu[None, :] ** 4
     for m in np.flatnonzero(np.any(near, axis=1)):
         shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
@@ -353,21 +350,20 @@ def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
 
 
 @kernel
-def _closed_form(d, e, powers, cos_e, sin_e, b4, out):
-    """_cosine_rows' closed form, numpy's operations element by element (the same numbers): out[m, k]
-    = sum over mode m's upper end (+) and lower end (-) of (d3 - mu^2 d1) cos(mu_k x_e) + (mu d2 -
-    mu^3 d0) sin(mu_k x_e), over beta_m^4 - mu_k^4 (NaN where they are equal: Gauss-Legendre
-    replaces it). d (2, Nd, 4) each end's four derivatives, e (2, Nd) its row of cos_e and sin_e
-    (E, K), powers (4, K) the rows mu, mu^2, mu^3, mu^4, b4 (Nd,) beta^4."""
+def _closed_form(d, powers, cos_e, sin_e, b4, out):
+    """_cosine_rows' closed form on one part [x_0, x_1], numpy's operations element by element:
+    out[m, k] = the upper end's (+) then the lower end's (-) (d3 - mu^2 d1) cos(mu_k x_e) + (mu d2
+    - mu^3 d0) sin(mu_k x_e), over beta_m^4 - mu_k^4 (NaN where they are equal: Gauss-Legendre
+    replaces it). d (Nd, 2, 4) each mode's four derivatives at the ends x_0, x_1, cos_e and sin_e
+    (2, K) at them, powers (4, K) the rows mu, mu^2, mu^3, mu^4, b4 (Nd,) beta^4."""
     mu, mu2, mu3, mu4 = powers[0], powers[1], powers[2], powers[3]
     for m in range(out.shape[0]):
         for k in range(out.shape[1]):
             acc = 0.0
-            for side in range(2):
-                row = e[side, m]
-                term = (d[side, m, 3] - mu2[k] * d[side, m, 1]) * cos_e[row, k] + \
-                    (mu[k] * d[side, m, 2] - mu3[k] * d[side, m, 0]) * sin_e[row, k]
-                acc += term if side == 0 else -term
+            for end in (1, 0):
+                term = (d[m, end, 3] - mu2[k] * d[m, end, 1]) * cos_e[end, k] + \
+                    (mu[k] * d[m, end, 2] - mu3[k] * d[m, end, 0]) * sin_e[end, k]
+                acc += term if end == 1 else -term
             den = b4[m] - mu4[k]
             out[m, k] = acc / den if den != 0.0 else math.nan
 
