@@ -99,7 +99,7 @@ def new_workspace(method, model, N, J, margin):
     stepper = Stepper(method, model, Coefficients(np.empty((9, N), np.complex128), np.empty((9, 2))),
                       _step_work(N, J))
     return Workspace(_step_work(N, J), new_state(N, J), stepper, tension_work(N, J), contact_work(J),
-                     zone_work(margin, N), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
+                     zone_work(margin), np.empty(3), np.empty(3), np.empty(3), np.empty((2, 4)),
                      np.array([-1.0, 0.0]), maxima_work(N), dense_maxima_work(N), np.full(4, np.nan),
                      History(np.zeros((2, N)), np.zeros(2), np.zeros(2)), np.zeros(2))
 
@@ -156,7 +156,8 @@ def initial_state(model, ws, cur, t, a0, adot0, records, diag):
         diag[D_MAX_UPPER_T + 3 * s_] = t
     zone = observe_zone(model, ws.zone, t, 0.0, ZoneEnds(cur.eps, cur.delta, cur.a, cur.adot, jmax,
                                                          np.full((2, 4), -np.inf), cur.yb, cur.yb),
-                        DenseStates(tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing), tw.marks),
+                        DenseStates(tw.A, tw.AD, tw.eps, Dense(cur.z, cur.forcing, cur.forcing, cur.forcing),
+                                    tw.marks, tw.dry),
                         SurfaceRows(records.zone_upper, records.n_zone_upper, records.zone_lower,
                                     records.n_zone_lower), diag)
     gap_peak(model, s, body_speed(model.body, cur.yb), cur.delta, jmax, cur.a, cur.adot, ws.gap0)
@@ -302,7 +303,7 @@ def observe_step(model, observers, cur, new, carried, t, h, ends, records, diag)
     if asks(asked, ZONE):
         zone = observe_zone(model, zw, t, h, ZoneEnds(new.eps, new.delta, new.a, new.adot, jm5,
                                                       tw.track[STEP_BEST:STEP_BEST + 2], cur.yb, new.yb),
-                            DenseStates(tw.A, tw.AD, tw.eps, dz, tw.marks), zone, diag)
+                            DenseStates(tw.A, tw.AD, tw.eps, dz, tw.marks, tw.dry), zone, diag)
     if model.basis.kind != 0.0 and h > 0.0 and dz.z0.shape[0] > 0 and asks(asked, FLOE_MAXIMA):
         # a floe: its maxima located at the run's end
         observe_candidates(model, observers.dense, t, h, dz, tw.track[STEP_BEST:STEP_BEST + 2], zw.best,

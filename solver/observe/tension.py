@@ -71,8 +71,8 @@ ELSEWHERE = 1e-9
 #: switch of peaks (SWITCH_SAMPLES); nodes (TENSION_SAMPLES - 1, J) the strain at every node
 #: at the dense states A (a run that breaks: _elsewhere); dry (2, TENSION_SAMPLES - 1, N) on a
 #: floe-form basis the dry coefficients of A and AD (solver.model.floe.floe_dry: once a step for
-#: the fourteen searches of each surface, _dry_states); marks (9,): RUN_MAX + s the running
-#: maximum of surface s, JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1
+#: the fourteen searches of each surface and the impact zone's samples, fill_dry); marks (9,):
+#: RUN_MAX + s the running maximum of surface s, JOINABLE + s 1 when its last step was stored, DENSE (DENSE_SWITCH) 1
 #: when the step's dense states A, AD (A2, AD2) are computed, or given by the integrator
 #: (dense_due), LEVEL the break level of a run that breaks (inf otherwise: watch_level), NODES 1
 #: when nodes holds the step's strains, DRY 1 when dry holds the step's coefficients. (Few
@@ -90,8 +90,9 @@ Dense = namedtuple("Dense", "z0 N1 Nm N5")
 StepStrains = namedtuple("StepStrains", "eps0 eps1 a1 adot1")
 #: a step's dense-output states and what makes them: A, AD (TENSION_SAMPLES - 1, N) the states
 #: at t0 + k h / K (computed on demand, ensure_dense), an eps scratch (J,), the step's Dense,
-#: the marks (DENSE: computed)
-DenseStates = namedtuple("DenseStates", "A AD eps dense marks")
+#: the marks (DENSE: computed, DRY: dry holds their dry coefficients), dry (2, TENSION_SAMPLES - 1,
+#: N) on a floe-form basis (TensionWork.dry: the tension's and the zone's searches share them)
+DenseStates = namedtuple("DenseStates", "A AD eps dense marks dry")
 
 
 @kernel(nrt=True)
@@ -153,7 +154,7 @@ def peak_near(x, xlo, xhi, sign, field, a, adot, lam1, floe, track):
     """Peak of sign * the modal field (field_sums: sum_n w_n a_n cos(lambda_n x) on the cosines)
     near x (Newton, kept in [xlo, xhi]) and its rate, the same field of a' at the peak x*:
     track[:3] = (value, rate, x); on a floe-form basis a and adot are dry coefficients
-    (_dry_states). On a plate broken with a crack spacing the bracket stays where the tension is
+    (fill_dry). On a plate broken with a crack spacing the bracket stays where the tension is
     read (read_interval)."""
     lo, hi = read_interval(floe, x, xlo, xhi)
     if lo <= x <= hi:
@@ -258,7 +259,7 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
         rec, n = append_row(rec, n, t0 + h, p1[0], p1[1], p1[2], 1.0)
         return rec, n, True
     ensure_dense(model, h, dz, tw.A, tw.AD, tw.marks)
-    A, AD = _dry_states(model, tw)
+    A, AD = dense_dry(model, tw)
     # follow the peak forward from p0 and backward from p1, each sample by Newton near the
     # previous one; keep the larger (the global peak may pass from one local peak to another)
     field, dx, L = Field(model.plate.modes[STRAIN], 1), model.basis.dx, model.basis.length
@@ -282,20 +283,28 @@ def _tension_piece(model, tw, s, t0, h, dz, rec, n):
     return _store_samples(t0, h, K, tw.marks[LEVEL], samples, rec, n, joinable, run_max, best)
 
 
-@kernel(inline="llvm", nrt=True)
-def _dry_states(model, tw):
-    """The step's dense states as the peak searches read them: A, AD on the cosines; on a
-    floe-form basis their dry coefficients (floe_dry), computed once a step (marks DRY) for both
-    surfaces' searches forward and back."""
+@kernel(inline="llvm")
+def fill_dry(model, states):
+    """On a floe-form basis the dry coefficients (floe_dry) of a step's dense states (states: a
+    TensionWork or the DenseStates, computed: their A, AD, dry and marks), computed once a step
+    (marks DRY) for both surfaces' searches forward and back and the impact zone's samples
+    (solver.observe.zone); nothing on the cosines."""
     floe = model.basis.floe
-    if floe.shape[0] == 0:
-        return tw.A, tw.AD
-    if tw.marks[DRY] == 0.0:
-        for k in range(tw.A.shape[0]):
-            floe_dry(floe, tw.A[k], tw.dry[0, k])
-            floe_dry(floe, tw.AD[k], tw.dry[1, k])
-        tw.marks[DRY] = 1.0
-    return tw.dry[0], tw.dry[1]
+    if floe.shape[0] > 0 and states.marks[DRY] == 0.0:
+        for k in range(states.A.shape[0]):
+            floe_dry(floe, states.A[k], states.dry[0, k])
+            floe_dry(floe, states.AD[k], states.dry[1, k])
+        states.marks[DRY] = 1.0
+
+
+@kernel(inline="llvm", nrt=True)
+def dense_dry(model, states):
+    """A step's dense states as the peak searches read them: A, AD on the cosines, their dry
+    coefficients on a floe-form basis (fill_dry)."""
+    fill_dry(model, states)
+    if model.basis.floe.shape[0] == 0:
+        return states.A, states.AD
+    return states.dry[0], states.dry[1]
 
 
 @kernel(inline="llvm", nrt=True)

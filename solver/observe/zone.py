@@ -44,25 +44,24 @@ from ..cubic import cubic_max, hermite
 from ..compile.jit import kernel
 from ..layout import D_CONTACT_EXTENT, D_ZONE_UPPER, D_ZONE_UPPER_EDGE, D_ZONE_UPPER_T, D_ZONE_UPPER_X
 from ..model.basis import Field, dry_newton_peak, field_sum, field_sums, newton_peak, node_strain
-from ..model.floe import floe_dry
 from ..model.points import floe_dry_sums
 from ..model.plate import OMEGA, STRAIN
 from .reach import Reach, Span, contact_extent, reach_after_step, zone_ends, zone_track
 from .record import SurfaceRows
-from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_dense
+from .tension import RESOLVED, RIPPLE, TENSION_SAMPLES, append_chain, ensure_dense, fill_dry
 
 #: the observer's state: peaks (2, 5) each surface's (value, rate, x, node, slope) of the zone's
 #: peak at the current time (node -1: the zone's upper end, -2 its lower end); reach (7,) the
 #: contact's largest extent c [m] so far, the margin m [m], the zone's ends [lo, hi], the
 #: contact's extent at the last step's end and at the end before it, and the last step's length
-#: where its extent was not sampled inside it (0: it was, or none); best (2, 5) each surface's (max, time, x, edge: 0 inside the zone, 1 its upper
-#: end, 2 its lower end; the end's speed) over the last step (the located maxima read them); dry
-#: (2, N) scratch for a floe's dry coefficients; pair (2, 5) a step's two ends and chain
+#: where its extent was not sampled inside it (0: it was, or none); best (2, 5) each surface's
+#: (max, time, x, edge: 0 inside the zone, 1 its upper end, 2 its lower end; the end's speed) over
+#: the last step (the located maxima read them); pair (2, 5) a step's two ends and chain
 #: (TENSION_SAMPLES + 1, 5) the peaks sampled inside it, each row (value, rate, x, node, slope:
 #: sign * eps_x at an end of the zone); track (TENSION_SAMPLES + 1, 6) the zone at the samples
 #: (zone_track); marks (4,): each surface's record's running maximum, then 1 where its last step
 #: was stored
-ZoneWork = namedtuple("ZoneWork", "peaks reach best dry pair chain track marks")
+ZoneWork = namedtuple("ZoneWork", "peaks reach best pair chain track marks")
 #: what the zone's observer reads of a step's end: eps at the nodes, delta, a, a' at t0 + h, the
 #: jmax below which delta is computed, each surface's plate-wide (max, time, x) over the step
 #: (rows 0 and 1 of an array; -inf: none), the body's deficits yb at t0 and at t0 + h
@@ -78,15 +77,14 @@ ZoneMotion = namedtuple("ZoneMotion", "lo0 hi0 lo1 hi1")
 
 
 @kernel(nrt=True)
-def zone_work(margin, N):
-    """A ZoneWork for N modes before the first contact (c = 0) and before the first peak."""
+def zone_work(margin):
+    """A ZoneWork before the first contact (c = 0) and before the first peak."""
     peaks = np.zeros((2, 5))
     peaks[:, 0] = -np.inf
     peaks[:, 3] = -1.0
     marks = np.array([-np.inf, -np.inf, 0.0, 0.0])
     return ZoneWork(peaks, np.array([0.0, margin, -1.0, -1.0, -1.0, -1.0, 0.0]), np.full((2, 5), -np.inf),
-                    np.empty((2, N)), np.empty((2, 5)), np.empty((TENSION_SAMPLES + 1, 5)),
-                    np.empty((TENSION_SAMPLES + 1, 6)), marks)
+                    np.empty((2, 5)), np.empty((TENSION_SAMPLES + 1, 5)), np.empty((TENSION_SAMPLES + 1, 6)), marks)
 
 
 @kernel
@@ -135,14 +133,16 @@ def edge_speed(node, zone, h):
 
 
 @kernel(nrt=True)
-def _sample_peak(model, sign, a, adot, x, mode, zone, dry, eps):
-    """The zone's peak at one state (a, a') inside a step: (value, rate, x, node, slope), slope =
-    sign * eps_x at x (for the rate of a moving end). mode 0: at the zone's end x; 1: the peak
-    near x, followed by Newton within 3 nodes; 2: the zone (a Span) searched afresh (node
-    strains, zone_peak). A floe's wet amplitudes become dry coefficients once (O(N) a point,
-    into the dry (2, N) scratch); the walls' cosines are summed directly."""
+def _sample_peak(model, sign, inside, k, x, mode, zone):
+    """The zone's peak at the dense state k inside a step (inside: the step's DenseStates, their
+    dry coefficients computed on a floe-form basis, tension.fill_dry): (value, rate, x, node,
+    slope), slope = sign * eps_x at x (for the rate of a moving end). mode 0: at the zone's end x;
+    1: the peak near x, followed by Newton within 3 nodes; 2: the zone (a Span) searched afresh
+    (node strains, zone_peak). A floe's peak is searched on the dry coefficients; the walls'
+    cosines are summed directly."""
     basis, strain = model.basis, model.plate.modes[STRAIN]
     floe, dx, lam1 = basis.floe, basis.dx, basis.lam1
+    a, adot, eps = inside.A[k], inside.AD[k], inside.eps
     lo, hi = zone.lo, zone.hi
     j = -1.0
     if mode == 2:
@@ -150,12 +150,11 @@ def _sample_peak(model, sign, a, adot, x, mode, zone, dry, eps):
         v, x, jn = zone_peak(eps, sign, basis, strain, a, lo, hi)
         j = float(jn)
     if basis.kind != 0:
-        floe_dry(floe, a, dry[0])
-        floe_dry(floe, adot, dry[1])
+        dry_a, dry_adot = inside.dry[0, k], inside.dry[1, k]
         if mode == 1:
-            x = dry_newton_peak(floe, dry[0], x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign, 1)
-        v0, v1, _ = floe_dry_sums(floe, dry[0], x, 1)
-        return sign * v0, sign * floe_dry_sums(floe, dry[1], x, 1)[0], x, j, sign * v1
+            x = dry_newton_peak(floe, dry_a, x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign, 1)
+        v0, v1, _ = floe_dry_sums(floe, dry_a, x, 1)
+        return sign * v0, sign * floe_dry_sums(floe, dry_adot, x, 1)[0], x, j, sign * v1
     if mode == 1:
         x = newton_peak(x, max(lo, x - 3.0 * dx), min(hi, x + 3.0 * dx), sign, Field(strain, 1), a, lam1, floe)
     v0, v1, _ = field_sums(lam1, floe, Field(strain, 1), a, x)
@@ -163,17 +162,17 @@ def _sample_peak(model, sign, a, adot, x, mode, zone, dry, eps):
 
 
 @kernel
-def _zone_samples(model, sign, h, track, inside, dry, p0, p1, samples):
+def _zone_samples(model, sign, h, track, inside, p0, p1, samples):
     """The zone's peak at the dense-output states inside the step of length h into samples[k] =
     (value, rate, x, node, slope) at t0 + k h / K, k = 0..K, the ends given: p0, p1 the peaks at
     t0 and t0 + h (rows as samples', their rates at a fixed place); track (K + 1, 4): the zone at
-    those times and its ends' speeds (zone_track); inside: the DenseStates, computed; dry (2, N)
-    scratch. As the ends say, the peak stays at one end of
-    the zone, or on one peak followed by Newton; else the zone is searched afresh at each sample
+    those times and its ends' speeds (zone_track); inside: the DenseStates, computed (on a
+    floe-form basis with their dry coefficients, tension.fill_dry). As the ends say, the peak
+    stays at one end of the zone, or on one peak followed by Newton; else the zone is searched afresh at each sample
     (_sample_peak). At an end the rate is d/dt of eps at the moving end: eps_t + eps_x times the
     end's speed."""
-    A, AD, eps = inside.A, inside.AD, inside.eps
-    K = A.shape[0] + 1
+    fill_dry(model, inside)
+    K = inside.A.shape[0] + 1
     dx = model.basis.dx
     end_both = p0[3] < 0 and p0[3] == p1[3]
     peak_both = p0[3] >= 0 and p1[3] >= 0 and abs(p1[2] - p0[2]) <= 3.0 * dx
@@ -187,7 +186,7 @@ def _zone_samples(model, sign, h, track, inside, dry, p0, p1, samples):
         if 0 < k < K:
             if end_both:
                 x = hi if p1[3] == -1.0 else lo
-            v, r, x, jn, slope = _sample_peak(model, sign, A[k - 1], AD[k - 1], x, mode, Span(lo, hi), dry, eps)
+            v, r, x, jn, slope = _sample_peak(model, sign, inside, k - 1, x, mode, Span(lo, hi))
             samples[k, 0], samples[k, 1], samples[k, 2], samples[k, 4] = v, r, x, slope
             samples[k, 3] = jn if mode == 2 else p1[3]
         j = samples[k, 3]
@@ -372,7 +371,7 @@ def observe_zone(model, zw, t0, h, ends, inside, records, diag):
                 tracked = True
             chain = zw.chain[:K + 1]
             p1[1] = fixed_rate
-            _zone_samples(model, sign, h, zw.track[:K + 1], inside, zw.dry, p0, p1, chain)
+            _zone_samples(model, sign, h, zw.track[:K + 1], inside, p0, p1, chain)
             best, tb, xb, edge, speed = _samples_best(t0, h, basis.dx, chain, Best(best, tb, xb, edge, speed))
         if h > 0.0:
             if s == 0:
