@@ -63,8 +63,9 @@ PARAMETER_INFO = {
                     "at once)", "m s-1"),
     "edge_shapes": ("edge shapes at each free edge of a broken plate's parts (read with fracture = break): "
                     "boundary layers cosh, sinh(beta (x - c)) at beta = 1, 1/2, 1/4, 1/8 of the parts' largest "
-                    "wavenumber, the first edge_shapes of them, which carry the bending a break leaves at its "
-                    "faces (0: none)", "1"),
+                    "wavenumber, the first edge_shapes of them (a part too short for one: a shape of the whole part "
+                    "in its place), which carry the bending a break leaves at its faces and an opening crack's "
+                    "moment (0: none)", "1"),
 }
 
 #: the parameters only a run that breaks (fracture = "break") reads

@@ -171,8 +171,10 @@ class Parameters:
     edge_shapes : int
         How many edge shapes each free edge of a broken plate's parts carries, read with fracture =
         "break" (0 to 4): boundary layers cosh and sinh of beta (x - c), beta = 1, 1/2, 1/4, 1/8 of
-        the parts' largest wavenumber, which carry the bending a break leaves at its faces
-        (docs/model.md, "Edge shapes"). 0 (the default): the parts' free-free modes alone.
+        the parts' largest wavenumber (a part too short for one takes a shape of the whole part,
+        beta l = 1.5, in its place), which carry the bending a break leaves at its faces and an
+        opening crack's moment (docs/model.md, "Edge shapes"). 0 (the default): the parts'
+        free-free modes alone. With cracks that open at once it needs a crack_spacing.
     """
 
     K: float = 8e6
@@ -260,9 +262,10 @@ class Parameters:
         if self.edges == "free":
             raise ParameterError("fracture = 'break' with edges = 'free': a floe's parts are not built (its water "
                                  "is the half-plane's)")
-        if self.edge_shapes > 0 and self.crack_spacing == 0.0:
-            raise ParameterError("edge_shapes > 0 needs crack_spacing > 0: with edge shapes a free edge's w'' = 0 "
-                                 "holds only weakly, so the tension read at a new edge is the basis', not the ice's")
+        if self.edge_shapes > 0 and self.crack_spacing == 0.0 and self.crack_opening_time == 0.0:
+            raise ParameterError("edge_shapes > 0 with cracks that open at once needs crack_spacing > 0: with edge "
+                                 "shapes a free edge's w'' = 0 holds only weakly, so the tension read at a new edge is "
+                                 "the basis', not the ice's")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,

@@ -26,8 +26,12 @@ part may take, at each free end, boundary layers that obey the same beam equatio
     sliding-free   cosh(beta (x - c)) / cosh(beta l) about the sliding end (flat there),
     free-free      that and sinh(beta (x - c)) / sinh(beta l) about the middle,
 
-at beta = EDGE_FACTORS beta_max (those with beta l >= EDGE_LENGTH). They are not orthogonal to
-the part's modes: the mass and bending Gram matrices take their rows by Gauss-Legendre (gram).
+at beta = EDGE_FACTORS beta_max (those with beta l >= EDGE_LENGTH); a part too short for one
+of them takes in its place the same at beta l = EDGE_WHOLE, a shape of the whole part whose
+curvature at a face is not zero (its boundary layers are too steep to hold a curvature that
+varies slowly along it, as an opening crack's held moment makes). They are not
+orthogonal to the part's modes: the mass and bending Gram matrices take their rows by
+Gauss-Legendre (gram).
 
 **Water.** The channel between the walls, deep or of depth H, is the unbroken plate's: a normal
 velocity cos(mu_k x), mu_k = k pi / Lambda, has the added mass rho_w coth(mu_k H) / mu_k (as
@@ -95,6 +99,12 @@ EDGE_FACTORS = (1.0, 0.5, 0.25, 0.125)
 #: an edge shape is kept where beta l >= EDGE_LENGTH (l the part's length, or its half on a
 #: free-free part): shorter, it is nearly a part's heave or pitch (1 / cosh(3) = 0.1)
 EDGE_LENGTH = 3.0
+#: a part too short for one of the edge shapes asked (beta l < EDGE_LENGTH) takes in its place a
+#: whole-part shape (both parities on a free-free part) at beta l = EDGE_WHOLE: w'' != 0 at its
+#: free ends and across it, which its boundary layers, too steep for it, cannot give to a slowly
+#: varying curvature that does not vanish at a face (an opening crack's held moment,
+#: docs/model.md, "Edge shapes")
+EDGE_WHOLE = 1.5
 #: the wet modes are sought on the dry modes' span less its directions of mass below
 #: SPAN_TOLERANCE of the largest (edge shapes nearly dependent on a part's modes): the kernels take
 #: a null wet mode for each direction left out (wet_parts)
@@ -202,8 +212,10 @@ def _part(lo, hi, sliding_lo, sliding_hi, beta_max, edges=0):
 
 def _edge_betas(beta_max, length, edges):
     """The wavenumbers [m-1] of a part's edge shapes: the first ``edges`` of EDGE_FACTORS beta_max,
-    those with beta length >= EDGE_LENGTH."""
-    return [f * beta_max for f in EDGE_FACTORS[:edges] if f * beta_max * length >= EDGE_LENGTH]
+    those with beta length >= EDGE_LENGTH, and where one is left out the whole part's
+    EDGE_WHOLE / length in its place."""
+    layers = [f * beta_max for f in EDGE_FACTORS[:edges] if f * beta_max * length >= EDGE_LENGTH]
+    return layers + [EDGE_WHOLE / length] if len(layers) < edges else layers
 
 
 def part_modes(domain: float, breaks, beta_max: float, edges: int = 0) -> PartModes:
