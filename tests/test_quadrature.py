@@ -155,6 +155,7 @@ def test_the_energy_the_last_stage_leaves_is_the_layers_energy(several_intervals
 GAUSS = dict(quadrature="gauss", error_estimate=False)
 
 
+@pytest.mark.heavy
 def test_gauss_energy_identity_holds_to_the_time_error():
     """The layer's energy on the forcing's own nodes: the residual falls with the tolerance
     (the paper's rule stays at its O(dx^2) mismatch, 5e-6 here)."""

@@ -183,6 +183,7 @@ def test_elastic_layer_is_the_papers_bit_for_bit():
     assert np.array_equal(a.fields["layer_pressure"], b.fields["layer_pressure"]) and a.steps == b.steps
 
 
+@pytest.mark.heavy
 def test_approach_to_the_elastic_layer_is_proportional_to_layer_tau():
     p = Parameters(Nmod=20)
     s = Settings(tolerance=1e-10, error_estimate=False)
