@@ -53,6 +53,7 @@ def _check_modal_part(p, modes, reference_modes):
         assert est <= 100 * true
 
 
+@pytest.mark.heavy
 def test_time_part_etd34_and_rk4_reference_case():
     p = Parameters(Nmod=20)
     _check_time_part(p, [Settings(tolerance=1e-6), Settings(tolerance=1e-8),

@@ -79,6 +79,7 @@ def test_crack_onset_at_default_tolerance_matches_tight_run(name):
         assert rel <= 1e-5
 
 
+@pytest.mark.heavy
 def test_every_default_eps_Y_on_the_paper_case():
     """All 42 values of the default eps_Y axis, the paper's case at 60 modes: within 1e-5 of
     etd34 at 1e-12. One of them (1.26e-2, upper surface) is reached while a new peak emerges
