@@ -57,18 +57,18 @@ def elements_rows(N, p, breaks, times, x, ours, spacings, steps) -> list:
     def apart(one, other, over=1.0):
         return np.nanmax(np.abs(runs[one] - runs[other])[:, keep]) / over / scale
 
-    by_size = sorted(spacings)
+    by_size, by_step, summary = sorted(spacings), sorted(steps), []
     if len(by_size) > 1:
-        rows.append(f"| {N} | | own uncertainty in space at {finest:g} m | "
-                    f"{apart((by_size[0], longest), (by_size[1], longest), 3.0):.2e} | | | |")
-    by_step = sorted(steps)
+        summary.append(f"| {N} | | own uncertainty in space at {finest:g} m | "
+                       f"{apart((by_size[0], longest), (by_size[1], longest), 3.0):.2e} | | | |")
     if len(by_step) > 1:
-        rows.append(f"| {N} | | own uncertainty in time at {by_step[0]:g} s | "
-                    f"{apart((finest, by_step[0]), (finest, by_step[1])):.2e} | | | |")
+        summary.append(f"| {N} | | own uncertainty in time at {by_step[0]:g} s | "
+                       f"{apart((finest, by_step[0]), (finest, by_step[1])):.2e} | | | |")
     each = np.nanmax(np.abs(runs[finest, by_step[0]] - ours.fields["strain"])[:, keep], axis=1) / scale
-    rows.append(f"| {N} | | strain at each time [ms: difference] | "
-                + ", ".join(f"{1e3 * t:.4f}: {d:.1e}" for t, d in zip(times, each)) + " | | | |")
-    print(*rows[len(rows) - 1 - (len(by_size) > 1) - (len(by_step) > 1):], sep="\n", flush=True)
+    summary.append(f"| {N} | | strain at each time [ms: difference] | "
+                   + ", ".join(f"{1e3 * t:.4f}: {d:.1e}" for t, d in zip(times, each)) + " | | | |")
+    print(*summary, sep="\n", flush=True)
+    rows += summary
     return rows
 
 
