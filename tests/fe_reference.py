@@ -29,7 +29,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import lu_factor, lu_solve
+from scipy.linalg import eigh, lu_factor, lu_solve, null_space
 from scipy.sparse import csr_matrix
 from scipy.special import zeta
 
@@ -139,6 +139,7 @@ class Plate:
         np.add.at(means, self.top.elem, self.h[:, None] * np.array([0.5, 1 / 12, 0.5, -1 / 12])[None, :] * scale)
         self.means = means
         self._lu = {}
+        self._modes = None
         self.cracks = []           # the opening cracks: (load, break time, opening time), crack_load
 
     def crack_load(self, t):
@@ -187,6 +188,19 @@ class Plate:
             S = np.block([[M, -c[:, None]], [c[None, :], np.zeros((1, 1))]])
             self._lu[dt] = lu_factor(S)
         return self._lu[dt]
+
+    def modes(self):
+        """(B, omega, P): the plate's wet modes on its free degrees of freedom under int w dx = 0,
+        q_f = B eta with B^T M B = I and B^T K B = diag(omega^2) [s-2], and P = B^T M (eta = P q_f
+        for a q_f that meets the constraint); computed once."""
+        if self._modes is None:
+            f = self.top.free
+            M, K = self.mass[np.ix_(f, f)], self.stiffness[np.ix_(f, f)]
+            Z = null_space(self.means[f][None, :])
+            omega2, Phi = eigh(Z.T @ K @ Z, Z.T @ M @ Z)
+            B = Z @ Phi
+            self._modes = (B, np.sqrt(omega2), B.T @ M)
+        return self._modes
 
     def values(self, q, x):
         """w at x [m] of the degrees of freedom q."""
@@ -287,13 +301,14 @@ def mesh(L, breaks, spacing):
     return np.concatenate(pieces + [[L]])
 
 
-def run(p, breaks, times, x, spacing=0.02, dt=1e-7, opening_time=0.0):
+def run(p, breaks, times, x, spacing=0.02, dt=1e-7, opening_time=0.0, scheme="trapezoid"):
     """The plate of parameters p from first touch, broken at ``breaks`` [(time [s], place [m])]
     on nodes ``spacing`` apart (each crack opening over ``opening_time`` [s], _break), by steps of
     at most dt [s]: the upper-surface strain at the times
     and places x [m] (T, X), the force on the body [N m-1] (full plate) and the energy identity's
     largest residual |E_plate + E_layer - W| over the largest W (both over the run's steps; W with
-    the opening faces' work)."""
+    the opening faces' work). ``scheme``: the time step (STEPS); the exponential one steps also to
+    each crack's end of opening, where its load has a kink."""
     times = np.asarray(times, float)
     nodes = mesh(p.L, [b for _, b in breaks], spacing)
     index = {b: int(np.argmin(np.abs(nodes - b))) for _, b in breaks}
@@ -301,7 +316,9 @@ def run(p, breaks, times, x, spacing=0.02, dt=1e-7, opening_time=0.0):
     plate = Plate(p, nodes, broken)
     q, v, a = np.zeros(plate.top.count), np.zeros(plate.top.count), np.zeros(plate.top.count)
     t, work, force_now = 0.0, 0.0, 0.0
-    stops = sorted(set(times) | {tb for tb, _ in breaks})
+    stops = sorted(set(times) | {tb for tb, _ in breaks}
+                   | ({tb + opening_time for tb, _ in breaks} if opening_time > 0.0 and scheme != "trapezoid" else set()))
+    step = STEPS[scheme]
     strain, force = np.full((times.size, len(x)), np.nan), np.full(times.size, np.nan)
     residual, peak_work = 0.0, 0.0
     for stop in stops:
@@ -309,7 +326,7 @@ def run(p, breaks, times, x, spacing=0.02, dt=1e-7, opening_time=0.0):
         for k in range(steps):
             h = dt if k < steps - 1 else stop - t
             q_old, faces_old = q, plate.crack_load(t)
-            q, v, a, force_new, layer_energy = _step(plate, q, v, a, t, h)
+            q, v, a, force_new, layer_energy = step(plate, q, v, a, t, h)
             work += 0.5 * h * p.V * 2.0 * (force_now + force_new)
             force_now, t = force_new, t + h if k < steps - 1 else stop
             work += (faces_old + plate.crack_load(t)) @ (q - q_old)      # (the opening faces', whole plate)
@@ -344,6 +361,56 @@ def _step(plate, q, v, a, t, h):
     q_new = base + 0.25 * h**2 * a_new
     forces, F, layer_energy = plate.layer(q_new, t + h)
     return q_new, v + 0.5 * h * (a + a_new), a_new, F, layer_energy
+
+
+def _weights(omega, h):
+    """The exponential step's weights for eta'' + omega^2 eta = g(s), g linear over the step from
+    g0 to g1 (exact for it): eta(h) = c eta + s eta' + w0 g0 + w1 g1 and
+    eta'(h) = -omega^2 s eta + c eta' + u0 g0 + u1 g1 (c = cos omega h, s = sin(omega h) / omega)."""
+    x = omega * h
+    c, s = np.cos(x), h * np.sinc(x / math.pi)
+    a0 = 0.5 * (h * np.sinc(x / (2.0 * math.pi))) ** 2                # (1 - c) / omega^2, without cancellation
+    small = x < 1e-2
+    xs = np.where(small, x, 1.0)
+    a1 = np.where(small, h**2 * (1.0 / 6.0 - xs**2 / 120.0 + xs**4 / 5040.0),
+                  (h - s) / np.where(small, 1.0, omega) ** 2 / h)          # int_0^h sin(omega (h - r)) / omega r / h dr
+    return c, s, a0 - a1, a1, s - a0 / h, a0 / h
+
+
+def _exponential_step(plate, q, v, a, t, h):
+    """One step of length h from t, exact for the plate's and the water's linear part (its wet
+    modes advanced by cos and sin), the layer's and the opening cracks' forces linear in time over
+    the step (second order in them; fixed-point iteration for their value at the step's end):
+    (q, v, a, F, E_layer) at t + h. The trapezoidal rule (_step) gives its short waves a phase error
+    (omega h)^2 / 12 that does not fall with the waves' amplitude; this step has none."""
+    f = plate.top.free
+    B, omega, P = plate.modes()
+    c, s, w0, w1, u0, u1 = _weights(omega, h)
+    eta, rate = P @ q[f], P @ v[f]
+    g0 = P @ a[f] + omega**2 * eta                     # (a consistent: eta'' = -omega^2 eta + g)
+    base = c * eta + s * rate + w0 * g0
+    g1 = g0
+    for _ in range(30):
+        q_new = np.zeros_like(q)
+        q_new[f] = B @ (base + w1 * g1)
+        forces, F, layer_energy = plate.layer(q_new, t + h)
+        g_next = B.T @ (forces + plate.crack_load(t + h))[f]
+        change = np.max(np.abs(g_next - g1))
+        g1 = g_next
+        if change <= 1e-13 * max(np.max(np.abs(g1)), 1e-300):
+            break
+    eta_new = base + w1 * g1
+    q_new = np.zeros_like(q)
+    q_new[f] = B @ eta_new
+    forces, F, layer_energy = plate.layer(q_new, t + h)
+    v_new, a_new = np.zeros_like(v), np.zeros_like(a)
+    v_new[f] = B @ (-omega**2 * s * eta + c * rate + u0 * g0 + u1 * g1)
+    a_new[f] = B @ (g1 - omega**2 * eta_new)
+    return q_new, v_new, a_new, F, layer_energy
+
+
+#: the time steps (tests/fe_reference.run's and breaking_run's ``scheme``)
+STEPS = {"trapezoid": _step, "exponential": _exponential_step}
 
 
 def _broken_state(plate, q, v, broken):
@@ -393,7 +460,8 @@ def _break(plate, q, v, broken, t, a=None, opening_time=0.0):
     return plate, q, v, a
 
 
-def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0, opening_time=0.0):
+def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0, opening_time=0.0,
+                 scheme="trapezoid"):
     """The elements' own breaks: the plate of parameters p on nodes ``spacing`` apart breaks at a
     node where the tension of an armed surface (armed once its peak is below p.yield_strain, as the
     solver's) first reaches p.yield_strain, at the time interpolated between two steps' peaks (the
@@ -402,7 +470,8 @@ def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0,
     edge's own tension is 0 only weakly in the elements; the centre's symmetry plane is searched
     until it breaks); each crack opens over ``opening_time`` [s] (0: at once; _break). Returns
     [(time [s], x [m], surface)] up to max_breaks breaks, to the first one off the centre (the
-    breakthrough), or to t_end."""
+    breakthrough), or to t_end. ``scheme``: the time step (STEPS)."""
+    step = STEPS[scheme]
     nodes = mesh(p.L, [], spacing)
     broken, found = set(), []
     plate = Plate(p, nodes, broken)
@@ -412,13 +481,13 @@ def breaking_run(p, spacing=0.01, dt=4e-7, t_end=1.5e-3, max_breaks=3, band=0.0,
     before = _peaks(plate, q, broken, p, band)
     while t < t_end and len(found) < max_breaks:
         state = (q, v, a)
-        q, v, a, _, _ = _step(plate, q, v, a, t, dt)
+        q, v, a, _, _ = step(plate, q, v, a, t, dt)
         peaks = _peaks(plate, q, broken, p, band)
         crossing = [s for s in range(2) if armed[s] and peaks[s][0] >= level]
         if crossing:
             s = min(crossing, key=lambda s: (level - before[s][0]) / (peaks[s][0] - before[s][0]))
             h = dt * (level - before[s][0]) / (peaks[s][0] - before[s][0])
-            q, v, a, _, _ = _step(plate, *state, t, h)
+            q, v, a, _, _ = step(plate, *state, t, h)
             t += h
             node = _peaks(plate, q, broken, p, band)[s][1]
             found.append((t, float(nodes[node]), ("upper", "lower")[s]))

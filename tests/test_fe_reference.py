@@ -93,6 +93,55 @@ def test_a_crack_that_opens_over_a_time_keeps_the_acceleration_and_releases_its_
         assert np.all(broken.crack_load(t + 1e-3) == 0.0)
 
 
+def test_the_exponential_step_is_exact_for_the_plate_and_the_water():
+    """Away from the body (no layer force) the elements' exponential step (tests/fe_reference.
+    _exponential_step) is exact in time: one step of 2 us and two of 1 us agree to round-off, and
+    keep the energy to round-off, from a state with every wet mode in it (the highest at 4e7 s-1,
+    omega h = 80: the trapezoidal rule's phase error there is of order one); on a broken plate too."""
+    p = Parameters(Nmod=20)
+    rng = np.random.default_rng(1)
+    for broken in (set(), {0, 40}):
+        plate = fe.Plate(p, fe.mesh(p.L, [], 0.02), broken)
+        B, omega, P = plate.modes()
+        f = plate.top.free
+        assert np.max(omega) * 1e-6 > 30.0
+        q, v, a = (np.zeros(plate.top.count) for _ in range(3))
+        q[f] = B @ (1e-6 * rng.standard_normal(omega.size))
+        v[f] = B @ (1e-3 * rng.standard_normal(omega.size))
+        a[f] = B @ (-omega**2 * (P @ q[f]))
+        t = -1e-2                                                  # (the body 0.1 m above the ice)
+        one = fe._exponential_step(plate, q, v, a, t, 2e-6)
+        half = fe._exponential_step(plate, q, v, a, t, 1e-6)
+        two = fe._exponential_step(plate, *half[:3], t + 1e-6, 1e-6)
+        assert one[3] == two[3] == 0.0
+        for i in range(3):
+            assert np.max(np.abs(one[i] - two[i])) < 1e-12 * np.max(np.abs(one[i]))
+        assert plate.energy(one[0], one[1]) == pytest.approx(plate.energy(q, v), rel=1e-12)
+        assert abs(plate.means @ one[0]) < 1e-12 * np.max(np.abs(one[0]))
+
+
+@pytest.mark.slow
+def test_the_exponential_step_converges_at_second_order_through_the_layer():
+    """With the body pressing the plate (0.2 ms from first touch, 4 cm elements) the exponential
+    step's strain changes 7.9e-6, 2.0e-6, 5.0e-7 of its largest from 1.6 to 0.2 us: order 2 (its
+    error is the layer's force taken linear over a step), six times below the trapezoidal rule's
+    (4.9e-5, 1.6e-5, 3.4e-6); the two agree at 0.2 us within the trapezoidal rule's own change."""
+    p = Parameters(Nmod=20)
+    x, times = np.linspace(0.0, 1.5, 31), np.linspace(0.0, 2e-4, 5)
+    runs = {(scheme, dt): fe.run(p, [], times, x, spacing=0.04, dt=dt, scheme=scheme)[0]
+            for scheme, dt in [("exponential", 1.6e-6), ("exponential", 8e-7), ("exponential", 4e-7),
+                               ("exponential", 2e-7), ("trapezoid", 4e-7), ("trapezoid", 2e-7)]}
+    scale = np.max(np.abs(runs["exponential", 2e-7]))
+
+    def apart(one, other):
+        return np.max(np.abs(runs[one] - runs[other])) / scale
+    changes = [apart(("exponential", 2 * dt), ("exponential", dt)) for dt in (8e-7, 4e-7, 2e-7)]
+    for coarse, fine in zip(changes[:-1], changes[1:]):
+        assert 3.5 < coarse / fine < 4.5
+    assert changes[-1] < 1e-6
+    assert apart(("exponential", 2e-7), ("trapezoid", 2e-7)) < apart(("trapezoid", 4e-7), ("trapezoid", 2e-7))
+
+
 @pytest.fixture(scope="module")
 def reference_breaks():
     """The reference case's first break at N = 120 (tolerance 1e-10) and the state there."""
