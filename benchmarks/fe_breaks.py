@@ -9,8 +9,9 @@ at least AWAY from the breaks, and the force on the body; before the first break
 For each N: the solver's first two breaks (its breaking run's, located on its own sub-steps),
 then three comparisons, each from first touch: unbroken to the first break, broken at the first
 break for WINDOW, broken at both for WINDOW after the second. The finite elements run at each
-spacing (and steps of DT); their own uncertainty is the difference between the two finest,
-over 3 (their strain converges as h^2). Writes results/bench/fe_breaks.md.
+spacing (and steps of DT, exact for their linear part: tests/fe_reference._exponential_step);
+their own uncertainty is the difference between the two finest, over 3 (their strain converges
+as h^2). Writes results/bench/fe_breaks.md.
 """
 from __future__ import annotations
 
@@ -91,7 +92,7 @@ def main():
     args = parser.parse_args()
     x = np.linspace(0.0, 3.0, 301)
     lines = ["# The solver against Hermite finite elements through two breaks", "",
-             f"Reference case, the solver at tolerance 1e-10, eps_Y {EPS_Y:g}; the elements' steps {DT:g} s; the "
+             f"Reference case, the solver at tolerance 1e-10, eps_Y {EPS_Y:g}; the elements' steps {DT:g} s (exponential); the "
              f"strain compared at x = 0..3 m at least {AWAY:g} m from a break, over the largest strain there; the "
              f"force over the largest force; {WINDOW * 1e3:g} ms after each break.", "",
              "| N | window | breaks [ms, m] | spacing [m] | strain | force | elements' energy residual | "

@@ -9,8 +9,11 @@ two finest spacings' difference over 3 (their strain converges as h^2), in time 
 steps' difference. Their step is the exponential one by default (exact for the plate's and the
 water's linear part: tests/fe_reference._exponential_step; its difference between 8e-7 and 4e-7 s
 is about 1e-6); ``--scheme trapezoid`` takes the trapezoidal rule, whose phase error on the
-release's short waves is 5e-2 at 4e-7 s. The last row of each N gives the difference at each of
-the 21 times, the elements at the finest spacing and step. Writes results/bench/fe_opening.md.
+release's short waves is 5e-2 at 4e-7 s. With two spacings or more the elements' strain is also
+extrapolated (h^2, Richardson) from the finest two, its own uncertainty (with three) the
+extrapolations from the finest two and from the next two apart. The last row of each N gives the
+difference at each of the 21 times against the extrapolated elements (or the finest spacing's at
+the shortest step). Writes results/bench/fe_opening.md.
 
     python benchmarks/fe_opening.py [--modes 60 120] [--spacing 0.02 0.01] [--dt 8e-7 4e-7]
                                     [--crack-speed 2e4] [--edge-shapes 0] [--crack-spacing 0]
@@ -65,11 +68,21 @@ def elements_rows(N, p, breaks, times, x, ours, spacings, steps, scheme="exponen
     if len(by_size) > 1:
         summary.append(f"| {N} | | own uncertainty in space at {finest:g} m | "
                        f"{apart((by_size[0], longest), (by_size[1], longest), 3.0):.2e} | | | |")
+        extrapolated = {}
+        for fine, coarse in zip(by_size[:-1], by_size[1:]):
+            extrapolated[fine] = runs[fine, longest] + (runs[fine, longest] - runs[coarse, longest]) / 3.0
+        best = extrapolated[finest]
+        own = (f"{np.nanmax(np.abs(best - extrapolated[by_size[1]])[:, keep]) / scale:.2e}"
+               if len(by_size) > 2 else "")
+        summary.append(f"| {N} | | extrapolated (h^2) from {by_size[1]:g} and {finest:g} m; its own uncertainty: "
+                       f"the extrapolations from the finest two and the next two apart | "
+                       f"{np.nanmax(np.abs(best - ours.fields['strain'])[:, keep]) / scale:.2e} | | {own} | |")
     if len(by_step) > 1:
         summary.append(f"| {N} | | own uncertainty in time at {by_step[0]:g} s | "
                        f"{apart((finest, by_step[0]), (finest, by_step[1])):.2e} | | | |")
-    each = np.nanmax(np.abs(runs[finest, by_step[0]] - ours.fields["strain"])[:, keep], axis=1) / scale
-    summary.append(f"| {N} | | strain at each time [ms: difference] | "
+    reference = best if len(by_size) > 1 else runs[finest, by_step[0]]
+    each = np.nanmax(np.abs(reference - ours.fields["strain"])[:, keep], axis=1) / scale
+    summary.append(f"| {N} | | strain at each time [ms: difference{', extrapolated' if len(by_size) > 1 else ''}] | "
                    + ", ".join(f"{1e3 * t:.4f}: {d:.1e}" for t, d in zip(times, each)) + " | | | |")
     print(*summary, sep="\n", flush=True)
     rows += summary
