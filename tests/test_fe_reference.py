@@ -195,12 +195,13 @@ def test_a_plate_broken_at_rest_agrees_with_the_elements():
 @pytest.mark.slow
 def test_through_the_first_break_the_solver_keeps_the_force_and_misses_the_strain_by_the_carry(reference_breaks):
     """The reference case's first break (the centre, 0.4925 ms, N = 120) imposed on the elements
-    at the solver's own time, both run 1 ms on: the force agrees to 1.7e-7, the strain at least
-    0.1 m from the break to 3.9e-2 of the largest (3.3e-2 at N = 60): not the 1e-3 issue 76 asks.
+    at the solver's own time, both run 1 ms on: the force agrees to 2.3e-8, the strain at least
+    0.1 m from the break to 2.0e-2 of the largest (3.2e-2 at N = 60): not the 1e-3 issue 76 asks.
     The solver's projection misses the strain next to the new edge by 2.8e-2 at the break (0.12 m
     from it, N = 60), where the elements carry it exactly; but the elements' own strain moves by
-    3.3e-2 from 2 cm to 1 cm after the break: the instantaneous release's short waves, resolved by
-    neither (docs/model.md, "An independent check through a break")."""
+    3.2e-2 from 2 cm to 1 cm after the break, with their step exact in time: the instantaneous
+    release's short waves, resolved in space by neither (docs/model.md, "An independent check
+    through a break"; python benchmarks/fe_breaks.py --modes 60 120)."""
     p, s, first = reference_breaks
     broke = first.end.broke
     x = np.linspace(0.0, 3.0, 301)
@@ -219,9 +220,9 @@ def test_through_the_first_break_the_solver_keeps_the_force_and_misses_the_strai
 @pytest.mark.slow
 def test_the_elements_break_first_where_and_when_the_solver_does(reference_breaks):
     """The elements' own first break (tests/fe_reference.breaking_run: the lower surface at the
-    centre) converges on the solver's: 0.49210 ms at 2 cm and 0.49238 ms at 1 cm, whose h^2
-    extrapolation 0.49247 ms is 4e-5 from the solver's 0.49249 ms at N = 120; within the
-    elements' own change from 2 cm to 1 cm."""
+    centre) converges on the solver's: 0.49210 ms at 2 cm and 0.49237 ms at 1 cm (0.49244 at
+    0.5 cm), whose h^2 extrapolation 0.49246 ms is 6e-5 from the solver's 0.49249 ms at N = 120;
+    within the elements' own change from 2 cm to 1 cm."""
     p, s, first = reference_breaks
     broken = Parameters(Nmod=120, fracture="break")
     coarse, fine = (fe.breaking_run(broken, spacing=spacing, max_breaks=1)[0] for spacing in (0.02, 0.01))
@@ -233,12 +234,12 @@ def test_the_elements_break_first_where_and_when_the_solver_does(reference_break
 
 @pytest.mark.slow
 def test_with_a_crack_spacing_the_elements_break_through_where_the_solver_does():
-    """With a crack spacing of hi (0.5 m; docs/model.md, "The crack spacing") the elements'
-    breakthrough is where the solver's is, on the band's edge at 0.5 m on the upper surface:
-    0.66234 ms at 2 cm, 0.65703 ms at 1 cm (0.65761 ms at 0.505 m at 0.5 cm); the solver's
-    0.66271 ms at N = 60 is 5.7e-3 ms from the elements at 1 cm, as far as the elements move
-    from 2 cm to 1 cm (5.3e-3 ms): the strain after the centre's break is converged to about 1e-2
-    in neither (test_through_the_first_break_...)."""
+    """With a crack spacing of hi (0.5 m; docs/model.md, "The crack spacing") and cracks that open
+    at once the elements' breakthrough is where the solver's is, on the band's edge at 0.5 m on
+    the upper surface, and about 1 % earlier: 0.65778, 0.65635, 0.65788 ms at 2, 1 and 0.5 cm (the
+    exact step; not monotone in the spacing: the instantaneous release's short waves), the
+    solver's 0.66271 ms at N = 60 (0.6627 to 0.6635 from N = 40 to 120) 9.7e-3 from the elements
+    at 1 cm."""
     p = Parameters(Nmod=60, fracture="break", yield_strain=EPS_Y, crack_spacing=1.0)
     ours = solve(p, Settings(quadrature="gauss"), fields=(), times=[0.0, 8e-4], t_end=8e-4).breaking
     coarse, fine = (fe.breaking_run(p, spacing=spacing, t_end=8e-4, band=p.crack_spacing * p.hi)
@@ -246,17 +247,17 @@ def test_with_a_crack_spacing_the_elements_break_through_where_the_solver_does()
     assert ours.breaks[1].x == pytest.approx(0.5, abs=1e-9) and ours.breaks[1].surface == "upper"
     for run in (coarse, fine):
         assert [(x, s) for _, x, s in run] == [(0.0, "lower"), (pytest.approx(0.5, abs=1e-9), "upper")]
-    assert abs(ours.breakthrough_time - fine[1][0]) < 1.5 * abs(fine[1][0] - coarse[1][0])
-    assert ours.breakthrough_time == pytest.approx(fine[1][0], rel=1.5e-2)
+    assert fine[1][0] == pytest.approx(coarse[1][0], rel=3e-3)
+    assert 0.0 < ours.breakthrough_time - fine[1][0] < 1.5e-2 * fine[1][0]
 
 
 @pytest.mark.slow
 def test_a_crack_that_opens_over_a_time_makes_the_elements_breakthrough_converge():
     """With no band, a crack that opens at once lets the elements break again one element from
     the first break, within 0.2 us of it, at 2 cm and at 1 cm (the breakthrough collapses as they
-    refine); one that opens over 25 us gives the breakthrough 0.63187 and 0.63217 ms at 0.34 m at
-    2 and 1 cm, within 5e-4 (0.63224 ms at 0.5 cm; docs/model.md, "A crack that opens over a
-    time")."""
+    refine); one that opens over 25 us gives the breakthrough 0.63183 and 0.63218 ms at 0.34 m at
+    2 and 1 cm, within 5.5e-4 (0.63223 ms at 0.335 m at 0.5 cm; docs/model.md, "A crack that opens
+    over a time")."""
     p = Parameters(fracture="break", yield_strain=EPS_Y)
     at_once = [fe.breaking_run(p, spacing=spacing, t_end=8e-4) for spacing in (0.02, 0.01)]
     for run, spacing in zip(at_once, (0.02, 0.01)):
@@ -265,7 +266,7 @@ def test_a_crack_that_opens_over_a_time_makes_the_elements_breakthrough_converge
     for run in opening:
         assert [s for _, _, s in run] == ["lower", "upper"] and run[0][1] == 0.0
         assert run[1][1] == pytest.approx(0.34, abs=0.011)
-    assert opening[1][1][0] == pytest.approx(opening[0][1][0], rel=5e-4)
+    assert opening[1][1][0] == pytest.approx(opening[0][1][0], rel=7e-4)
     assert opening[1][1][0] > 1.25 * opening[1][0][0]
 
 
@@ -273,8 +274,9 @@ def test_a_crack_that_opens_over_a_time_makes_the_elements_breakthrough_converge
 def test_with_an_opening_crack_the_elements_break_through_where_and_when_the_solver_does():
     """Cracks that open over 25 us, no band: the solver (N = 80, crack_speed 2e4 m/s on 0.5 m ice;
     solver.model.crack) and the elements (opening_time 25 us) break through at the same place on
-    the upper surface, 0.34 m, and time: 0.63227 ms against 0.63217 ms at 1 cm (1.6e-4), within
-    the elements' own change from 2 cm to 1 cm (0.63187 -> 0.63217 ms; 0.63224 at 0.5 cm)."""
+    the upper surface, 0.34 m, and time: 0.63227 ms against 0.63218 ms at 1 cm (1.4e-4), within
+    the elements' own change from 2 cm to 1 cm (0.63183 -> 0.63218 ms; 0.63223 at 0.5 cm, whose
+    h^2 extrapolation 0.63225 ms is 3e-5 from the solver's)."""
     p = Parameters(Nmod=80, fracture="break", yield_strain=EPS_Y, crack_speed=2e4)
     ours = solve(p, Settings(quadrature="gauss"), fields=(), times=[0.0, 8e-4], t_end=8e-4).breaking
     coarse, fine = (fe.breaking_run(p, spacing=spacing, t_end=8e-4, opening_time=p.crack_opening_time)
@@ -283,6 +285,34 @@ def test_with_an_opening_crack_the_elements_break_through_where_and_when_the_sol
     assert through.surface == fine[1][2] == "upper" and abs(through.x - fine[1][1]) < 0.011
     assert abs(ours.breakthrough_time - fine[1][0]) < max(abs(fine[1][0] - coarse[1][0]), 3e-4 * fine[1][0])
     assert ours.breakthrough_time == pytest.approx(fine[1][0], rel=3e-4)
+
+
+@pytest.mark.slow
+def test_through_opening_cracks_the_solver_converges_on_the_elements_in_the_modes():
+    """Cracks that open over 25 us, 2 edge shapes: the solver's own two breaks imposed on the
+    elements (1 cm, the exact step), 1 ms on from the first: the strain at least 0.1 m from a
+    break is 1.05e-1 of the largest from the elements at N = 60 and 9.0e-3 at N = 120 (the
+    solver converging at about N^-3; the elements' own uncertainty at 1 cm is about 1e-2, at
+    5 mm 3e-3: docs/model.md, "A crack that opens over a time"); the force 1.1e-5 and 1.0e-5 (the
+    shear the elements' face carries at the second break)."""
+    x = np.linspace(0.0, 3.0, 301)
+    differences = {}
+    for N in (60, 120):
+        p = Parameters(Nmod=N, fracture="break", yield_strain=EPS_Y, crack_speed=2e4, edge_shapes=2)
+        s = Settings(quadrature="gauss", tolerance=1e-10)
+        first = solve(p, s, fields=(), times=[0.0, 2e-3], t_end=2e-3).breaking.first_break_time
+        times = np.linspace(first, first + 1e-3, 21)
+        ours = solve(p, s, fields=("strain",), x=x, times=times, t_end=times[-1])
+        breaks = [(e.time, e.x) for e in ours.breaking.breaks]
+        assert len(breaks) == 2
+        strain, force, residual = fe.run(p, breaks, times, x, spacing=0.01, dt=8e-7, opening_time=p.crack_opening_time)
+        keep = np.all([np.abs(x - b) >= 0.1 for _, b in breaks], axis=0)
+        scale = np.max(np.abs(ours.fields["strain"][:, keep]))
+        differences[N] = np.max(np.abs(strain - ours.fields["strain"])[:, keep]) / scale
+        assert np.max(np.abs(force - ours.force)) < 2e-5 * np.max(ours.force)
+        assert residual < 1e-6
+    assert differences[120] < 1.5e-2
+    assert differences[60] > 5.0 * differences[120]
 
 
 def test_the_elements_refuse_what_they_do_not_model():
