@@ -14,9 +14,13 @@ integral against a cosine is its boundary terms,
 
 summed to TERMS cosines; where w jumps (at a break) the rest of the series is added with
 sin^2 at its mean 1/2 (its terms fall as mu^-3). The layer's pressure K f(delta) is integrated
-by Gauss-Legendre on each element, split where delta changes sign. Time: the trapezoidal rule
-(Newmark's average acceleration, second order, the linear part's energy kept exactly), its
-pressure taken at the step's end by fixed-point iteration.
+by Gauss-Legendre on each element, split where delta changes sign. Time (``scheme``): by default
+a step exact for the plate's and the water's linear part (_exponential_step: the elements' wet
+modes advanced by cos and sin, the layer's and the cracks' forces linear over the step, second
+order in them); or the trapezoidal rule (_step: Newmark's average acceleration, second order,
+the linear part's energy kept exactly, but a phase error of order one on the waves with
+omega dt > 1, which a break sends out). Each takes the pressure at the step's end by fixed-point
+iteration.
 
 A break at a node gives each side its own w and w' there: w'' = w''' = 0 at the new edges is
 the energy's natural condition (nothing to impose), and the state carries exactly: w, w_t and
@@ -202,7 +206,9 @@ class Plate:
         omega^2 (each to about 1e-16 omega^2 omega^2 / omega_min^2), and the fast ones from the
         direct problem on the rest of the space (M-orthogonal to the slow ones): each to about
         1e-8 of itself or better. The degrees of freedom are first scaled to a unit diagonal of the
-        mass (w' carries h^2 beside w)."""
+        mass (w' carries h^2 beside w). What is left is the assembled bending matrix's own
+        round-off, about eps D / (rho_w g h^4) of a part's heave stiffness: the heave's omega^2 is
+        8.828, 8.828, 8.823 s-2 at 4, 2, 1 cm, and drifts 3 % at 5 mm."""
         if self._modes is None:
             f = self.top.free
             M, K = self.mass[np.ix_(f, f)], self.stiffness[np.ix_(f, f)]
@@ -401,8 +407,9 @@ def _exponential_step(plate, q, v, a, t, h):
     """One step of length h from t, exact for the plate's and the water's linear part (its wet
     modes advanced by cos and sin), the layer's and the opening cracks' forces linear in time over
     the step (second order in them; fixed-point iteration for their value at the step's end):
-    (q, v, a, F, E_layer) at t + h. The trapezoidal rule (_step) gives its short waves a phase error
-    (omega h)^2 / 12 that does not fall with the waves' amplitude; this step has none."""
+    (q, v, a, F, E_layer) at t + h. The trapezoidal rule (_step) gives a wave a phase error of about
+    (omega h)^2 / 12 a step where omega h is small and of order one beyond, whatever the wave's
+    amplitude; this step has none."""
     f = plate.top.free
     B, omega, P = plate.modes()
     c, s, w0, w1, u0, u1 = _weights(omega, h)
