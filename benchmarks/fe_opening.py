@@ -32,7 +32,7 @@ ROOT = Path(__file__).resolve().parent
 sys.path.insert(0, str(ROOT.parent / "tests"))
 sys.path.insert(0, str(ROOT))
 import fe_reference as fe  # noqa: E402
-from fe_breaks import AWAY, EPS_Y, WINDOW, agreement  # noqa: E402
+from fe_breaks import AWAY, EPS_Y, WINDOW, agreement, own_uncertainty  # noqa: E402
 from report import write_report  # noqa: E402
 
 from solver import Parameters, Settings, solve  # noqa: E402
@@ -41,10 +41,11 @@ from solver import Parameters, Settings, solve  # noqa: E402
 def elements_rows(N, p, breaks, times, x, ours, spacings, steps, scheme="exponential") -> list:
     """The report's rows for N: the elements at each spacing at the longest step, and at each
     shorter step at the finest spacing ('| N | breaks | spacing, step | strain | force | residual
-    | seconds |'); their own uncertainty in space (the two finest spacings apart over 3, their
-    strain converging as h^2) and in time (the two shortest steps apart), over the solver's
-    largest strain; and the strain difference at each time, the elements at the finest spacing
-    and the shortest step. Each row printed as it comes."""
+    | seconds |'); their own uncertainty in space (fe_breaks.own_uncertainty) and in time (the two
+    shortest steps apart), over the solver's largest strain; the solver against the elements'
+    h^2 extrapolation from the finest two spacings (and, with three, that extrapolation's own
+    uncertainty); and the strain difference at each time against the extrapolated elements (the
+    finest spacing's at the shortest step with one spacing). Each row printed as it comes."""
     rows, runs = [], {}
     where = ", ".join(f"{1e3 * t:.5f}, {b:.4f}" for t, b in breaks)
     keep = np.all([np.abs(x - b) >= AWAY for _, b in breaks], axis=0)
@@ -61,13 +62,13 @@ def elements_rows(N, p, breaks, times, x, ours, spacings, steps, scheme="exponen
                     f"| {time.perf_counter() - started:.1f} |")
         print(rows[-1], flush=True)
 
-    def apart(one, other, over=1.0):
-        return np.nanmax(np.abs(runs[one] - runs[other])[:, keep]) / over / scale
+    def apart(one, other):
+        return np.nanmax(np.abs(runs[one] - runs[other])[:, keep]) / scale
 
     by_size, by_step, summary = sorted(spacings), sorted(steps), []
     if len(by_size) > 1:
-        summary.append(f"| {N} | | own uncertainty in space at {finest:g} m | "
-                       f"{apart((by_size[0], longest), (by_size[1], longest), 3.0):.2e} | | | |")
+        _, own_space = own_uncertainty({h: runs[h, longest] for h in spacings}, ours, breaks, x)
+        summary.append(f"| {N} | | own uncertainty in space at {finest:g} m | {own_space:.2e} | | | |")
         extrapolated = {}
         for fine, coarse in zip(by_size[:-1], by_size[1:]):
             extrapolated[fine] = runs[fine, longest] + (runs[fine, longest] - runs[coarse, longest]) / 3.0
