@@ -32,7 +32,7 @@ import numpy as np
 
 from solver import Parameters, Settings, solve
 
-MODEL_STATUSES = ("ok", "parts_limit", "wall_break", "separated", "stopped", "layer_bottomed_out")
+MODEL_STATUSES = ("ok", "parts_limit", "edge_break", "separated", "stopped", "layer_bottomed_out")
 OPTIONS = ({}, "free body", {"x0": (-2.0, 2.0)}, {"deadrise": (2.0, 20.0)}, {"tau": 1e-4}, {"layer_tau": 1e-4},
            {"H": (0.5, 5.0)}, {"body_p": 4.0, "flat_width": 0.1})
 

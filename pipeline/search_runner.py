@@ -35,7 +35,7 @@ def _event(ds, i: int, search: dict, eps) -> bool | None:
     """Did the event happen in case i of the evaluations' study.nc (None: the case failed)?"""
     status = str(ds["status"].values[i])
     name = EVENTS[search.event]
-    if search.event == "breakthrough" and status in ("parts_limit", "wall_break"):
+    if search.event == "breakthrough" and status in ("parts_limit", "edge_break"):
         # the run ended at a break it could not make: an answer only if it had broken through
         return True if np.isfinite(ds[name].values[i]) else None
     if status not in (*COMPLETE, "layer_bottomed_out"):
@@ -52,7 +52,7 @@ def _ended(ds, i: int, search: dict) -> str:
     what stopped it)."""
     status, message = str(ds["status"].values[i]), str(ds["message"].values[i])
     before = " before it broke through" if search.event == "breakthrough" and status in ("parts_limit",
-                                                                                          "wall_break") else ""
+                                                                                          "edge_break") else ""
     return f"it ended {status}{before}" + (f" ({message})" if message else "")
 
 

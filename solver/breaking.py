@@ -54,7 +54,7 @@ from .model.assemble import Tables
 from .spec import Begin, Breaking, BreakEvent, Crack, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
-PARTS_LIMIT, WALL_BREAK = "parts_limit", "wall_break"
+PARTS_LIMIT, EDGE_BREAK = "parts_limit", "edge_break"
 #: a stage after the first starts with this fraction of the previous stage's largest step (the
 #: first touch's short first step, and the 10 % a step it may grow by, would cost some 120 steps
 #: a stage)
@@ -80,6 +80,15 @@ def _growth_from(p, spec, t0):
     return spec.window.t_start if p.crack_opening_time == 0.0 else t0
 
 
+def _snapped(p, x):
+    """A break's place x [m] on the plate, at the centre (0) where within CENTRE_SNAP L of it on the
+    half plate, and at the wall (+-L) where within CENTRE_SNAP L of it (the peak's place there is
+    the end node's, or found to round-off)."""
+    if abs(x) < CENTRE_SNAP * p.L and not p.off_centre:
+        return 0.0
+    return math.copysign(p.L, x) if abs(x) >= p.L * (1.0 - CENTRE_SNAP) else x
+
+
 def _crack(p, s, full, kernel_breaks, amplitudes, time, x):
     """The crack opening at the break at x [m] at time [s] (a solver.spec.Crack): the moment D w_xx
     and shear D w_xxx the plate broken at kernel_breaks carried there in the state of kernel
@@ -90,19 +99,27 @@ def _crack(p, s, full, kernel_breaks, amplitudes, time, x):
     return Crack(time, at, p.rigidity * w2, p.rigidity * w3)
 
 
-def whole_plate_parts(breaks, full) -> int:
+def at_wall(breaks, L) -> np.ndarray:
+    """(B,) bool: which breaks (x on the plate) are at a wall, |x| = L: the ice broken off it."""
+    return np.abs(np.asarray(breaks, dtype=float)) == float(L)
+
+
+def whole_plate_parts(breaks, full, L=math.inf) -> int:
     """The number of parts of the whole plate broken at ``breaks`` (x on the plate): one more
-    than its breaks, where on the half plate of a centred impact each break but the centre's
-    stands for two (x and -x)."""
+    than its breaks inside the plate, where on the half plate of a centred impact each break but
+    the centre's stands for two (x and -x); a break at a wall (|x| = L) cuts no part off."""
     b = np.asarray(breaks, dtype=float)
+    b = b[~at_wall(b, L)]
     cuts = b.size if full else 2 * np.count_nonzero(b != 0.0) + np.count_nonzero(b == 0.0)
     return int(cuts) + 1
 
 
-def broken_through(breaks, x0, full) -> bool:
-    """Whether the breaks cut the ice under the body from the walls: a break on each side of the
-    body's centre x0 (on the half plate, one off the centre: its mirror is the other)."""
+def broken_through(breaks, x0, full, L=math.inf) -> bool:
+    """Whether the breaks cut the ice under the body off the rest of the ice: a break inside the
+    plate on each side of the body's centre x0 (on the half plate, one off the centre: its mirror
+    is the other). A break at a wall frees the ice from it but cuts nothing off the ice."""
     b = np.asarray(breaks, dtype=float)
+    b = b[~at_wall(b, L)]
     if full:
         return bool(np.any(b < x0) and np.any(b > x0))
     return bool(np.any(b > 0.0))
@@ -139,24 +156,23 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
         if stage.status != "ok" or end.broke is None:
             break
         where = end.broke
-        x_b = 0.0 if abs(where.x) < CENTRE_SNAP * p.L and not p.off_centre else where.x
-        if abs(x_b) >= p.L * (1.0 - CENTRE_SNAP) or x_b in breaks:
-            status = WALL_BREAK
-            place = "a wall" if x_b not in breaks else "a break (a free edge's tension is 0: a basis too coarse)"
-            message = (f"the tension reached yield_strain = {yield_strain:g} at {place} (x = {x_b:.6g} m, t = "
-                       f"{where.time:.6g} s, {where.surface} surface), where breaking is not built; data up "
-                       f"to then is valid")
+        x_b = _snapped(p, where.x)
+        if x_b in breaks:
+            status = EDGE_BREAK
+            message = (f"the tension reached yield_strain = {yield_strain:g} at a break (x = {x_b:.6g} m, t = "
+                       f"{where.time:.6g} s, {where.surface} surface), whose free edge carries none: the basis "
+                       f"is too coarse there; data up to then is valid")
             break
         new_breaks = sorted(breaks + [x_b])
-        if whole_plate_parts(new_breaks, full) > max_parts:
+        if whole_plate_parts(new_breaks, full, p.L) > max_parts:
             status = PARTS_LIMIT
             message = (f"the plate would break into more than max_parts = {max_parts} parts at t = "
                        f"{where.time:.6g} s (x = {x_b:.6g} m, {where.surface} surface); data up to then is valid")
             break
         body = end.state.body
         events.append({"time": where.time, "x": x_b, "surface": where.surface,
-                       "parts": whole_plate_parts(new_breaks, full),
-                       "broken_through": broken_through(new_breaks, p.x0, full),
+                       "parts": whole_plate_parts(new_breaks, full, p.L),
+                       "broken_through": broken_through(new_breaks, p.x0, full, p.L),
                        "penetration": p.V * where.time if body is None else body.penetration})
         if opening > 0.0:
             cracks.append(_crack(p, s, full, kernel_breaks, end.state.amplitudes, where.time, x_b))

@@ -14,7 +14,7 @@ from .arrays import copy_into
 from .compile.jit import kernel
 from .cubic import cubic_max, hermite
 from .layout import D_BREAK_SURFACE, D_BREAK_T, D_BREAK_X
-from .model.basis import global_peak, node_strain
+from .model.basis import global_peak, node_strain, readable
 from .model.body import body_position, body_speed
 from .model.contact import gap_peak
 from .model.plate import STRAIN, mode_a, mode_adot
@@ -88,8 +88,10 @@ def _locate_break(ws, level, start, carried, t, h, upper, lower, observed):
 
 @kernel(inline="llvm")
 def _peak_reaches(model, eps, a, sign, level):
-    """Whether the tension sign * eps, at its peak over the continuous plate, reaches level."""
-    return global_peak(eps, sign, model.basis, model.plate.modes[STRAIN], a)[0] >= level
+    """Whether the tension sign * eps, at its peak over the continuous plate, reaches level where
+    the tension is read (basis.readable: beyond a crack spacing from the breaks)."""
+    v, x, _ = global_peak(eps, sign, model.basis, model.plate.modes[STRAIN], a)
+    return v >= level and readable(model.basis.floe, x)
 
 
 @kernel(nrt=True)
@@ -127,8 +129,11 @@ def break_inside_step(model, ws, control, start, carried, t, h, new, diag):
     each surface is armed once its peak at the step's end is below the level. Returns an
     EventCut."""
     level, tw, armed = control.break_level, ws.tension, ws.armed
-    upper = tw.track[STEP_BEST, 0] >= level and (armed[0] > 0.0 or tw.track[STEP_BEST, 3] >= 0.0)
-    lower = tw.track[STEP_BEST + 1, 0] >= level and (armed[1] > 0.0 or tw.track[STEP_BEST + 1, 3] >= 0.0)
+    floe = model.basis.floe
+    upper = tw.track[STEP_BEST, 0] >= level and (armed[0] > 0.0 or tw.track[STEP_BEST, 3] >= 0.0) and \
+        readable(floe, tw.track[STEP_BEST, 2])
+    lower = tw.track[STEP_BEST + 1, 0] >= level and (armed[1] > 0.0 or tw.track[STEP_BEST + 1, 3] >= 0.0) and \
+        readable(floe, tw.track[STEP_BEST + 1, 2])
     cut = _cut_at_break(model, ws, _locate_break(ws, level, start, carried, t, h, upper, lower, True), t, h, new,
                         diag)
     if cut.kind == NO_EVENT:

@@ -75,11 +75,14 @@ once grows its steps by the PI control, its GROWTH cap counted from the run's fi
 solver.breaking._growth_from: another step sequence, within the runs' tolerance); breaking 11
 (2026-12-07: a broken plate's modes' means over their parts in closed form, parts.mode_means;
 make bit-for-bit BASE=17c6cd2: the 5 breaking cases within 1.1e-7 of their largest values, the
-25 others bit for bit).
+25 others bit for bit); breaking 12 (2026-12-07: where the tension reaches the yield strain at a
+wall the ice breaks off it and the run goes on (docs/model.md, "A break at a wall"; it ended
+wall_break), and a plate broken everywhere within its crack spacing breaks no more: the runs
+where either happened change; make bit-for-bit BASE=8218cbd: the 30 cases bit for bit).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
 #: either rule, in addition to the rule's); "dop853": of the DOP853 reference's runs (in addition);
 #: "smoothness": of etd34's adaptive runs under the smoothness control (in addition); "breaking":
 #: of the runs in which the ice breaks (in addition)
-RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 11}
+RESULTS_REVISION = {"paper": 3, "gauss": 5, "floe": 4, "dop853": 3, "smoothness": 1, "breaking": 12}

@@ -160,10 +160,11 @@ def checked_breaks(p, s, breaks, full_plate):
                              "between nodes, across a break")
     full = p.off_centre if full_plate is None else bool(full_plate)
     b = np.sort(np.atleast_1d(np.asarray(breaks, dtype=float)))
-    inside = (b > -p.L) & (b < p.L) if full else (b >= 0.0) & (b < p.L)
+    inside = (b >= -p.L) & (b <= p.L) if full else (b >= 0.0) & (b <= p.L)
     if b.size == 0 or not np.all(inside) or np.any(np.diff(b) <= 0.0):
-        raise ParameterError(f"breaks must be distinct places on the plate ({'-L <' if full else '0 <='} x < L; "
-                             f"on the half plate x = 0 is its centre), got {np.asarray(breaks).tolist()}")
+        raise ParameterError(f"breaks must be distinct places on the plate ({'-L' if full else '0'} <= x <= L: "
+                             f"x = +-L a wall, the ice broken off it; on the half plate x = 0 is its centre), "
+                             f"got {np.asarray(breaks).tolist()}")
     return b + p.L if full else b
 
 

@@ -358,7 +358,7 @@ def assert_breaking_consistent(result):
     times = [e.time for e in events]
     assert times == sorted(times)
     assert summary.break_count == len(events)
-    assert [e.parts for e in events] == [whole_plate_parts([e.x for e in events[:k + 1]], full)
+    assert [e.parts for e in events] == [whole_plate_parts([e.x for e in events[:k + 1]], full, p.L)
                                             for k in range(len(events))]
     assert summary.parts == (events[-1].parts if events else 1)
     assert summary.first_break_time == (times[0] if events else summary.first_break_time)
@@ -397,7 +397,7 @@ def assert_breaking_study_consistent(ds):
     from solver.breaking import whole_plate_parts
     names = ["break_time", "break_x", "break_surface", "break_part_count", "break_removed_energy", "break_count",
              "part_count", "first_break_time", "breakthrough_time", "removed_energy", "part_count_over_time",
-             "fracture", "yield_strain", "x0", "status"]
+             "fracture", "yield_strain", "x0", "L", "status"]
     case_dims = [d for d in ds["part_count"].dims]
     table = xr.Dataset({n: xr.broadcast(ds[n], ds["part_count"])[0] if ds[n].ndim < len(case_dims) else ds[n]
                         for n in names})
@@ -419,7 +419,7 @@ def assert_breaking_study_consistent(ds):
             continue
         x = np.asarray(c["break_x"].values, dtype=float)[:n]
         full = float(c["x0"]) != 0.0 or bool(np.any(x < 0))
-        parts = [whole_plate_parts(x[:k + 1], full) for k in range(n)]
+        parts = [whole_plate_parts(x[:k + 1], full, float(c["L"])) for k in range(n)]
         np.testing.assert_array_equal(np.asarray(c["break_part_count"].values)[:n], parts)
         if count == n:
             assert int(c["part_count"]) == (parts[-1] if n else 1)

@@ -146,7 +146,7 @@ def test_a_breakthrough_search_reads_the_breakthrough():
                         "no yield strain")):
         with pytest.raises(StudyError, match=words):
             load_study_text(pipeline.study_text({"search": search, "output": OUTPUT, **bad}), "bad")
-    ds = xr.Dataset({"status": ("case", ["ok", "separated", "wall_break", "parts_limit", "nonfinite"]),
+    ds = xr.Dataset({"status": ("case", ["ok", "separated", "edge_break", "parts_limit", "nonfinite"]),
                      "message": ("case", ["", "", "", "the plate would break into more than max_parts = 2 parts", "x"]),
                      "breakthrough_time": ("case", [1e-3, np.nan, 2e-3, np.nan, 1e-3])})
     assert [_event(ds, i, study.search, None) for i in range(5)] == [True, False, True, None, None]

@@ -74,7 +74,7 @@ def test_plot_drop(tmp_path, monkeypatch):
 
 def test_plot_breakthrough(tmp_path, monkeypatch):
     ds = run("plot_breakthrough.py", tmp_path, monkeypatch)["ds"].sel(V=5.0)
-    assert set(ds["status"].values) <= {"ok", "parts_limit", "wall_break"}
+    assert set(ds["status"].values) <= {"ok", "parts_limit", "edge_break"}
     # thicker ice: it breaks later, and the body is deeper at breakthrough
     assert ds["first_break_time"].sel(hi=1.0) > ds["first_break_time"].sel(hi=0.3)
     assert ds["breakthrough_penetration"].sel(hi=1.0) > ds["breakthrough_penetration"].sel(hi=0.3)

@@ -267,14 +267,15 @@ def test_a_broken_plate_runs_as_dop853_on_the_same_equations(state_at_break, pla
 
 def test_what_a_broken_plate_refuses():
     """One line naming the problem: a floe (its parts are not built), the paper's rule (it
-    interpolates the modes between nodes, across a break), a break off the plate or twice."""
+    interpolates the modes between nodes, across a break), a break off the plate (beyond a wall;
+    at the wall, x = L, the ice breaks off it) or twice."""
     from solver import ParameterError
     floe = Parameters(Nmod=10, edges="free", duration=0.01)
     with pytest.raises(ParameterError, match="floe"):
         solve(floe, Settings(quadrature="gauss"), breaks=[1.0])
     with pytest.raises(ParameterError, match="gauss"):
         solve(Parameters(Nmod=10), Settings(quadrature="paper"), breaks=[1.0])
-    for bad in ([6.0], [-1.0], [1.0, 1.0], []):
+    for bad in ([6.5], [-1.0], [1.0, 1.0], []):
         with pytest.raises(ParameterError, match="breaks"):
             solve(Parameters(Nmod=10), Settings(quadrature="gauss"), breaks=bad)
 
@@ -294,6 +295,36 @@ def test_a_plate_broken_at_its_centre_is_the_same_on_the_half_and_the_whole_plat
     assert half.status == whole.status == "ok"
     strain = half.fields["strain"]
     assert np.max(np.abs(whole.fields["strain"] - strain)) < 1e-7 * np.max(np.abs(strain))
+    for key in ("plate_before", "plate_after"):
+        assert getattr(whole.end.carried, key) == pytest.approx(getattr(half.end.carried, key), rel=1e-9)
+
+
+def test_a_plate_broken_off_its_walls_is_the_same_on_the_half_and_the_whole_plate(state_at_break):
+    """Broken at the walls (x = L on the half plate; -L and L on the whole): no part cut off, the
+    part next to each wall free there (w'' = w''' = 0 at x = L: each mode's within 1e-9 of its
+    largest on the part), sliding at the centre (w' = 0). The same symmetric state carried across
+    gives the same strains on the half and the whole plate (etd34 at 1e-12: within 1e-7 of the
+    largest) and the same energies before and after the break (to 1e-9); the strain at the freed
+    walls is 0."""
+    p, a, v = state_at_break
+    modes = parts.part_modes(p.L, [p.L], math.pi * p.Nmod / p.L)
+    assert np.all(modes.parts == 0) and np.all(modes.lows == 0.0) and np.all(modes.highs == p.L)
+    fine = np.linspace(0.0, p.L, 2001)
+    for order in (2, 3):
+        at_wall = parts.part_values(modes, np.array([p.L]), order)[:, 0]
+        largest = np.max(np.abs(parts.part_values(modes, fine, order)), axis=1)
+        assert np.all(np.abs(at_wall) <= 1e-9 * np.maximum(largest, 1e-300))
+    slope = parts.part_values(modes, np.array([0.0, 1e-3]), 1)
+    assert np.all(np.abs(slope[:, 0]) <= 1e-9 * np.maximum(np.abs(slope[:, 1]), 1e-300))
+    times = np.linspace(0.4e-3, 2.4e-3, 5)
+    kw = dict(times=times, fields=("strain",), t_start=times[0], t_end=times[-1], initial_amplitudes=a,
+              initial_velocities=v, x=np.linspace(-p.L, p.L, 241))
+    s = Settings(quadrature="gauss", error_control="embedded", tolerance=1e-12)
+    half, whole = solve(p, s, breaks=[p.L], **kw), solve(p, s, full_plate=True, breaks=[-p.L, p.L], **kw)
+    assert half.status == whole.status == "ok"
+    strain = half.fields["strain"]
+    assert np.max(np.abs(whole.fields["strain"] - strain)) < 1e-7 * np.max(np.abs(strain))
+    assert np.max(np.abs(strain[1:, [0, -1]])) < 1e-12 * np.max(np.abs(strain))
     for key in ("plate_before", "plate_after"):
         assert getattr(whole.end.carried, key) == pytest.approx(getattr(half.end.carried, key), rel=1e-9)
 

@@ -51,7 +51,7 @@ RECORD_LONG_NAME = ("tension record: the peak tension of the upper surface (+str
 #: statuses of a run that covered what it was asked to: ok, and a free body's ends
 COMPLETE = ("ok", "separated", "stopped")
 #: statuses of a case that ended by the model itself (not ok), and numerical failures
-ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped", "parts_limit", "wall_break")
+ENDED_EARLY = ("layer_bottomed_out", "separated", "stopped", "parts_limit", "edge_break")
 NUMERICAL_FAILURES = ("nonfinite", "step_limit", "energy_violation", "error")
 #: what --rerun-failed computes again (a free body's end is a result, not a failure)
 FAILED = ("layer_bottomed_out",) + NUMERICAL_FAILURES

@@ -25,7 +25,7 @@ from collections import namedtuple
 
 import numpy as np
 
-from .floe import BREAK_COUNT, CENTRE_CUT, CRACK_BAND, FIRST_BREAK, HEADER, TABLE_STRAIN, floe_dry, floe_plane
+from .floe import BREAK_COUNT, CRACK_BAND, FIRST_BREAK, HEADER, HIGH_CUT, LOW_CUT, TABLE_STRAIN, floe_dry, floe_plane
 from .points import floe_dry_sums, floe_sums
 from ..compile.jit import kernel
 
@@ -326,8 +326,9 @@ def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
 @kernel
 def read_interval(floe, x, lo, hi):
     """[lo, hi] cut to the stretch around x where a broken plate's tension is read: beyond its
-    crack spacing (the header's CRACK_BAND) from every break, and from x = 0 where the half plate's
-    symmetry plane is one (CENTRE_CUT). Within it of a free edge a beam's strain is not the ice's
+    crack spacing (the header's CRACK_BAND) from every break, and from the domain's ends where they
+    are breaks (LOW_CUT: x = 0, the half plate's symmetry plane or the whole plate's left wall;
+    HIGH_CUT: a wall). Within it of a free edge a beam's strain is not the ice's
     (Saint-Venant) and no crack forms (docs/model.md, "The crack spacing"). Unchanged on the
     cosines and without a band. Returns (lo, hi), which leaves x out where x itself is within
     the band."""
@@ -337,8 +338,10 @@ def read_interval(floe, x, lo, hi):
     band = floe[head + CRACK_BAND]
     if not band > 0.0:
         return lo, hi
-    if floe[head + CENTRE_CUT] > 0.0:
+    if floe[head + LOW_CUT] > 0.0:
         lo = max(lo, band)
+    if floe[head + HIGH_CUT] > 0.0:
+        hi = min(hi, floe[head + HIGH_CUT] - band)
     for k in range(int(floe[head + BREAK_COUNT])):
         b = floe[head + FIRST_BREAK + k]
         if b <= x:
@@ -346,6 +349,16 @@ def read_interval(floe, x, lo, hi):
         else:
             hi = min(hi, b - band)
     return lo, hi
+
+
+@kernel
+def readable(floe, x):
+    """Whether the tension is read at x (read_interval): everywhere on the cosines and without a
+    band; beyond the crack spacing from every break on a plate broken with one. A break needs its
+    place read: where a plate is broken everywhere within its spacing, its tension is still
+    followed (global_peak reads everywhere) but it breaks no more."""
+    lo, hi = read_interval(floe, x, -np.inf, np.inf)
+    return lo <= x <= hi
 
 
 @kernel
@@ -421,7 +434,8 @@ def global_peak(eps, sign, basis, w, a):
     PEAK_MARGIN of the largest node is refined on the modes (a sharp peak between nodes can
     rise above a larger node elsewhere by up to (lambda_N dx)^2 / 8 of itself, 0.4% at N = 60).
     Returns (value, x, node). On a plate broken with a crack spacing, banded_peak: the peak
-    where the tension is read."""
+    where the tension is read (where none is, every piece within the spacing of its ends, the
+    peak over the plate, which breaks it no more: readable)."""
     if banded(basis):             # (its own search: the unbanded one below is hot and stays bit for bit)
         v, x, j = banded_peak(eps, sign, basis, w, a)
         if j >= 0:

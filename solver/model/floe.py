@@ -73,10 +73,11 @@ STRAIN_FACTOR, HALF_LENGTH, ORIGIN, FIRST_EVEN, SPACING = range(5)
 #: solver.model.parts: the contact-resolving rule cuts its panels there), at most MAX_BREAKS
 BREAK_COUNT, FIRST_BREAK, MAX_BREAKS = 5, 6, 16
 #: then the crack spacing [m] (no tension is read within it of a break: solver.model.basis.read_interval;
-#: 0, a floe's and an unbroken plate's: read everywhere) and 1 where the half plate's symmetry plane
-#: x = 0 is a break (not in the list: it is no part's end there)
-CRACK_BAND, CENTRE_CUT = FIRST_BREAK + MAX_BREAKS, FIRST_BREAK + MAX_BREAKS + 1
-HEADER = FIRST_BREAK + MAX_BREAKS + 2
+#: 0, a floe's and an unbroken plate's: read everywhere), 1 where the domain's low end x = 0 (the
+#: half plate's symmetry plane, the whole plate's left wall) is a break, and the domain's high end
+#: (a wall) where it is a break, else 0 (neither is in the list: they are no part's end)
+CRACK_BAND, LOW_CUT, HIGH_CUT = FIRST_BREAK + MAX_BREAKS, FIRST_BREAK + MAX_BREAKS + 1, FIRST_BREAK + MAX_BREAKS + 2
+HEADER = FIRST_BREAK + MAX_BREAKS + 3
 #: exp(-HYP_NEGLIGIBLE) = 4e-18: a hyperbolic part that small is below the rounding of the
 #: trigonometric part (of order 1) and is not computed (solver.model.points)
 HYP_NEGLIGIBLE = 40.0

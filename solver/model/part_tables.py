@@ -10,7 +10,7 @@ import numpy as np
 
 from . import floe as fl
 from ..blas import blas_alone
-from .parts import (PartModes, centre_broken, edge_shaped, gram, kernel_shapes, part_edges, part_lengths,
+from .parts import (PartModes, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths,
                     part_values, wet_parts)
 
 
@@ -57,7 +57,8 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
     header[fl.BREAK_COUNT] = cuts.size
     header[fl.FIRST_BREAK:fl.FIRST_BREAK + cuts.size] = cuts
     header[fl.CRACK_BAND] = p.crack_spacing * p.hi
-    header[fl.CENTRE_CUT] = 1.0 if centre_broken(breaks) and not full else 0.0
+    low_free, high_free = free_ends(domain, breaks)
+    header[fl.LOW_CUT], header[fl.HIGH_CUT] = float(low_free), domain if high_free else 0.0
     if np.any(edge):
         bending = Q.T @ (mirror * p.rigidity * gram(modes, 2)) @ Q
     else:

@@ -5,8 +5,10 @@ docs/model.md, "Breaking into parts").
 **Parts.** On the kernel's domain 0 <= x <= Lambda (the half plate of a centred impact, Lambda = L,
 whose x = 0 is the symmetry plane; or the whole plate, Lambda = 2L) breaks at 0 < b_1 < ... cut the
 plate into parts. The domain's ends are sliding (w_x = w_xxx = 0: a wall, or the symmetry plane);
-a break is a free edge on both sides (w_xx = w_xxx = 0). Each part is an Euler beam with its own
-dry modes, each a free-free beam's mode of some half-length l about some centre c, kept on the
+a break is a free edge on both sides (w_xx = w_xxx = 0). A break at an end of the domain (x = 0,
+the half plate's centre or the whole plate's left wall; x = Lambda, a wall) cuts no part off: it
+makes that end free, the ice broken off the wall (or at its centre) with one face. Each part is
+an Euler beam with its own dry modes, each a free-free beam's mode of some half-length l about some centre c, kept on the
 part only (zero elsewhere):
 
     sliding-free   heave and the symmetric modes of half-length l = the part's length, centred
@@ -172,18 +174,20 @@ def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray
 
 
 def part_edges(domain: float, breaks) -> np.ndarray:
-    """The parts' ends [0, b_1, ..., Lambda] (a break at 0: the half plate's symmetry plane
-    broken, not an end of its own); refuses a break outside [0, Lambda) or two at one place."""
+    """The parts' ends [0, b_1, ..., Lambda] (a break at 0 or at Lambda, an end of the domain
+    broken, is not an end of its own: free_ends); refuses a break outside [0, Lambda] or two at
+    one place."""
     b = np.sort(np.asarray(breaks, dtype=float).ravel())
-    if b.size and (b[0] < 0.0 or b[-1] >= domain or np.any(np.diff(b) <= 0.0)):
-        raise ValueError(f"breaks {b.tolist()} must lie in [0, {domain}) and apart")
-    return np.concatenate([[0.0], b[b > 0.0], [float(domain)]])
+    if b.size and (b[0] < 0.0 or b[-1] > domain or np.any(np.diff(b) <= 0.0)):
+        raise ValueError(f"breaks {b.tolist()} must lie in [0, {domain}] and apart")
+    return np.concatenate([[0.0], b[(b > 0.0) & (b < domain)], [float(domain)]])
 
 
-def centre_broken(breaks) -> bool:
-    """Whether the breaks include x = 0, the half plate's symmetry plane (its end there is then
-    free)."""
-    return bool(np.any(np.asarray(breaks, dtype=float) == 0.0))
+def free_ends(domain: float, breaks) -> tuple[bool, bool]:
+    """Whether the domain's low end x = 0 (the half plate's symmetry plane, or the whole plate's
+    left wall) and its high end x = domain (a wall) are breaks, hence free, not sliding."""
+    b = np.asarray(breaks, dtype=float)
+    return bool(np.any(b == 0.0)), bool(np.any(b == float(domain)))
 
 
 def _part(lo, hi, sliding_lo, sliding_hi, beta_max, edges=0):
@@ -219,15 +223,16 @@ def _edge_betas(beta_max, length, edges):
 
 
 def part_modes(domain: float, breaks, beta_max: float, edges: int = 0) -> PartModes:
-    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide, but x = 0
-    where it is a break: the symmetry plane of a half plate broken at its centre), each part's
+    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide, but where
+    an end is a break: free_ends), each part's
     with wavenumbers up to beta_max [m-1], and ``edges`` edge shapes at each free end (module
     docstring)."""
     ends = part_edges(domain, breaks)
-    rows = []
+    low_free, high_free = free_ends(domain, breaks)
+    rows, last = [], ends.size - 2
     for i, (lo, hi) in enumerate(zip(ends[:-1], ends[1:])):
-        sliding_lo = i == 0 and not centre_broken(breaks)
-        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, sliding_lo, i == ends.size - 2, beta_max, edges)]
+        sliding_lo, sliding_hi = i == 0 and not low_free, i == last and not high_free
+        rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, sliding_lo, sliding_hi, beta_max, edges)]
     kinds, betas, centres, halves, norms, lows, highs, parts = (np.array(c, dtype=float) for c in zip(*rows))
     return PartModes(kinds, betas, centres, halves, lows, highs, norms, parts.astype(int))
 
