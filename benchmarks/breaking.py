@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from solver import Parameters, Settings, solve
-from solver.model import assemble, parts
+from solver.model import assemble, broken, parts
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from report import write_report  # noqa: E402
@@ -34,7 +34,7 @@ EPS_Y = 8e-5
 
 
 #: the pieces of a breaking run timed apart: (module, function name, what it is)
-PIECES = ((assemble, "parts_tables", "tables"), (parts, "carry_state", "carry"), (parts, "carry_parts", "carry"))
+PIECES = ((assemble, "parts_tables", "tables"), (broken, "carry_state", "carry"), (broken, "carry_parts", "carry"))
 
 
 def _timed(run):

@@ -20,7 +20,7 @@ from dataclasses import replace
 import numpy as np
 
 from solver import Parameters, Settings, solve
-from solver.model import parts
+from solver.model import broken
 
 EPS_Y = 8e-5
 
@@ -31,7 +31,7 @@ def carried(N: int) -> tuple[list, list, float]:
     p = Parameters(Nmod=N)
     first = solve(p, Settings(tolerance=1e-10), fields=(), t_end=2e-3, times=[0.0, 2e-3], break_strain=EPS_Y)
     a, adot = np.asarray(first.end.state.amplitudes), np.asarray(first.end.state.velocities)
-    before = sum(parts.cosine_state_energy(p, p.L, 2.0, a, adot))
+    before = sum(broken.cosine_state_energy(p, p.L, 2.0, a, adot))
     x = np.linspace(0.0, p.L, 6001)
     lam = math.pi * np.arange(1, N + 1) / p.L
     unbroken = 0.5 * p.hi * (-(lam**2)[:, None] * np.cos(np.outer(lam, x))).T @ a      # the lower surface's
@@ -39,10 +39,10 @@ def carried(N: int) -> tuple[list, list, float]:
     left, error, fastest = [], [], math.nan
     for count in range(5):
         q = replace(p, fracture="break", edge_shapes=count, crack_spacing=1.0 if count else 0.0)
-        wet = parts.wet_parts(q, p.L, 2.0, [0.0], lam[-1])
-        b, bdot = parts.carry_state(q, wet, a, adot)
-        left.append(1.0 - sum(parts.wet_energy(wet, b, bdot)) / before)
-        error.append(np.max(np.abs(0.5 * p.hi * parts.wet_values(wet, x, 2).T @ b - unbroken)) / EPS_Y)
+        wet = broken.wet_parts(q, p.L, 2.0, [0.0], lam[-1])
+        b, bdot = broken.carry_state(q, wet, a, adot)
+        left.append(1.0 - sum(broken.wet_energy(wet, b, bdot)) / before)
+        error.append(np.max(np.abs(0.5 * p.hi * broken.wet_values(wet, x, 2).T @ b - unbroken)) / EPS_Y)
         fastest = np.max(wet.omega) / omega_N if count == 3 else fastest
     return left, error, fastest
 

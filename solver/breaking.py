@@ -157,9 +157,9 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
             break
         where = end.broke
         x_b = _snapped(p, where.x)
-        if x_b in breaks:
+        if x_b in breaks or (p.edges == "free" and abs(x_b) == p.L):
             status = EDGE_BREAK
-            message = (f"the tension reached yield_strain = {yield_strain:g} at a break (x = {x_b:.6g} m, t = "
+            message = (f"the tension reached yield_strain = {yield_strain:g} at a free edge (x = {x_b:.6g} m, t = "
                        f"{where.time:.6g} s, {where.surface} surface), whose free edge carries none: the basis "
                        f"is too coarse there; data up to then is valid")
             break

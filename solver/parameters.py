@@ -149,8 +149,8 @@ class Parameters:
         "none" (the default): the ice stays whole, the paper's model; crack onset for any yield
         strain is read from the run's tension records. "break": where either surface's tension
         first reaches ``yield_strain`` the plate breaks through its thickness, and the run goes
-        on on the parts, which may break again (docs/model.md, "Breaking into parts"). On the
-        walled plate, under the Gauss quadrature.
+        on on the parts, which may break again (docs/model.md, "Breaking into parts"): between
+        walls (the ice breaks off a wall too) and on a floe, under the Gauss quadrature.
     yield_strain : float
         The tension at which the ice breaks [1], read with fracture = "break" (the default 8e-5
         is the paper's illustrative yield strain).
@@ -259,9 +259,6 @@ class Parameters:
             return
         if self.max_parts < 2:
             raise ParameterError(f"max_parts must be an integer >= 2 (a break makes two parts), got {self.max_parts!r}")
-        if self.edges == "free":
-            raise ParameterError("fracture = 'break' with edges = 'free': a floe's parts are not built (its water "
-                                 "is the half-plane's)")
         if self.edge_shapes > 0 and self.crack_spacing == 0.0 and self.crack_opening_time == 0.0:
             raise ParameterError("edge_shapes > 0 with cracks that open at once needs crack_spacing > 0: with edge "
                                  "shapes a free edge's w'' = 0 holds only weakly, so the tension read at a new edge is "

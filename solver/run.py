@@ -17,9 +17,10 @@ from .diagnostics import Outputs, Run
 from .error_estimate import TOLERANCE_EXPONENT, error_estimates
 from .layout import ETD34, RK4
 from .loop import integrate, new_records
-from .model import parts
+from .model import broken
 from .model.assemble import Tables
 from .model.crack import Cracks, crack_loads
+from .model.floe_parts import unbroken_floe
 from .model.layer import law_pressure, pressure_at
 from .observe.asked import BITS, plan as plan_outputs
 from .observe.reach import zone_ends
@@ -153,36 +154,45 @@ def checked_breaks(p, s, breaks, full_plate):
     plate cannot be (docs/model.md, "Breaking into parts")."""
     if breaks is None:
         return None
-    if p.edges == "free":
-        raise ParameterError("breaks: a floe's parts are not built yet (its water is the half-plane's)")
     if s.quadrature != "gauss":
         raise ParameterError("breaks need quadrature = 'gauss': the paper's rule interpolates the modes "
                              "between nodes, across a break")
     full = p.off_centre if full_plate is None else bool(full_plate)
     b = np.sort(np.atleast_1d(np.asarray(breaks, dtype=float)))
-    inside = (b >= -p.L) & (b <= p.L) if full else (b >= 0.0) & (b <= p.L)
+    walls = p.edges != "free"                     # (a floe's edges are free already)
+    inside = ((b >= -p.L) if walls else (b > -p.L)) if full else (b >= 0.0)
+    inside &= (b <= p.L) if walls else (b < p.L)
     if b.size == 0 or not np.all(inside) or np.any(np.diff(b) <= 0.0):
-        raise ParameterError(f"breaks must be distinct places on the plate ({'-L' if full else '0'} <= x <= L: "
-                             f"x = +-L a wall, the ice broken off it; on the half plate x = 0 is its centre), "
-                             f"got {np.asarray(breaks).tolist()}")
+        ends = "x = +-L a wall, the ice broken off it" if walls else "a floe's edges x = +-L are free already"
+        raise ParameterError(f"breaks must be distinct places on the plate ({'-L' if full else '0'} "
+                             f"{'<=' if walls else '<'} x {'<=' if walls else '<'} L: {ends}; on the half plate "
+                             f"x = 0 is its centre), got {np.asarray(breaks).tolist()}")
     return b + p.L if full else b
 
 
 def _across_break(p, s, tab, spec):
     """The kernel's initial wet amplitudes and rates of the broken plate (tab) from the state the
     run begins from (spec.begin) on the plate before the break, in the kernel's form: the unbroken
-    plate's cosines (solver.model.parts.carry_state) or the parts of a plate broken at fewer places
-    (carry_parts); and the CarriedEnergy (the plate's and the layer's before and after) [J m-1]."""
+    plate's cosines (solver.model.broken.carry_state), or the parts of a plate broken at fewer
+    places (carry_parts; the unbroken floe's wet modes as one part's, floe_parts.unbroken_floe); and
+    the CarriedEnergy (the plate's and the layer's before and after) [J m-1]."""
     begin = spec.begin
     wet, a, adot = tab.floe["wet"], begin.amplitudes, begin.velocities
     old = Tables(p, s.subintervals, tab.full_plate, s.quadrature, s.quadrature_density, breaks=begin.breaks)
-    if begin.breaks is None:
+    if begin.breaks is None and old.floe is not None:      # an unbroken floe: its wet modes, one part's
+        if a.shape != old.omega.shape or adot.shape != a.shape:
+            raise ParameterError("the unbroken floe's initial state must be the kernel's amplitudes and rates of its "
+                                 "wet modes")
+        floe, scale = unbroken_floe(old.floe, p.L, tab.full_plate)
+        b, bdot = broken.carry_parts(p, floe, wet, a / scale, adot / scale)
+        before = sum(broken.wet_energy(floe, a / scale, adot / scale))
+    elif begin.breaks is None:
         if a.shape != (p.Nmod * (2 if tab.full_plate else 1),) or a.shape != adot.shape:
             raise ParameterError("the unbroken plate's initial state must be the kernel's cosines' amplitudes and "
                                  "rates")
         domain, mirror = wet.domain, wet.mirror
-        b, bdot = parts.carry_state(p, wet, a, adot)
-        before = sum(parts.cosine_state_energy(p, domain, mirror, a, adot))
+        b, bdot = broken.carry_state(p, wet, a, adot)
+        before = sum(broken.cosine_state_energy(p, domain, mirror, a, adot))
     else:
         if not set(begin.breaks) < set(spec.breaks) or a.shape != old.omega.shape or adot.shape != a.shape:
             raise ParameterError("a broken plate's state carries only to the same plate broken at more places, "
@@ -190,9 +200,9 @@ def _across_break(p, s, tab, spec):
         wet_count = old.floe["wet"].omega.size                # (the last modes are null ones)
         scale = old.floe["scale"][:wet_count]
         b_old, bdot_old = a[:wet_count] / scale, adot[:wet_count] / scale
-        b, bdot = parts.carry_parts(p, old.floe["wet"], wet, b_old, bdot_old)
-        before = sum(parts.wet_energy(old.floe["wet"], b_old, bdot_old))
-    after = sum(parts.wet_energy(wet, b, bdot))
+        b, bdot = broken.carry_parts(p, old.floe["wet"], wet, b_old, bdot_old)
+        before = sum(broken.wet_energy(old.floe["wet"], b_old, bdot_old))
+    after = sum(broken.wet_energy(wet, b, bdot))
     null = np.zeros(tab.floe["scale"].size - b.size)       # (the last wet modes are null ones)
     a_new, adot_new = np.append(b, null) * tab.floe["scale"], np.append(bdot, null) * tab.floe["scale"]
     # the layer's energy too (w at the nodes moves by what the projection leaves out)

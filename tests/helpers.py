@@ -448,7 +448,7 @@ def pytest_approx(value):
 
 def composite_gauss(lo, hi, panels=400):
     """(x, w): composite Gauss-Legendre of 16 nodes on ``panels`` panels of [lo, hi] (independent
-    of solver.model.parts._gauss)."""
+    of solver.model.parts.gauss_rule)."""
     g, w = np.polynomial.legendre.leggauss(16)
     edges = np.linspace(lo, hi, panels + 1)
     half = 0.5 * np.diff(edges)

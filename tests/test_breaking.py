@@ -10,7 +10,7 @@ import pytest
 from helpers import BASE, NUMERICS, OPTIONS, SUBINTERVALS, assert_breaking_consistent
 from pipeline import case_dataset
 from solver import ParameterError, Parameters, Settings, breaking, solve
-from solver.model import parts
+from solver.model import broken, parts
 
 EPS_Y = 8e-5           # the paper's yield strain
 
@@ -360,7 +360,6 @@ def test_what_a_breaking_run_refuses():
     s = Settings(quadrature="gauss")
     bad_parameters = [(dict(yield_strain=-1.0), "yield_strain"), (dict(yield_strain=math.inf), "yield_strain"),
                       (dict(max_parts=1), "max_parts"), (dict(max_parts=2.5), "max_parts"),
-                      (dict(edges="free", duration=0.01), "floe"),
                       (dict(fracture="crack"), "fracture")]
     for kw, match in bad_parameters:
         with pytest.raises(ParameterError, match=match) as err:
@@ -547,14 +546,14 @@ def test_a_broken_plate_carries_to_itself_and_to_more_breaks():
     the mass norm (3.9e-10 measured)."""
     p = Parameters(Nmod=20)
     top = math.pi * p.Nmod / p.L
-    old = parts.wet_parts(p, p.L, 2.0, [0.0], top)
-    new = parts.wet_parts(p, p.L, 2.0, [0.0, 2.0], top)
+    old = broken.wet_parts(p, p.L, 2.0, [0.0], top)
+    new = broken.wet_parts(p, p.L, 2.0, [0.0, 2.0], top)
     rng = np.random.default_rng(7)
     b, bdot = rng.standard_normal(old.omega.size) / old.omega, rng.standard_normal(old.omega.size)
-    same = parts.carry_parts(p, old, old, b, bdot)
+    same = broken.carry_parts(p, old, old, b, bdot)
     assert np.max(np.abs(same[0] - b)) < 1e-13 * np.max(np.abs(b))
     assert np.max(np.abs(same[1] - bdot)) < 1e-9 * np.max(np.abs(bdot))      # (CARRY_TERMS: 4.6e-11)
-    before, after = parts.wet_energy(old, b, bdot), parts.wet_energy(new, *parts.carry_parts(p, old, new, b, bdot))
+    before, after = broken.wet_energy(old, b, bdot), broken.wet_energy(new, *broken.carry_parts(p, old, new, b, bdot))
     assert after[0] <= before[0] and after[1] <= before[1]
     full = parts.channel_added_mass(new.modes, new.domain, new.mirror, p.rho_w, p.H, other=old.modes)
     short = parts.channel_added_mass(new.modes, new.domain, new.mirror, p.rho_w, p.H, terms=parts.CARRY_TERMS,
@@ -565,7 +564,7 @@ def test_a_broken_plate_carries_to_itself_and_to_more_breaks():
 def _composition():
     """Each physics option and each numerics of tests/test_composition.py with fracture =
     "break", and what is refused, with the words of its one line (each a stated reason)."""
-    refused = {"floe": "floe's parts are not built"}
+    refused = {}
     cells = [(name, options, {}) for name, options in OPTIONS.items()]
     cells += [(f"reference+{n}", {}, numerics) for n, numerics in NUMERICS.items()]
     for name, _, numerics in cells:
@@ -579,9 +578,8 @@ def test_breaking_composes_with_every_option_and_numerics(cell):
     """The composition test's options and numerics (6 modes, the impact stage) with fracture =
     "break" at eps_Y: each runs to a status of the model with the energy identity through its
     breaks (E_plate + E_layer + D + R = W within 1e-5 of the work, as the matrix asks of the
-    contact-resolving rule), or is refused in one line for a stated reason: a floe (its parts),
-    the paper's rule (it interpolates the
-    modes across a break)."""
+    contact-resolving rule), or is refused in one line for a stated reason: the paper's rule (it
+    interpolates the modes across a break). A floe breaks too (docs/model.md, "A floe breaks")."""
     _composes(cell, {})
 
 

@@ -107,7 +107,6 @@ def test_case_ids_of_a_grid_over_fracture():
     ({"base": {**BASE, "fracture": "break"}, "output": {**OUTPUT, "end": "answered",
                                                          "outputs": ["crack_onset_time"]}}, "end = \"answered\""),
     ({"base": {**BASE, "fracture": "break", "max_parts": 1}}, "max_parts must be an integer >= 2"),
-    ({"base": {**BASE, "fracture": "break", "edges": "free"}}, "floe's parts are not built"),
     ({"base": {**BASE, "fracture": "break"}, "solver": {"quadrature": "paper"}}, "quadrature = 'gauss'"),
     ({"base": {**BASE, "fracture": "break"}, "output": {**OUTPUT, "eps_Y": [5e-5, 1e-4]}},
      "eps_Y = 0.0001 is above yield_strain = 8e-05"),

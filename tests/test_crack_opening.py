@@ -10,6 +10,7 @@ import pytest
 
 from solver import ParameterError, Parameters, Settings, solve
 from solver.model import parts
+from solver.model.broken import carry_state
 from solver.model.assemble import Tables
 from solver.model.crack import crack_loads
 from solver.spec import Crack
@@ -33,7 +34,7 @@ def test_the_faces_carry_the_force_the_unbroken_plate_carried(place):
     moment, shear = (p.rigidity * float(whole.derivative(a, place, k)[0]) for k in (2, 3))
     G = crack_loads(p, broken.floe, [Crack(0.0, place, moment, shear)], False)[0]
     wet = broken.floe["wet"]
-    b, _ = parts.carry_state(p, wet, a, np.zeros_like(a))
+    b, _ = carry_state(p, wet, a, np.zeros_like(a))
     scale = broken.floe["scale"]
     elastic = np.append(wet.omega**2 * b, 0.0) * scale                     # omega_k^2 a_k, kernel units
     g, w = np.polynomial.legendre.leggauss(24)

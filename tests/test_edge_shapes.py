@@ -11,7 +11,7 @@ import pytest
 from helpers import composite_gauss
 from solver import Parameters, Settings, solve
 from solver.parameters import ParameterError
-from solver.model import parts
+from solver.model import broken, parts
 
 L = 6.0
 #: the reference case's first break at N = 60 (the lower surface at x = 0; tests/test_parts.py)
@@ -58,17 +58,17 @@ def test_edge_shapes_carry_the_bending_a_break_leaves_at_its_faces():
     p = Parameters(Nmod=60)
     r = solve(p, Settings(), times=np.array([0.0, FIRST_BREAK]), fields=())
     a, v = r.amplitudes[-1], r.velocities[-1]
-    before = sum(parts.cosine_state_energy(p, L, 2.0, a, v))
+    before = sum(broken.cosine_state_energy(p, L, 2.0, a, v))
     x = np.linspace(0.0, L, 6001)
     lam = math.pi * np.arange(1, 61) / L
     unbroken = 0.5 * p.hi * (-(lam**2)[:, None] * np.cos(np.outer(lam, x))).T @ a         # the lower surface's
     left, strain_error = [], []
     for count in range(4):
         q = replace(p, fracture="break", edge_shapes=count, crack_spacing=1.0 if count else 0.0)
-        wet = parts.wet_parts(q, L, 2.0, [0.0], math.pi * 60 / L)
-        b, bdot = parts.carry_state(q, wet, a, v)
-        left.append(1.0 - sum(parts.wet_energy(wet, b, bdot)) / before)
-        strain_error.append(np.max(np.abs(0.5 * p.hi * parts.wet_values(wet, x, 2).T @ b - unbroken)))
+        wet = broken.wet_parts(q, L, 2.0, [0.0], math.pi * 60 / L)
+        b, bdot = broken.carry_state(q, wet, a, v)
+        left.append(1.0 - sum(broken.wet_energy(wet, b, bdot)) / before)
+        strain_error.append(np.max(np.abs(0.5 * p.hi * broken.wet_values(wet, x, 2).T @ b - unbroken)))
     assert left == pytest.approx([6.3e-2, 8.3e-3, 6.0e-5, 1.7e-8], rel=0.05)
     assert strain_error[0] == pytest.approx(8e-5, rel=1e-3) and strain_error[3] < 5e-8
 

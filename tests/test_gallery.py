@@ -85,18 +85,21 @@ def test_plot_breakthrough(tmp_path, monkeypatch):
 
 
 def test_plot_breakthrough_speed(tmp_path, monkeypatch):
-    """Each search found its speed, thicker ice needs a faster body, and the answer holds: a run
-    at the final bracket's lower end stops and leaves the ice without breaking through, one at
-    its upper end breaks through (the study's own runs, solved again here)."""
+    """Each search found its speed, in the basin and on the floe, thicker ice needs a faster body,
+    and the answer holds: a run at the final bracket's lower end stops and leaves the ice without
+    breaking through, one at its upper end breaks through (the study's own runs, solved again
+    here)."""
     from solver import Parameters, Settings, solve
     g = run("plot_breakthrough_speed.py", tmp_path, monkeypatch)
     found, study = g["found"], g["study"]
     assert set(np.asarray(found["search_status"]).ravel()) == {"found"}
-    assert found["critical_V"].sel(hi=1.0) > 2 * found["critical_V"].sel(hi=0.3)
-    for end, through in (("critical_V_lower", False), ("critical_V_upper", True)):
-        p = Parameters(**study["base"], hi=0.3, V=float(found[end].sel(hi=0.3)))
-        r = solve(p, Settings(error_estimate=False), fields=(), times=[0.0, p.duration], until_separation=True)
-        assert np.isfinite(r.breaking.breakthrough_time) == through, (end, r.status)
+    for edges in ("walls", "free"):
+        one = found.sel(edges=edges)
+        assert one["critical_V"].sel(hi=1.0) > 2 * one["critical_V"].sel(hi=0.3)
+        for end, through in (("critical_V_lower", False), ("critical_V_upper", True)):
+            p = Parameters(**study["base"], hi=0.3, edges=edges, V=float(one[end].sel(hi=0.3)))
+            r = solve(p, Settings(error_estimate=False), fields=(), times=[0.0, p.duration], until_separation=True)
+            assert np.isfinite(r.breaking.breakthrough_time) == through, (edges, end, r.status)
 
 
 def test_plot_body_shapes(tmp_path, monkeypatch):

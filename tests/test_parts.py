@@ -9,7 +9,7 @@ from scipy.special import zeta
 
 from helpers import composite_gauss
 from solver import Parameters, Settings, solve
-from solver.model import part_tables, parts, tails
+from solver.model import broken, part_tables, parts, tails
 
 L = 6.0
 
@@ -170,17 +170,17 @@ def test_the_unbroken_plate_is_the_walled_plates_cosines():
     dx = 0 removes heave, and the wet modes are the walled plate's, omega_n to 1e-13 (N = 60). A
     state carried across 'no break' keeps both energies to 1e-12 and the deflection to 1e-12."""
     p = Parameters(Nmod=60)
-    wet = parts.wet_parts(p, L, 2.0, [], p.wavenumbers[-1])
+    wet = broken.wet_parts(p, L, 2.0, [], p.wavenumbers[-1])
     assert wet.omega.size == 60
     assert np.max(np.abs(wet.omega / p.frequencies - 1.0)) < 1e-13
     rng = np.random.default_rng(1)
     a, adot = rng.standard_normal(60) * 1e-3 / np.arange(1, 61) ** 2, rng.standard_normal(60) * 1e-2 / np.arange(1, 61)
-    b, bdot = parts.carry_state(p, wet, a, adot)
-    before, after = parts.cosine_state_energy(p, L, 2.0, a, adot), parts.wet_energy(wet, b, bdot)
+    b, bdot = broken.carry_state(p, wet, a, adot)
+    before, after = broken.cosine_state_energy(p, L, 2.0, a, adot), broken.wet_energy(wet, b, bdot)
     assert after == pytest.approx(before, rel=1e-12)
     x = np.linspace(0.0, L, 301)
     w = a @ np.cos(np.outer(p.wavenumbers, x))
-    assert np.max(np.abs(b @ parts.wet_values(wet, x) - w)) < 1e-12 * np.max(np.abs(w))
+    assert np.max(np.abs(b @ broken.wet_values(wet, x) - w)) < 1e-12 * np.max(np.abs(w))
 
 
 def test_the_state_carried_across_a_break_converges():
@@ -195,25 +195,25 @@ def test_the_state_carried_across_a_break_converges():
     p = Parameters(Nmod=60)
     r = solve(p, Settings(), times=np.array([0.0, 0.5e-3]))
     a, adot = r.amplitudes[-1], r.velocities[-1]
-    kinetic, potential = parts.cosine_state_energy(p, L, 2.0, a, adot)
+    kinetic, potential = broken.cosine_state_energy(p, L, 2.0, a, adot)
     x = np.linspace(0.0, L, 1201)
     w = a @ np.cos(np.outer(p.wavenumbers, x))
     lost, errors = [], []
     for factor in (1, 2, 4):
-        wet = parts.wet_parts(p, L, 2.0, [0.3], factor * p.wavenumbers[-1])
-        b, bdot = parts.carry_state(p, wet, a, adot)
-        k_after, p_after = parts.wet_energy(wet, b, bdot)
+        wet = broken.wet_parts(p, L, 2.0, [0.3], factor * p.wavenumbers[-1])
+        b, bdot = broken.carry_state(p, wet, a, adot)
+        k_after, p_after = broken.wet_energy(wet, b, bdot)
         assert k_after <= kinetic * (1 + 1e-12) and p_after <= potential * (1 + 1e-12)
         lost.append((1 - k_after / kinetic, 1 - p_after / potential))
-        errors.append(np.max(np.abs(b @ parts.wet_values(wet, x) - w)) / np.max(np.abs(w)))
+        errors.append(np.max(np.abs(b @ broken.wet_values(wet, x) - w)) / np.max(np.abs(w)))
     kinetic_lost, potential_lost = np.array(lost).T
     assert 5e-3 < potential_lost[0] < 1.2e-2 and kinetic_lost[0] < 1e-7
     assert 1.8 < potential_lost[0] / potential_lost[1] < 2.6 and 1.8 < potential_lost[1] / potential_lost[2] < 2.6
     assert kinetic_lost[1] / kinetic_lost[2] > 10
     assert errors[0] / errors[1] > 3 and errors[1] / errors[2] > 3
-    wet = parts.wet_parts(p, L, 2.0, [2.0, 4.0], p.wavenumbers[-1])        # where the plate bends less
-    b, bdot = parts.carry_state(p, wet, a, adot)
-    assert 1 - parts.wet_energy(wet, b, bdot)[1] / potential < 1e-5              # 4.6e-6 measured
+    wet = broken.wet_parts(p, L, 2.0, [2.0, 4.0], p.wavenumbers[-1])        # where the plate bends less
+    b, bdot = broken.carry_state(p, wet, a, adot)
+    assert 1 - broken.wet_energy(wet, b, bdot)[1] / potential < 1e-5              # 4.6e-6 measured
 
 
 def test_a_break_lowers_the_frequencies_within_two():
@@ -223,13 +223,13 @@ def test_a_break_lowers_the_frequencies_within_two():
     slowest 20 have converged to 3.7e-9, and to 4.1e-8 at lambda_N). The slowest is the small
     part heaving against the rest: 3.14 rad/s against the unbroken plate's 39.5."""
     p = Parameters(Nmod=60)
-    broken = parts.wet_parts(p, L, 2.0, [0.3], 4 * p.wavenumbers[-1]).omega[:20]
-    coarse = parts.wet_parts(p, L, 2.0, [0.3], p.wavenumbers[-1]).omega[:20]
+    fine = broken.wet_parts(p, L, 2.0, [0.3], 4 * p.wavenumbers[-1]).omega[:20]
+    coarse = broken.wet_parts(p, L, 2.0, [0.3], p.wavenumbers[-1]).omega[:20]
     unbroken = p.frequencies[:20]
-    assert np.all(broken <= unbroken * (1 + 1e-12))
-    assert np.all(unbroken[:18] <= broken[2:] * (1 + 1e-12))
-    assert np.max(np.abs(coarse / broken - 1)) < 1e-7
-    assert broken[0] == pytest.approx(3.14, rel=1e-2)
+    assert np.all(fine <= unbroken * (1 + 1e-12))
+    assert np.all(unbroken[:18] <= fine[2:] * (1 + 1e-12))
+    assert np.max(np.abs(coarse / fine - 1)) < 1e-7
+    assert fine[0] == pytest.approx(3.14, rel=1e-2)
 
 
 @pytest.fixture(scope="module")
@@ -266,13 +266,15 @@ def test_a_broken_plate_runs_as_dop853_on_the_same_equations(state_at_break, pla
 
 
 def test_what_a_broken_plate_refuses():
-    """One line naming the problem: a floe (its parts are not built), the paper's rule (it
-    interpolates the modes between nodes, across a break), a break off the plate (beyond a wall;
-    at the wall, x = L, the ice breaks off it) or twice."""
+    """One line naming the problem: the paper's rule (it interpolates the modes between nodes,
+    across a break), a break off the plate (beyond a wall; at the wall, x = L, the ice breaks off
+    it; at a floe's edge, free already) or twice."""
     from solver import ParameterError
     floe = Parameters(Nmod=10, edges="free", duration=0.01)
-    with pytest.raises(ParameterError, match="floe"):
-        solve(floe, Settings(quadrature="gauss"), breaks=[1.0])
+    for bad in ([6.0], [-6.0]):
+        with pytest.raises(ParameterError, match="free already") as err:
+            solve(floe, Settings(quadrature="gauss"), breaks=bad, full_plate=True)
+        assert "\n" not in str(err.value)
     with pytest.raises(ParameterError, match="gauss"):
         solve(Parameters(Nmod=10), Settings(quadrature="paper"), breaks=[1.0])
     for bad in ([6.5], [-1.0], [1.0, 1.0], []):
@@ -340,11 +342,11 @@ def test_what_a_break_at_the_centre_removes():
     p = Parameters(Nmod=60)
     r = solve(p, Settings(), times=np.array([0.0, 0.4925754402552841e-3]), fields=())
     a, v = r.amplitudes[-1], r.velocities[-1]
-    kinetic, potential = parts.cosine_state_energy(p, L, 2.0, a, v)
+    kinetic, potential = broken.cosine_state_energy(p, L, 2.0, a, v)
     lost = []
     for factor in (1, 2, 4, 8):
-        wet = parts.wet_parts(p, L, 2.0, [0.0], factor * p.wavenumbers[-1])
-        k, pot = parts.wet_energy(wet, *parts.carry_state(p, wet, a, v))
+        wet = broken.wet_parts(p, L, 2.0, [0.0], factor * p.wavenumbers[-1])
+        k, pot = broken.wet_energy(wet, *broken.carry_state(p, wet, a, v))
         lost.append((1 - k / kinetic, 1 - pot / potential))
     kinetic_lost, potential_lost = np.array(lost).T
     assert potential_lost == pytest.approx([0.216, 0.108, 0.0541, 0.0271], rel=0.05)

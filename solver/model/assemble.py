@@ -47,11 +47,11 @@ class Tables:
         self.floe = None
         self.hi = float(p.hi)
         full = p.off_centre if full_plate is None else bool(full_plate)
-        if p.edges == "free":
-            self._free_floe(p, subintervals, full, quadrature, quadrature_density)
-            return
         if breaks is not None:
             self._broken(p, subintervals, full, quadrature, quadrature_density, breaks)
+            return
+        if p.edges == "free":
+            self._free_floe(p, subintervals, full, quadrature, quadrature_density)
             return
         self.full_plate = full
         if full:
@@ -93,9 +93,9 @@ class Tables:
                                                         x + self.origin, order)
 
     def _broken(self, p, subintervals, full, quadrature, quadrature_density, breaks):
-        """A walled plate broken into parts at ``breaks`` [m, kernel coordinates] (docs/model.md,
-        "Breaking into parts"): its wet modes (solver.model.parts) in a floe's form, the parts'
-        wavenumbers up to the cosines' lambda_N."""
+        """A walled plate or a floe broken into parts at ``breaks`` [m, kernel coordinates]
+        (docs/model.md, "Breaking into parts", "A floe breaks"): its wet modes (solver.model.parts)
+        in a floe's form, the parts' wavenumbers up to the cosines' lambda_N."""
         self._nodes(p, subintervals, full)
         lam_N = np.pi * p.Nmod / p.L
         key = (p, subintervals, full, tuple(float(b) for b in breaks))

@@ -10,8 +10,8 @@ import numpy as np
 
 from . import floe as fl
 from ..blas import blas_alone
-from .parts import (PartModes, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths,
-                    part_values, wet_parts)
+from .broken import wet_parts
+from .parts import PartModes, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths, part_values
 
 
 @blas_alone

@@ -1,6 +1,7 @@
-r"""A walled plate broken into parts: their dry modes, the water they share, their wet modes, the
-state carried across a break, and their tables in a floe's form for the kernels (parts_tables;
-docs/model.md, "Breaking into parts").
+r"""A plate broken into parts: their dry modes and the walls' channel's water they share; their wet
+modes and the state carried across a break are built on these in solver.model.broken (a floe's
+water: solver.model.floe_parts), their tables for the kernels in solver.model.part_tables
+(docs/model.md, "Breaking into parts").
 
 **Parts.** On the kernel's domain 0 <= x <= Lambda (the half plate of a centred impact, Lambda = L,
 whose x = 0 is the symmetry plane; or the whole plate, Lambda = 2L) breaks at 0 < b_1 < ... cut the
@@ -84,7 +85,6 @@ import numpy as np
 from . import floe as fl, points
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
 from .tails import cosine_tail, power_tail
-from ..blas import blas_alone
 from ..compile.jit import kernel
 
 #: the end conditions of a part: a wall or the symmetry plane (w_x = w_xxx = 0), a break (w_xx =
@@ -157,7 +157,7 @@ class _PartRows(dict):
 _PART_ROWS = _PartRows()
 
 
-def _by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray:
+def by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray:
     """(Nd, columns): a table whose rows depend on each mode's own part and on ``what`` only,
     compute(modes of one part) -> its rows, each part's computed once and kept (_PART_ROWS)."""
     out = np.empty((modes.kinds.size, columns))
@@ -222,16 +222,16 @@ def _edge_betas(beta_max, length, edges):
     return layers + [EDGE_WHOLE / length] if len(layers) < edges else layers
 
 
-def part_modes(domain: float, breaks, beta_max: float, edges: int = 0) -> PartModes:
-    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide, but where
-    an end is a break: free_ends), each part's
+def part_modes(domain: float, breaks, beta_max: float, edges: int = 0, sliding=(True, True)) -> PartModes:
+    """The dry modes of the parts between ``breaks`` on [0, domain] (whose ends slide where
+    ``sliding`` says, a floe's high end never, but not where an end is a break), each part's
     with wavenumbers up to beta_max [m-1], and ``edges`` edge shapes at each free end (module
     docstring)."""
     ends = part_edges(domain, breaks)
     low_free, high_free = free_ends(domain, breaks)
     rows, last = [], ends.size - 2
     for i, (lo, hi) in enumerate(zip(ends[:-1], ends[1:])):
-        sliding_lo, sliding_hi = i == 0 and not low_free, i == last and not high_free
+        sliding_lo, sliding_hi = i == 0 and sliding[0] and not low_free, i == last and sliding[1] and not high_free
         rows += [(*mode, lo, hi, i) for mode in _part(lo, hi, sliding_lo, sliding_hi, beta_max, edges)]
     kinds, betas, centres, halves, norms, lows, highs, parts = (np.array(c, dtype=float) for c in zip(*rows))
     return PartModes(kinds, betas, centres, halves, lows, highs, norms, parts.astype(int))
@@ -259,7 +259,7 @@ def part_values(modes: PartModes, x, order=0) -> np.ndarray:
         if np.any(on):
             out[:, on] = values_at(sub, x[on], order, last)
         return out
-    return _by_part(modes, ("values", x.tobytes(), order, float(last)), rows, x.size)
+    return by_part(modes, ("values", x.tobytes(), order, float(last)), rows, x.size)
 
 
 def values_at(modes: PartModes, x, order=0, high_end=np.inf) -> np.ndarray:
@@ -327,11 +327,11 @@ def mode_block(modes: PartModes, x, order=0) -> np.ndarray:
     return out
 
 
-#: Gauss-Legendre rule of 32 nodes on [-1, 1] (_gauss's panels)
+#: Gauss-Legendre rule of 32 nodes on [-1, 1] (gauss_rule's panels)
 GAUSS32_X, GAUSS32_W = np.polynomial.legendre.leggauss(32)
 
 
-def _gauss(modes, m, frequency):
+def gauss_rule(modes, m, frequency):
     """(x, w): Gauss-Legendre of 32 nodes on panels of mode m's part, each panel at most 8 / (beta
     + frequency) long: exact to round-off for its shape times a cosine of wavenumber up to
     ``frequency`` [m-1] (tests/test_parts.py)."""
@@ -348,7 +348,7 @@ def cosine_integrals(modes: PartModes, mu) -> np.ndarray:
     the closed form of the module docstring, and Gauss-Legendre near resonance, |beta^4 - mu^4| <
     RESONANCE mu^4, where the closed form would divide a difference by a small number."""
     mu = np.asarray(mu, dtype=float)
-    return _by_part(modes, ("cosines", mu.tobytes()), lambda sub: _cosine_rows(sub, mu), mu.size)
+    return by_part(modes, ("cosines", mu.tobytes()), lambda sub: _cosine_rows(sub, mu), mu.size)
 
 
 def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
@@ -361,7 +361,7 @@ def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
     near = np.abs(modes.betas[:, None] ** 4 - mu[None, :] ** 4) < RESONANCE * mu[None, :] ** 4
     for m in np.flatnonzero(np.any(near, axis=1)):
         shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
-        x, w = _gauss(modes, m, np.max(mu[near[m]]))
+        x, w = gauss_rule(modes, m, np.max(mu[near[m]]))
         out[m, near[m]] = (w * modes.norms[m] * raw_mode(*shape, x)) @ np.cos(np.outer(x, mu[near[m]]))
     return out
 
@@ -435,7 +435,7 @@ def jump_tail(modes: PartModes, other: PartModes, domain: float, K: int) -> np.n
 def _jumps(modes: PartModes, ends, order: int = 0) -> np.ndarray:
     """(E, Nd): each mode's jump at each of the sorted ``ends`` (which hold its part's), of its
     value (order 0) or a derivative: its value at its part's upper end, minus at its lower, 0 at
-    the other ends (each part's end values computed once, _by_part)."""
+    the other ends (each part's end values computed once, by_part)."""
     values = end_values(modes, order)
     jump = np.zeros((np.size(ends), modes.kinds.size))
     m = np.arange(modes.kinds.size)
@@ -446,10 +446,10 @@ def _jumps(modes: PartModes, ends, order: int = 0) -> np.ndarray:
 
 def end_values(modes: PartModes, order: int) -> np.ndarray:
     """(Nd, 2): each scaled mode's derivative of the given order at its part's lower and upper end
-    (each part's computed once, _by_part)."""
+    (each part's computed once, by_part)."""
     def at_ends(sub):            # (the modes of one part: its two ends)
         return sub.norms[:, None] * mode_block(sub, np.array([sub.lows[0], sub.highs[0]]), order)
-    return _by_part(modes, ("ends", order), at_ends, 2)
+    return by_part(modes, ("ends", order), at_ends, 2)
 
 
 def part_lengths(modes: PartModes) -> np.ndarray:
@@ -466,12 +466,12 @@ def gram(modes: PartModes, order: int) -> np.ndarray:
     """(Nd, Nd): int psi_m^(order) psi_n^(order) dx, of order 0 (mass) or 2 (bending) [m, m-3]. A
     part's modes but its edge shapes are orthogonal, int psi^2 dx the part's length and int
     psi''^2 dx beta^4 times it; the edge shapes' rows and columns by Gauss-Legendre on their part
-    (exact to round-off: _gauss)."""
+    (exact to round-off: gauss_rule)."""
     edge = edge_shaped(modes)
     out = np.diag(part_lengths(modes) * (modes.betas**4 if order == 2 else 1.0))
     for part in np.unique(modes.parts[edge]):
         on = np.flatnonzero(modes.parts == part)
-        x, w = _gauss(modes, on[np.argmax(modes.betas[on])], np.max(modes.betas[on]))
+        x, w = gauss_rule(modes, on[np.argmax(modes.betas[on])], np.max(modes.betas[on]))
         values = modes.norms[on, None] * mode_block(PartModes(*(field[on] for field in modes)), x, order)
         block = (values * w) @ values.T
         rows = edge[on]
@@ -494,96 +494,3 @@ def mode_means(modes: PartModes) -> np.ndarray:
     third = end_values(modes, 3)
     out[rest] = (third[rest, 1] - third[rest, 0]) / modes.betas[rest] ** 4
     return out
-
-
-def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetParts:
-    """The wet modes of the plate of parameters p (Parameters: hi, rho_i, rho_w, g, H, rigidity,
-    edge_shapes) broken at ``breaks`` on the kernel's domain [0, domain] (module docstring)."""
-    from scipy.linalg import cholesky, eigh, null_space, solve_triangular      # (a broken plate's tables only)
-    modes = part_modes(domain, breaks, beta_max, p.edge_shapes)
-    Z = null_space(mode_means(modes)[None, :])             # q = Z r keeps int w dx = 0
-    A = channel_added_mass(modes, domain, mirror, p.rho_w, p.H)
-    if np.any(edge_shaped(modes)):
-        G0 = gram(modes, 0)
-        g, U = eigh(Z.T @ G0 @ Z)                          # the span less its near-dependent directions
-        Z = Z @ U[:, g > SPAN_TOLERANCE * np.max(g)]
-        M = mirror * p.plate_mass * G0 + A
-        Kr = Z.T @ (mirror * (p.rigidity * gram(modes, 2) + p.rho_w * p.g * G0)) @ Z
-    else:
-        G = part_lengths(modes)
-        M = mirror * p.plate_mass * np.diag(G) + A
-        K = mirror * (p.rigidity * modes.betas**4 + p.rho_w * p.g) * G
-        Kr = Z.T @ (K[:, None] * Z)
-    Mr = Z.T @ M @ Z
-    R = cholesky(0.5 * (Kr + Kr.T))                       # Kr = R^T R
-    S = solve_triangular(R, solve_triangular(R, Mr, trans="T").T, trans="T")      # R^-T Mr R^-1
-    mu, V = eigh(0.5 * (S + S.T))                         # mu = 1 / omega^2
-    order = np.argsort(-mu)
-    mu, V = mu[order], V[:, order]
-    Q = Z @ solve_triangular(R, V) / np.sqrt(mu)[None, :]     # Q^T M Q = I, Q^T K Q = diag(1 / mu)
-    return WetParts(1.0 / np.sqrt(mu), Q, modes, float(domain), float(mirror))
-
-
-def cosine_state_energy(p, domain: float, mirror: float, a, adot) -> tuple[float, float]:
-    """(kinetic, potential) energy [J m-1] of the unbroken plate's state a, a' on the cosines
-    cos(n pi x / domain), n = 1..N: sum_n mirror (domain / 2) M_n (a_n'^2, omega_n^2 a_n^2) / 2."""
-    lam = math.pi * np.arange(1, np.size(a) + 1) / domain
-    M, omega, _ = p.mode_constants(lam)
-    weight = mirror * 0.5 * domain * M
-    return 0.5 * float(np.sum(weight * np.asarray(adot) ** 2)), 0.5 * float(np.sum(weight * omega**2 * np.asarray(a) ** 2))
-
-
-@blas_alone
-def carry_state(p, wet: WetParts, a, adot):
-    """The wet amplitudes (b, b') of the broken plate that carry the unbroken plate's state a, a'
-    (on the cosines cos(n pi x / domain), n = 1..N) across the break: the displacement projected
-    in the stiffness, the velocity in the mass (module docstring)."""
-    lam = math.pi * np.arange(1, np.size(a) + 1) / wet.domain
-    M, omega, _ = p.mode_constants(lam)
-    X = wet.mirror * cosine_integrals(wet.modes, lam)                 # <psi_m, cos_n>
-    bending = np.zeros_like(X)                                         # <psi_m'', cos_n''>
-    for part in np.unique(wet.modes.parts):
-        on = np.flatnonzero(wet.modes.parts == part)
-        # one rule for the part: panels for its fastest mode against the fastest cosine
-        x, w = _gauss(wet.modes, on[np.argmax(wet.modes.betas[on])], np.max(lam))
-        sub = PartModes(*(field[on] for field in wet.modes))
-        curvature = sub.norms[:, None] * mode_block(sub, x, 2)
-        bending[on] = -wet.mirror * lam**2 * ((curvature * w) @ np.cos(np.outer(x, lam)))
-    stiffness = p.rigidity * bending + p.rho_w * p.g * X
-    b = (wet.Q.T @ (stiffness @ np.asarray(a))) / wet.omega**2
-    bdot = wet.Q.T @ ((X * M[None, :]) @ np.asarray(adot))
-    return b, bdot
-
-
-@blas_alone
-def carry_parts(p, old: WetParts, new: WetParts, b, bdot):
-    """The wet amplitudes (b, b') of a plate broken further (new: its parts refine old's) that
-    carry the state b, b' of the plate broken at fewer places across the new breaks: as
-    carry_state, the displacement projected in the stiffness and the velocity in the mass, here
-    with the cross integrals of the new dry modes and the old (each new part lies in one old
-    part, where the old modes are smooth) and the water's added mass between them."""
-    added = channel_added_mass(new.modes, new.domain, new.mirror, p.rho_w, p.H, terms=CARRY_TERMS, other=old.modes)
-    G = np.empty((new.modes.kinds.size, old.modes.kinds.size))    # <psi_m, phi_j>
-    bending = np.empty_like(G)                                      # <psi_m'', phi_j''>
-    for part in np.unique(new.modes.parts):
-        on = np.flatnonzero(new.modes.parts == part)
-        # one rule for the part: panels for its fastest mode against the old fastest
-        x, w = _gauss(new.modes, on[np.argmax(new.modes.betas[on])], np.max(old.modes.betas))
-        sub = PartModes(*(field[on] for field in new.modes))
-        G[on] = (part_values(sub, x) * w) @ part_values(old.modes, x).T
-        bending[on] = (part_values(sub, x, 2) * w) @ part_values(old.modes, x, 2).T
-    stiffness = new.mirror * (p.rigidity * bending + p.rho_w * p.g * G)
-    mass = new.mirror * p.plate_mass * G + added
-    b_new = (new.Q.T @ (stiffness @ (old.Q @ np.asarray(b)))) / new.omega**2
-    bdot_new = new.Q.T @ (mass @ (old.Q @ np.asarray(bdot)))
-    return b_new, bdot_new
-
-
-def wet_energy(wet: WetParts, b, bdot) -> tuple[float, float]:
-    """(kinetic, potential) energy [J m-1] of the broken plate's wet amplitudes."""
-    return 0.5 * float(np.sum(np.asarray(bdot) ** 2)), 0.5 * float(np.sum(wet.omega**2 * np.asarray(b) ** 2))
-
-
-def wet_values(wet: WetParts, x, order=0) -> np.ndarray:
-    """(Nw, X): the wet modes Psi_k (or a derivative) at x [m]."""
-    return wet.Q.T @ part_values(wet.modes, x, order)
