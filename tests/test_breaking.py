@@ -591,6 +591,27 @@ def test_edge_shapes_compose_with_every_option_and_numerics(cell):
     _composes(cell, dict(edge_shapes=2, crack_spacing=1.0))
 
 
+@pytest.mark.heavy
+@pytest.mark.parametrize("option", [name for name in OPTIONS if name != "floe"])
+def test_a_floe_breaks_with_every_option(option):
+    """A floe that breaks (docs/model.md, "A floe breaks") with each other physics option of the
+    composition matrix (6 modes, 4 ms, eps_Y = 8e-5): runs to a status of the model with the
+    energy identity through its breaks within 1e-5 of the work, and a free body's own balance."""
+    settings = Settings(subintervals=SUBINTERVALS["gauss"], tolerance=1e-8, error_estimate=False)
+    r = solve(Parameters(**BASE, **OPTIONS["floe"], **OPTIONS[option], fracture="break", yield_strain=EPS_Y),
+              settings, fields=(), times=np.linspace(0.0, 4e-3, 41), t_end=4e-3)
+    assert r.status in ("ok", "layer_bottomed_out", "parts_limit"), r.message
+    ok = r.valid
+    balance = r.plate_energy + r.layer_energy + r.dissipated_energy + r.breaking.removed_energy - r.work
+    assert np.max(np.abs(balance[ok])) < 1e-5 * np.max(r.work[ok])
+    assert r.breaking.break_count >= 1
+    p = r.parameters
+    if p.free_body:
+        body = p.body_mass * (0.5 * (r.body_speed**2 - p.V**2) - p.body_g * r.body_position) + r.work
+        assert np.max(np.abs(body[ok])) < 1e-5 * np.max(r.work[ok])
+    assert_breaking_consistent(r)
+
+
 def _composes(cell, extra):
     """Cell ``cell`` of _composition with the breaking parameters ``extra``: refused as stated, or
     run to a status of the model with the energy identity through its breaks."""
