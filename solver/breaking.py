@@ -160,8 +160,8 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
         if x_b in breaks or (p.edges == "free" and abs(x_b) == p.L):
             status = EDGE_BREAK
             message = (f"the tension reached yield_strain = {yield_strain:g} at a free edge (x = {x_b:.6g} m, t = "
-                       f"{where.time:.6g} s, {where.surface} surface), whose free edge carries none: the basis "
-                       f"is too coarse there; data up to then is valid")
+                       f"{where.time:.6g} s, {where.surface} surface), which carries no moment in the model: the "
+                       f"basis is too coarse there; data up to then is valid")
             break
         new_breaks = sorted(breaks + [x_b])
         if whole_plate_parts(new_breaks, full, p.L) > max_parts:

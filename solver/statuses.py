@@ -25,9 +25,9 @@ STATUS_INFO = {
                  "was asked to end there (until separation); data up to then is valid",
     "parts_limit": "a run that breaks (fracture = 'break') would have broken into more than max_parts parts: "
                    "it ended at that break; data up to then is valid",
-    "edge_break": "a run that breaks (fracture = 'break') reached yield_strain at a place already broken, whose "
-                  "free edge carries no moment in the model: its basis is too coarse there; it ended at that "
-                  "break; data up to then is valid",
+    "edge_break": "a run that breaks (fracture = 'break') reached yield_strain at a free edge (a place already "
+                  "broken, or a floe's edge), which carries no moment in the model: its basis is too coarse "
+                  "there; it ended there; data up to then is valid",
     "stopped": "a free body stopped (its speed reached zero at stop_time) and was still on the ice at the "
                "end of a run asked to go until separation; data is valid",
 }

@@ -115,7 +115,7 @@ class Plate:
     """The matrices of the half plate of parameters p (solver.Parameters: the plate, the water,
     the layer, the paper's body) on ``nodes`` [m] broken at the node indices ``broken``."""
 
-    def __init__(self, p, nodes, broken):
+    def __init__(self, p, nodes, broken, springs=None):
         beyond = [key for key, value in (("x0", p.x0 != 0.0), ("body_mass", math.isfinite(p.body_mass)),
                                          ("tau", p.tau > 0.0), ("layer_tau", p.layer_tau > 0.0),
                                          ("edges", p.edges != "walls"), ("body_p", p.body_p != 2.0),
@@ -141,6 +141,20 @@ class Plate:
         np.add.at(bend, (rows, cols), k_e)
         self.mass = p.plate_mass * mass + self.added_mass()
         self.stiffness = p.rigidity * bend + p.rho_w * p.g * mass
+        # a crack part through the thickness at a broken node j: w continuous there (held) and a
+        # rotational spring k [N m rad-1 m-1] between the two sides' slopes (at the centre, between
+        # w'(0) and its mirror -w'(0): the half plate's share of k (2 w'(0))^2 / 2)
+        self.held = []
+        for j, k in (springs or {}).items():
+            if j == 0:
+                self.stiffness[1, 1] += 2.0 * k
+                continue
+            jump = next(v for i, v in self.top.jumps if i == j)
+            left, right = int(np.flatnonzero(jump > 0)[0]) + 1, int(np.flatnonzero(jump < 0)[0]) + 1
+            d = np.zeros(n)
+            d[right], d[left] = 1.0, -1.0
+            self.stiffness += k * np.outer(d, d)
+            self.held.append(jump)
         means = np.zeros(n)                       # int N dx: the constraint int w dx = 0
         np.add.at(means, self.top.elem, self.h[:, None] * np.array([0.5, 1 / 12, 0.5, -1 / 12])[None, :] * scale)
         self.means = means
@@ -213,7 +227,8 @@ class Plate:
             f = self.top.free
             M, K = self.mass[np.ix_(f, f)], self.stiffness[np.ix_(f, f)]
             d = 1.0 / np.sqrt(np.diag(M))
-            Z = d[:, None] * null_space((self.means[f] * d)[None, :])
+            rows = np.vstack([self.means[f]] + [jump[f] for jump in self.held])
+            Z = d[:, None] * null_space(rows * d[None, :])
             Mz, Kz = Z.T @ M @ Z, Z.T @ K @ Z
             inverse, V = eigh(Mz, Kz)                               # (omega^-2 ascending, V^T K V = I)
             inverse, V = inverse[::-1], V[:, ::-1]

@@ -17,7 +17,8 @@ import numpy as np
 from ..blas import blas_alone
 from .floe_parts import floe_added_mass
 from .parts import (CARRY_TERMS, SPAN_TOLERANCE, PartModes, WetParts, channel_added_mass, cosine_integrals,
-                    edge_shaped, gauss_rule, gram, mode_block, mode_means, part_lengths, part_modes, part_values)
+                    edge_shaped, end_values, gauss_rule, gram, mode_block, mode_means, part_lengths, part_modes,
+                    part_values)
 
 
 def water(p, modes: PartModes, domain: float, mirror: float, other: PartModes | None = None) -> np.ndarray:
@@ -28,26 +29,30 @@ def water(p, modes: PartModes, domain: float, mirror: float, other: PartModes | 
     return channel_added_mass(modes, domain, mirror, p.rho_w, p.H, 0 if other is None else CARRY_TERMS, other)
 
 
-def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetParts:
+def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float, springs=None) -> WetParts:
     """The wet modes of the plate (or floe) of parameters p broken at ``breaks`` on the kernel's
-    domain [0, domain] (module docstring)."""
+    domain [0, domain] (module docstring); ``springs`` {b: k}: the breaks b that are cracks only
+    part through the thickness, each a rotational spring of stiffness k [N m rad-1 m-1]
+    (crack_spring)."""
     from scipy.linalg import cholesky, eigh, null_space, solve_triangular      # (a broken plate's tables only)
     floe = p.edges == "free"
     modes = part_modes(domain, breaks, beta_max, p.edge_shapes, (mirror == 2.0 or not floe, not floe))
-    # q = Z r keeps int w dx = 0 between walls; a floe's volume is free
-    Z = np.eye(modes.kinds.size) if floe else null_space(mode_means(modes)[None, :])
+    held, K_springs = crack_springs(modes, mirror, springs or {})
+    # q = Z r keeps int w dx = 0 between walls (a floe's volume is free) and w continuous at a crack
+    rows = held if floe else np.vstack([mode_means(modes)[None, :], held])
+    Z = null_space(rows) if rows.shape[0] else np.eye(modes.kinds.size)
     A = water(p, modes, domain, mirror)
     if np.any(edge_shaped(modes)):
         G0 = gram(modes, 0)
         g, U = eigh(Z.T @ G0 @ Z)                          # the span less its near-dependent directions
         Z = Z @ U[:, g > SPAN_TOLERANCE * np.max(g)]
         M = mirror * p.plate_mass * G0 + A
-        Kr = Z.T @ (mirror * (p.rigidity * gram(modes, 2) + p.rho_w * p.g * G0)) @ Z
+        Kr = Z.T @ (mirror * (p.rigidity * gram(modes, 2) + p.rho_w * p.g * G0) + K_springs) @ Z
     else:
         G = part_lengths(modes)
         M = mirror * p.plate_mass * np.diag(G) + A
         K = mirror * (p.rigidity * modes.betas**4 + p.rho_w * p.g) * G
-        Kr = Z.T @ (K[:, None] * Z)
+        Kr = Z.T @ (K[:, None] * Z) + (Z.T @ K_springs @ Z if springs else 0.0)
     Mr = Z.T @ M @ Z
     R = cholesky(0.5 * (Kr + Kr.T))                       # Kr = R^T R
     S = solve_triangular(R, solve_triangular(R, Mr, trans="T").T, trans="T")      # R^-T Mr R^-1
@@ -56,6 +61,29 @@ def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float) -> WetPa
     mu, V = mu[order], V[:, order]
     Q = Z @ solve_triangular(R, V) / np.sqrt(mu)[None, :]     # Q^T M Q = I, Q^T K Q = diag(1 / mu)
     return WetParts(1.0 / np.sqrt(mu), Q, modes, float(domain), float(mirror))
+
+
+def crack_springs(modes: PartModes, mirror: float, springs: dict):
+    """(rows (C, Nd), K (Nd, Nd)) of cracks that hold the parts together as rotational springs
+    (the line-spring model of a part-through crack; docs/model.md, "A crack as a spring"): at each
+    crack b (a break of the parts) w is continuous, rows . q = 0 (w(b-) - w(b+); none at the half
+    plate's centre, continuous by symmetry), and the spring's energy k (w'(b+) - w'(b-))^2 / 2 adds
+    mirror k d d^T to the stiffness, d the slope jump of each dry mode; at the half plate's centre
+    the jump is 2 w'(0+), mirror 2 k d d^T."""
+    value, slope = end_values(modes, 0), end_values(modes, 1)
+    rows, K = [], np.zeros((modes.kinds.size, modes.kinds.size))
+    for b, k in sorted(springs.items()):
+        above, below = modes.lows == b, modes.highs == b
+        if not np.any(above) or not (np.any(below) or mirror == 2.0):
+            raise ValueError(f"a crack spring at {b} m needs a break inside the plate there (or at the half "
+                             f"plate's centre)")
+        d = np.where(above, slope[:, 0], 0.0) - np.where(below, slope[:, 1], 0.0)
+        if np.any(below):
+            rows.append(np.where(below, value[:, 1], 0.0) - np.where(above, value[:, 0], 0.0))
+            K += mirror * k * np.outer(d, d)
+        else:                                             # the half plate's centre
+            K += mirror * 2.0 * k * np.outer(d, d)
+    return (np.array(rows) if rows else np.zeros((0, modes.kinds.size))), K
 
 
 def cosine_state_energy(p, domain: float, mirror: float, a, adot) -> tuple[float, float]:
