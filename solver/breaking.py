@@ -62,6 +62,10 @@ RESTART_STEP = 0.1
 #: a break located within this fraction of L of the plate's centre is at the centre (the peak's
 #: place there is found to round-off)
 CENTRE_SNAP = 1e-9
+#: at a break, the same surface's tension elsewhere within this fraction of the break level breaks
+#: at the same instant (_racing): a tie to round-off (3.7e-14 measured between the whole plate's
+#: two walls under a centred impact)
+RACE = 1e-9
 
 
 def _restart_step(stages):
@@ -87,6 +91,43 @@ def _snapped(p, x):
     if abs(x) < CENTRE_SNAP * p.L and not p.off_centre:
         return 0.0
     return math.copysign(p.L, x) if abs(x) >= p.L * (1.0 - CENTRE_SNAP) else x
+
+
+def _racing(p, s, full, kernel_breaks, amplitudes, where, broken):
+    """The other places (x on the plate) where the surface that broke at ``where`` (a StageEnd's
+    break) stands at the break level too, within RACE of it, at that instant: local peaks of its
+    tension (refined by Newton on the modes within their part) off the places ``broken`` and, with
+    a crack spacing, beyond it from them (none on a floe's edges). Two tensions tied to round-off
+    (the whole plate's two walls, or x and -x, under a centred impact) break at once, as the half
+    plate breaks x and its mirror (docs/model.md, "A break at a wall")."""
+    tab = Tables(p, s.subintervals, full, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
+    sign = (1.0 if where.surface == "upper" else -1.0) * -0.5 * p.hi
+    level, origin, dx = p.yield_strain, (-p.L if full else 0.0), tab.dx
+    cuts = np.sort(np.asarray(kernel_breaks if kernel_breaks is not None else [], dtype=float))
+    nodes = tab.xq
+    tension = sign * tab.derivative(amplitudes, nodes, 2)
+    keep = p.crack_spacing * p.hi
+    found = []
+    for j in np.flatnonzero(tension >= level * (1.0 - 1e-3)):
+        if (j > 0 and tension[j - 1] > tension[j]) or (j < nodes.size - 1 and tension[j + 1] > tension[j]):
+            continue
+        x = nodes[j]
+        if 0 < j < nodes.size - 1:               # Newton on the modes, within the node's part
+            lo = max([nodes[j - 1]] + [c for c in cuts if c <= nodes[j]])
+            hi = min([nodes[j + 1]] + [c for c in cuts if c > nodes[j]])
+            for _ in range(20):
+                slope, bend = (sign * float(tab.derivative(amplitudes, x, order)[0]) for order in (3, 4))
+                step = -slope / bend if bend < 0.0 else 0.0
+                x = min(max(x + step, lo), hi)
+                if abs(step) < 1e-12 * p.L:
+                    break
+        value = sign * float(tab.derivative(amplitudes, x, 2)[0])
+        place = float(_snapped(p, float(x) + origin))
+        near = any(abs(place - b) <= max(keep, 2.0 * dx) for b in broken + found)
+        edge = p.edges == "free" and abs(place) == p.L
+        if value >= level * (1.0 - RACE) and not near and not edge:
+            found.append(place)
+    return found
 
 
 def _crack(p, s, full, kernel_breaks, amplitudes, time, x):
@@ -139,7 +180,7 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
     yield_strain, max_parts, full, times = p.yield_strain, p.max_parts, spec.full_plate, spec.window.times
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
     begin, breaks, t0 = Begin(zeros, zeros.copy()), [], spec.window.t_start
-    stages, events, status, message, cracks = [], [], None, "", []
+    stages, events, status, message, cracks, together = [], [], None, "", [], 1
     opening = p.crack_opening_time                    # (0: each crack opens at once)
     while True:
         later = times >= t0 if not stages else times > t0
@@ -150,7 +191,9 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
                                        cracks=tuple(c for c in cracks if c.time + opening > t0)))
         stages.append((later, stage))
         end = stage.end
-        if end.carried is not None:
+        if end.carried is not None:              # (breaks at one instant: their carry's, on the last)
+            for event in events[len(events) - together:-1]:
+                event.update(removed_energy=0.0, removed_plate_energy=0.0, removed_layer_energy=0.0)
             events[-1].update(removed_energy=end.carried.removed, removed_plate_energy=end.carried.plate_removed,
                               removed_layer_energy=end.carried.layer_removed)
         if stage.status != "ok" or end.broke is None:
@@ -163,20 +206,23 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
                        f"{where.time:.6g} s, {where.surface} surface), which carries no moment in the model: the "
                        f"basis is too coarse there; data up to then is valid")
             break
-        new_breaks = sorted(breaks + [x_b])
+        places = [x_b] + [x for x in _racing(p, s, full, kernel_breaks, end.state.amplitudes, where, breaks + [x_b])]
+        new_breaks = sorted(breaks + places)
         if whole_plate_parts(new_breaks, full, p.L) > max_parts:
             status = PARTS_LIMIT
             message = (f"the plate would break into more than max_parts = {max_parts} parts at t = "
                        f"{where.time:.6g} s (x = {x_b:.6g} m, {where.surface} surface); data up to then is valid")
             break
         body = end.state.body
-        events.append({"time": where.time, "x": x_b, "surface": where.surface,
-                       "parts": whole_plate_parts(new_breaks, full, p.L),
-                       "broken_through": broken_through(new_breaks, p.x0, full, p.L),
-                       "penetration": p.V * where.time if body is None else body.penetration})
-        if opening > 0.0:
-            cracks.append(_crack(p, s, full, kernel_breaks, end.state.amplitudes, where.time, x_b))
-        breaks, t0 = new_breaks, stage.time_reached
+        for k, x in enumerate(places):
+            so_far = breaks + places[:k + 1]
+            events.append({"time": where.time, "x": x, "surface": where.surface,
+                           "parts": whole_plate_parts(so_far, full, p.L),
+                           "broken_through": broken_through(so_far, p.x0, full, p.L),
+                           "penetration": p.V * where.time if body is None else body.penetration})
+            if opening > 0.0:
+                cracks.append(_crack(p, s, full, kernel_breaks, end.state.amplitudes, where.time, x))
+        breaks, t0, together = new_breaks, stage.time_reached, len(places)
         begin = Begin(end.state.amplitudes, end.state.velocities, kernel_breaks, body)
     return _joined(p, s, spec, stages, events, status, message, full)
 

@@ -77,8 +77,10 @@ solver.breaking._growth_from: another step sequence, within the runs' tolerance)
 make bit-for-bit BASE=17c6cd2: the 5 breaking cases within 1.1e-7 of their largest values, the
 25 others bit for bit); breaking 12 (2026-12-07: where the tension reaches the yield strain at a
 wall the ice breaks off it and the run goes on (docs/model.md, "A break at a wall"; it ended
-wall_break), and a plate broken everywhere within its crack spacing breaks no more: the runs
-where either happened change; make bit-for-bit BASE=8218cbd: the 30 cases bit for bit).
+wall_break), a plate broken everywhere within its crack spacing breaks no more, and places whose
+tension reaches the yield strain together (within 1e-9) break at one instant (solver.breaking.
+_racing): the runs where any of these happened change; make bit-for-bit BASE=8218cbd and
+BASE=3bbd6a8: the 30 cases bit for bit).
 """
 
 #: quadrature -> revision of the results of runs under it; "floe": of a free floe's runs (under
