@@ -293,7 +293,7 @@ def test_a_viscoelastic_floe():
             T, N = times.size, zero.size
             out = Outputs(np.full((T, N), np.nan), np.full((T, N), np.nan), np.full((T, kn.N_SERIES), np.nan),
                           np.full(kn.N_DIAG, np.nan), np.full((2, 0), np.nan), np.full((2, 0), np.nan),
-                          np.empty((2, N)))
+                          np.empty((2, N + 1)))
             integrate_dop853(tab, control, times, zero, zero, np.empty(0), out, coupled_damping=coupled)
             strain.append(out.a @ tab.mode_values(np.linspace(0, p.L, 301), "strain").T)
         left_out.append(np.max(np.abs(strain[1] - strain[0])) / np.max(np.abs(strain[0])))
