@@ -93,16 +93,16 @@ def _snapped(p, x):
     return math.copysign(p.L, x) if abs(x) >= p.L * (1.0 - CENTRE_SNAP) else x
 
 
-def _racing(p, s, full, kernel_breaks, amplitudes, where, broken):
+def _racing(p, tab, kernel_breaks, amplitudes, where, broken):
     """The other places (x on the plate) where the surface that broke at ``where`` (a StageEnd's
     break) stands at the break level too, within RACE of it, at that instant: local peaks of its
     tension (refined by Newton on the modes within their part) off the places ``broken`` and, with
     a crack spacing, beyond it from them (none on a floe's edges). Two tensions tied to round-off
     (the whole plate's two walls, or x and -x, under a centred impact) break at once, as the half
-    plate breaks x and its mirror (docs/model.md, "A break at a wall")."""
-    tab = Tables(p, s.subintervals, full, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
+    plate breaks x and its mirror (docs/model.md, "A break at a wall"). tab: the Tables of the plate
+    that broke, at kernel_breaks."""
     sign = (1.0 if where.surface == "upper" else -1.0) * -0.5 * p.hi
-    level, origin, dx = p.yield_strain, (-p.L if full else 0.0), tab.dx
+    level, origin, dx = p.yield_strain, tab.origin, tab.dx
     cuts = np.sort(np.asarray(kernel_breaks if kernel_breaks is not None else [], dtype=float))
     nodes = tab.xq
     tension = sign * tab.derivative(amplitudes, nodes, 2)
@@ -124,18 +124,21 @@ def _racing(p, s, full, kernel_breaks, amplitudes, where, broken):
         value = sign * float(tab.derivative(amplitudes, x, 2)[0])
         place = float(_snapped(p, float(x) + origin))
         near = any(abs(place - b) <= max(keep, 2.0 * dx) for b in broken + found)
-        edge = p.edges == "free" and abs(place) == p.L
-        if value >= level * (1.0 - RACE) and not near and not edge:
+        if value >= level * (1.0 - RACE) and not near and not _free_edge(p, place, broken):
             found.append(place)
     return found
 
 
-def _crack(p, s, full, kernel_breaks, amplitudes, time, x):
+def _free_edge(p, x, broken) -> bool:
+    """Whether x [m] on the plate is a free edge already: a place broken, or a floe's edge."""
+    return x in broken or (p.edges == "free" and abs(x) == p.L)
+
+
+def _crack(p, tab, amplitudes, time, x):
     """The crack opening at the break at x [m] at time [s] (a solver.spec.Crack): the moment D w_xx
-    and shear D w_xxx the plate broken at kernel_breaks carried there in the state of kernel
+    and shear D w_xxx the plate that broke (tab, its Tables) carried there in the state of kernel
     amplitudes, which its faces carry at first (solver.model.crack)."""
-    tab = Tables(p, s.subintervals, full, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
-    at = x + p.L if full else x                       # (kernel coordinates, as checked_breaks's)
+    at = x - tab.origin                               # (kernel coordinates, as checked_breaks's)
     w2, w3 = (float(tab.derivative(amplitudes, at, order)[0]) for order in (2, 3))
     return Crack(time, at, p.rigidity * w2, p.rigidity * w3)
 
@@ -180,7 +183,7 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
     yield_strain, max_parts, full, times = p.yield_strain, p.max_parts, spec.full_plate, spec.window.times
     zeros = cosines_to_kernel(np.zeros(p.Nmod), full)
     begin, breaks, t0 = Begin(zeros, zeros.copy()), [], spec.window.t_start
-    stages, events, status, message, cracks, together = [], [], None, "", [], 1
+    stages, events, status, message, cracks = [], [], None, "", []
     opening = p.crack_opening_time                    # (0: each crack opens at once)
     while True:
         later = times >= t0 if not stages else times > t0
@@ -192,21 +195,23 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
         stages.append((later, stage))
         end = stage.end
         if end.carried is not None:              # (breaks at one instant: their carry's, on the last)
-            for event in events[len(events) - together:-1]:
-                event.update(removed_energy=0.0, removed_plate_energy=0.0, removed_layer_energy=0.0)
+            for event in events[:-1]:
+                if event["time"] == events[-1]["time"]:
+                    event.update(removed_energy=0.0, removed_plate_energy=0.0, removed_layer_energy=0.0)
             events[-1].update(removed_energy=end.carried.removed, removed_plate_energy=end.carried.plate_removed,
                               removed_layer_energy=end.carried.layer_removed)
         if stage.status != "ok" or end.broke is None:
             break
         where = end.broke
         x_b = _snapped(p, where.x)
-        if x_b in breaks or (p.edges == "free" and abs(x_b) == p.L):
+        if _free_edge(p, x_b, breaks):
             status = EDGE_BREAK
             message = (f"the tension reached yield_strain = {yield_strain:g} at a free edge (x = {x_b:.6g} m, t = "
                        f"{where.time:.6g} s, {where.surface} surface), which carries no moment in the model: the "
                        f"basis is too coarse there; data up to then is valid")
             break
-        places = [x_b] + [x for x in _racing(p, s, full, kernel_breaks, end.state.amplitudes, where, breaks + [x_b])]
+        tab = Tables(p, s.subintervals, full, s.quadrature, s.quadrature_density, breaks=kernel_breaks)
+        places = [x_b] + _racing(p, tab, kernel_breaks, end.state.amplitudes, where, breaks + [x_b])
         new_breaks = sorted(breaks + places)
         if whole_plate_parts(new_breaks, full, p.L) > max_parts:
             status = PARTS_LIMIT
@@ -221,8 +226,8 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
                            "broken_through": broken_through(so_far, p.x0, full, p.L),
                            "penetration": p.V * where.time if body is None else body.penetration})
             if opening > 0.0:
-                cracks.append(_crack(p, s, full, kernel_breaks, end.state.amplitudes, where.time, x))
-        breaks, t0, together = new_breaks, stage.time_reached, len(places)
+                cracks.append(_crack(p, tab, end.state.amplitudes, where.time, x))
+        breaks, t0 = new_breaks, stage.time_reached
         begin = Begin(end.state.amplitudes, end.state.velocities, kernel_breaks, body)
     return _joined(p, s, spec, stages, events, status, message, full)
 

@@ -159,9 +159,10 @@ def checked_breaks(p, s, breaks, full_plate):
                              "between nodes, across a break")
     full = p.off_centre if full_plate is None else bool(full_plate)
     b = np.sort(np.atleast_1d(np.asarray(breaks, dtype=float)))
-    walls = p.edges != "free"                     # (a floe's edges are free already)
-    inside = ((b >= -p.L) if walls else (b > -p.L)) if full else (b >= 0.0)
-    inside &= (b <= p.L) if walls else (b < p.L)
+    walls = p.edges != "free"
+    inside = (b >= (-p.L if full else 0.0)) & (b <= p.L)
+    if not walls:                                 # (a floe's edges are free already)
+        inside &= np.abs(b) < p.L
     if b.size == 0 or not np.all(inside) or np.any(np.diff(b) <= 0.0):
         ends = "x = +-L a wall, the ice broken off it" if walls else "a floe's edges x = +-L are free already"
         raise ParameterError(f"breaks must be distinct places on the plate ({'-L' if full else '0'} "

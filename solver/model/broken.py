@@ -33,7 +33,7 @@ def wet_parts(p, domain: float, mirror: float, breaks, beta_max: float, springs=
     """The wet modes of the plate (or floe) of parameters p broken at ``breaks`` on the kernel's
     domain [0, domain] (module docstring); ``springs`` {b: k}: the breaks b that are cracks only
     part through the thickness, each a rotational spring of stiffness k [N m rad-1 m-1]
-    (crack_spring)."""
+    (crack_springs)."""
     from scipy.linalg import cholesky, eigh, null_space, solve_triangular      # (a broken plate's tables only)
     floe = p.edges == "free"
     modes = part_modes(domain, breaks, beta_max, p.edge_shapes, (mirror == 2.0 or not floe, not floe))

@@ -1,7 +1,8 @@
 r"""A floe broken into parts: the water its parts share (docs/model.md, "A floe breaks"). The parts,
 their wet modes, the carry and the tables are the walled plate's (solver.model.parts,
-solver.model.broken, solver.model.part_tables); what differs is the water, the half-plane's with phi = 0 on the open
-surface (solver.model.floe), and that a floe's ends are free and its volume not fixed.
+solver.model.broken, solver.model.part_tables); what differs is the water, the half-plane's with
+phi = 0 on the open surface (solver.model.floe), and that a floe's ends are free and its volume
+not fixed.
 
 **The added mass of the parts' modes.** With x = L cos t on the floe (plate coordinates), the floe's
 added mass of shapes psi_m, psi_n is
@@ -11,8 +12,8 @@ added mass of shapes psi_m, psi_n is
 f_m(t) = psi_m(L cos t) sin t (solver.model.floe). A part's mode lives on one interval of t (two
 on the half floe of a centred impact, whose modes stand for their mirror psi(|x|) too) and jumps
 to zero at its ends, so p_mk falls as 1 / k only: each p_mk, k <= K, is taken by Gauss-Legendre
-on the mode's intervals (panels of at most FLOE_PANEL / (k_max + beta L) in t, _t_rule), and the sum beyond
-K in closed form to its second order. Integrating by parts twice,
+on the mode's intervals (panels of at most FLOE_PANEL / (k_max + beta L) in t, _t_rule), and the
+sum beyond K in closed form to its second order. Integrating by parts twice,
 
     p_mk = (2/pi) sum_tau [J_m(tau) cos(k tau) / k - J'_m(tau) sin(k tau) / k^2] + O(k^-3),
 
