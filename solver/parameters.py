@@ -174,7 +174,7 @@ class Parameters:
         the parts' largest wavenumber (a part too short for one takes a shape of the whole part,
         beta l = 1.5, in its place), which carry the bending a break leaves at its faces and an
         opening crack's moment (docs/model.md, "Edge shapes"). 0 (the default): the parts'
-        free-free modes alone. With cracks that open at once it needs a crack_spacing.
+        free-free modes alone. It needs a crack_spacing.
     """
 
     K: float = 8e6
@@ -259,10 +259,10 @@ class Parameters:
             return
         if self.max_parts < 2:
             raise ParameterError(f"max_parts must be an integer >= 2 (a break makes two parts), got {self.max_parts!r}")
-        if self.edge_shapes > 0 and self.crack_spacing == 0.0 and self.crack_opening_time == 0.0:
-            raise ParameterError("edge_shapes > 0 with cracks that open at once needs crack_spacing > 0: with edge "
-                                 "shapes a free edge's w'' = 0 holds only weakly, so the tension read at a new edge is "
-                                 "the basis', not the ice's")
+        if self.edge_shapes > 0 and self.crack_spacing == 0.0:
+            raise ParameterError("edge_shapes > 0 needs crack_spacing > 0: edge shapes carry a new edge's bending (at "
+                                 "once, or an opening crack's held moment), so the tension next to a break stays at "
+                                 "yield_strain and the ice would break again within a millimetre of it")
 
     def _check_scales(self) -> None:
         """Refuse values that are each allowed but give no finite time scale or impact stage,

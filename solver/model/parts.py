@@ -55,9 +55,10 @@ its part's ends (jump_tail).
 
 **Wet modes.** With the dry amplitudes q (w = sum_m q_m psi_m), the part's mass and the added mass
 M = mirror m G + A, the stiffness K = mirror (D beta^4 + rho_w g) G (G = diag(int psi^2 dx); with
-edge shapes K = mirror (D G2 + rho_w g G), G and G2 the Gram matrices of psi and psi'', and q kept
-to the span less its directions of mass below SPAN_TOLERANCE), and
-the constraint sum_m q_m int psi_m dx = 0 (q = Z r, Z an orthonormal basis of its null space):
+edge shapes K = mirror (D G2 + rho_w g G), G and G2 the Gram matrices of psi and psi'', q kept to
+the modes and the edge shapes they do not nearly span, each at unit mass, and the constraint taken
+by eliminating amplitudes: solver.model.broken.shaped_span, eliminated), and
+the constraint sum_m q_m int psi_m dx = 0 (q = Z r, Z a basis of its null space):
 K_r V = M_r V diag(omega^2), V^T M_r V = I, Q = Z V; the wet mode Psi_k = sum_m Q_mk psi_m. The
 eigenvalues come from K_r^-1/2 M_r K_r^-1/2 (1 / omega^2, which keeps the slow modes to full
 relative accuracy, as on the floe).
@@ -102,14 +103,15 @@ EDGE_FACTORS = (1.0, 0.5, 0.25, 0.125)
 #: free-free part): shorter, it is nearly a part's heave or pitch (1 / cosh(3) = 0.1)
 EDGE_LENGTH = 3.0
 #: a part too short for one of the edge shapes asked (beta l < EDGE_LENGTH) takes in its place a
-#: whole-part shape (both parities on a free-free part) at beta l = EDGE_WHOLE: w'' != 0 at its
+#: whole-part shape (both parities on a free-free part) at beta l = EDGE_WHOLE (none where that beta
+#: is beyond beta_max, as the part's own modes are): w'' != 0 at its
 #: free ends and across it, which its boundary layers, too steep for it, cannot give to a slowly
 #: varying curvature that does not vanish at a face (an opening crack's held moment,
 #: docs/model.md, "Edge shapes")
 EDGE_WHOLE = 1.5
-#: the wet modes are sought on the dry modes' span less its directions of mass below
-#: SPAN_TOLERANCE of the largest (edge shapes nearly dependent on a part's modes): the kernels take
-#: a null wet mode for each direction left out (wet_parts)
+#: an edge shape is kept where the share of its mass that its part's modes and the shapes kept
+#: before it leave out is at least SPAN_TOLERANCE (solver.model.broken.shaped_span): the kernels
+#: take a null wet mode for each shape left out (wet_parts)
 SPAN_TOLERANCE = 1e-12
 #: cosine_integrals' closed form divides by beta^4 - mu^4: below RESONANCE mu^4 (|beta - mu| < 1.2 %
 #: of mu) it integrates by Gauss-Legendre instead (the closed form's rounding is then below
@@ -217,9 +219,9 @@ def _part(lo, hi, sliding_lo, sliding_hi, beta_max, edges=0):
 def _edge_betas(beta_max, length, edges):
     """The wavenumbers [m-1] of a part's edge shapes: the first ``edges`` of EDGE_FACTORS beta_max,
     those with beta length >= EDGE_LENGTH, and where one is left out the whole part's
-    EDGE_WHOLE / length in its place."""
+    EDGE_WHOLE / length in its place, unless that is beyond beta_max."""
     layers = [f * beta_max for f in EDGE_FACTORS[:edges] if f * beta_max * length >= EDGE_LENGTH]
-    return layers + [EDGE_WHOLE / length] if len(layers) < edges else layers
+    return layers + [EDGE_WHOLE / length] if len(layers) < edges and EDGE_WHOLE <= beta_max * length else layers
 
 
 def part_modes(domain: float, breaks, beta_max: float, edges: int = 0, sliding=(True, True)) -> PartModes:
