@@ -67,11 +67,11 @@ def shaped_span(modes: PartModes, G0) -> np.ndarray:
     """(Nd, Nk): the dry modes a plate with edge shapes keeps, each scaled to a unit int psi^2 dx
     (columns of the identity over the square roots of G0's diagonal). A part's modes are kept; its
     edge shapes one by one in their order (EDGE_FACTORS, the whole part's last), each where the
-    part's of its mass that the modes and the shapes kept before it leave out is at least
-    SPAN_TOLERANCE. A shape dropped is one the others nearly span (its part's heave with two
-    boundary layers of a short part): rotating to the mass's eigenvectors and dropping its
-    smallest, as this did until breaking 13, let round-off into the parts' heave and pitch
-    (their wet frequencies 2.5 % off at N = 240 with 4 shapes: docs/model.md, "Edge shapes")."""
+    share of its mass that the part's modes and the shapes kept before it leave out (its Schur
+    complement at unit mass) is at least SPAN_TOLERANCE. A shape dropped is one the others nearly
+    span. Rotating to the mass's eigenvectors and dropping the smallest, as wet_parts did until
+    breaking 13, let round-off into the parts' heave and pitch (their wet frequencies 2.5 % off
+    at N = 240 with 4 shapes: docs/model.md, "Edge shapes")."""
     scale = 1.0 / np.sqrt(np.diag(G0))
     unit = scale[:, None] * G0 * scale[None, :]
     edge, keep = edge_shaped(modes), ~edge_shaped(modes)
