@@ -62,7 +62,9 @@ def test_a_crack_spring_stiffens_from_a_hinge_to_the_whole_plate():
     for place, drop in ((0.0, 0.43), (1.5, 0.29)):
         runs = [_frequencies(p, place, k) for k in (0.0, 0.01 * k_half, k_half, 1e4 * k_half)]
         for softer, stiffer in zip(runs[:-1], runs[1:]):
-            assert np.all(softer <= stiffer * (1 + 1e-12))
+            # (each omega^2 from the inverse problem to about eps (omega / omega_1)^2 of itself:
+            # the frequencies the spring leaves as they were may move by that, up to 3e-12 on haswell)
+            assert np.all(softer <= stiffer * (1.0 + 1e-13 * (stiffer / stiffer[0]) ** 2))
         assert np.max(np.abs(runs[-1] / whole - 1.0)) < 5e-5
         assert 1.0 - runs[0][0] / whole[0] == pytest.approx(drop, abs=0.01)
     with pytest.raises(ValueError, match="needs a break"):

@@ -467,19 +467,46 @@ def edge_shaped(modes: PartModes) -> np.ndarray:
 def gram(modes: PartModes, order: int) -> np.ndarray:
     """(Nd, Nd): int psi_m^(order) psi_n^(order) dx, of order 0 (mass) or 2 (bending) [m, m-3]. A
     part's modes but its edge shapes are orthogonal, int psi^2 dx the part's length and int
-    psi''^2 dx beta^4 times it; the edge shapes' rows and columns by Gauss-Legendre on their part
-    (exact to round-off: gauss_rule)."""
+    psi''^2 dx beta^4 times it; the edge shapes' rows and columns in closed form (_edge_rows)."""
     edge = edge_shaped(modes)
     out = np.diag(part_lengths(modes) * (modes.betas**4 if order == 2 else 1.0))
     for part in np.unique(modes.parts[edge]):
         on = np.flatnonzero(modes.parts == part)
-        x, w = gauss_rule(modes, on[np.argmax(modes.betas[on])], np.max(modes.betas[on]))
-        values = modes.norms[on, None] * mode_block(PartModes(*(field[on] for field in modes)), x, order)
-        block = (values * w) @ values.T
-        rows = edge[on]
-        out[on[rows, None], on[None, :]] = block[rows]
-        out[on[:, None], on[None, rows]] = block[:, rows]
+        rows = on[edge[on]]
+        block = _edge_rows(modes, rows, on, order)
+        out[rows[:, None], on[None, :]] = block
+        out[on[:, None], rows[None, :]] = block.T
     return out
+
+
+def _edge_rows(modes: PartModes, rows, on, order: int) -> np.ndarray:
+    """(R, P): int psi_r^(order) psi_p^(order) dx of the edge shapes ``rows`` and the modes ``on``
+    of their part [a, b]. Each obeys psi'''' = beta^4 psi there, so with W = psi_r''' psi_p -
+    psi_r'' psi_p' + psi_r' psi_p'' - psi_r psi_p''' (W' = (beta_r^4 - beta_p^4) psi_r psi_p),
+
+        (beta_r^4 - beta_p^4) int psi_r psi_p dx = [W]_a^b,
+        int psi_r'' psi_p'' dx = [psi_r'' psi_p' - psi_r''' psi_p]_a^b + beta_r^4 int psi_r psi_p dx,
+
+    from the modes' end values. Where |beta_r - beta_p| l < 1 (a shape with itself or its other
+    parity, a mode of nearly its wavenumber: the bracket's rounding over a small difference) the
+    pair is integrated by Gauss-Legendre (gauss_rule) instead. Benchmark (tests/test_edge_shapes.py):
+    a composite Gauss-Legendre rule on each part."""
+    ends = [end_values(modes, k) for k in range(4)]                     # (Nd, 2) each: at a and b
+    r, p = [v[rows][:, None, :] for v in ends], [v[on][None, :, :] for v in ends]
+    wronskian = r[3] * p[0] - r[2] * p[1] + r[1] * p[2] - r[0] * p[3]
+    b_r, b_p = modes.betas[rows][:, None], modes.betas[on][None, :]
+    near = np.abs(b_r - b_p) * (modes.highs[rows[0]] - modes.lows[rows[0]]) < 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        block = (wronskian[..., 1] - wronskian[..., 0]) / (b_r**4 - b_p**4)
+    if order == 2:
+        ends_term = r[2] * p[1] - r[3] * p[0]
+        block = np.where(b_p == 0.0, 0.0, ends_term[..., 1] - ends_term[..., 0] + b_r**4 * block)   # (heave, pitch)
+    for i, k in zip(*np.nonzero(near)):
+        pair = np.array([rows[i], on[k]])
+        x, w = gauss_rule(modes, pair[np.argmax(modes.betas[pair])], float(np.max(modes.betas[pair])))
+        values = modes.norms[pair, None] * mode_block(PartModes(*(field[pair] for field in modes)), x, order)
+        block[i, k] = np.sum(values[0] * values[1] * w)
+    return block
 
 
 def mode_means(modes: PartModes) -> np.ndarray:
