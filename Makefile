@@ -60,7 +60,7 @@ PORTABLE_TESTS := tests/test_axes.py tests/test_body_mass.py tests/test_body_sha
 	tests/test_floe.py tests/test_floe_gauss.py tests/test_composition.py tests/test_impact_zone.py tests/test_kernel_pieces.py tests/test_layer_law.py tests/test_off_centre.py tests/test_paper_numbers.py \
 	tests/test_pipeline.py \
 	tests/test_viscoelastic.py tests/test_water_depth.py tests/test_asked.py tests/test_error_control.py tests/test_parts.py tests/test_breaking.py \
-	tests/test_floe_parts.py tests/test_crack_spring.py
+	tests/test_floe_parts.py tests/test_crack_spring.py tests/test_edge_shapes.py
 #: numpy's SIMD dispatch targets above its baseline, turned off to emulate an older CPU
 NO_AVX512 := X86_V4 AVX512_ICL AVX512_SPR
 
