@@ -55,7 +55,7 @@ from .model.basis import PEAK_MARGIN
 from .spec import Begin, Breaking, BreakEvent, Crack, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
-PARTS_LIMIT, EDGE_BREAK = "parts_limit", "edge_break"
+PARTS_LIMIT, EDGE_BREAK, NONFINITE = "parts_limit", "edge_break", "nonfinite"
 #: a stage after the first starts with this fraction of the previous stage's largest step (the
 #: first touch's short first step, and the 10 % a step it may grow by, would cost some 120 steps
 #: a stage)
@@ -189,10 +189,16 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
     while True:
         later = times >= t0 if not stages else times > t0
         kernel_breaks = checked_breaks(p, s, breaks, full) if breaks else None
-        stage = run_case(p, s, replace(spec, window=replace(spec.window, times=times[later], t_start=t0), begin=begin,
-                                       breaks=kernel_breaks, break_level=float(yield_strain),
-                                       first_step=_restart_step(stages), growth_from=_growth_from(p, spec, t0),
-                                       cracks=tuple(c for c in cracks if c.time + opening > t0)))
+        try:
+            stage = run_case(p, s, replace(spec, window=replace(spec.window, times=times[later], t_start=t0),
+                                           begin=begin, breaks=kernel_breaks, break_level=float(yield_strain),
+                                           first_step=_restart_step(stages), growth_from=_growth_from(p, spec, t0),
+                                           cracks=tuple(c for c in cracks if c.time + opening > t0)))
+        except np.linalg.LinAlgError as error:          # (a broken plate's wet modes, or the carry onto them)
+            if not stages:
+                raise
+            status, message = NONFINITE, _no_wet_modes(breaks, t0, error)
+            break
         stages.append((later, stage))
         end = stage.end
         if end.carried is not None:              # (breaks at one instant: their carry's, on the last)
@@ -231,6 +237,14 @@ def solve_breaking(p, s, spec: RunSpec) -> Result:
         breaks, t0 = new_breaks, stage.time_reached
         begin = Begin(end.state.amplitudes, end.state.velocities, kernel_breaks, body)
     return _joined(p, s, spec, stages, events, status, message, full)
+
+
+def _no_wet_modes(breaks, time, error) -> str:
+    """The message of a run that ends where a broken plate's wet modes cannot be computed (a
+    factorisation of its mass or stiffness failed: parts the basis cannot resolve)."""
+    places = ", ".join(f"{x:.6g}" for x in breaks)
+    return (f"the plate broken at x = {places} m has no wet modes the solver can compute at t = {time:.6g} s "
+            f"({error}); data up to then is valid")
 
 
 def joined_record(records):

@@ -15,7 +15,7 @@ STATUS_INFO = {
     "layer_bottomed_out": "the layer's gap closed to bottoming_gap (default 1e-3, pressure 1000 K) of its "
                           "thickness at bottoming_time: the model's own end; data up to then is valid",
     "nonfinite": "a fixed-step run met delta >= 1 or a non-finite state, or the adaptive step "
-                 "could not avoid one",
+                 "could not avoid one, or a broken plate's wet modes could not be computed",
     "step_limit": "max_steps attempted, or error control drove the step below its floor",
     "energy_violation": "the energy identity E_plate + E_layer + D = W (D: dissipated, by viscoelastic ice or "
                         "layer and opening cracks) was broken: a step made it jump and no smaller step mended it, or the residual ended "

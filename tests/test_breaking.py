@@ -337,6 +337,30 @@ def test_an_arithmetic_error_in_the_kernels_is_a_status():
     assert r.valid[0] and len(r.breaking.breaks) == 1
 
 
+def test_a_broken_plate_without_wet_modes_is_a_status(monkeypatch):
+    """Where a broken plate's wet modes cannot be computed (a factorisation fails: here made to, for
+    the plate broken twice), the run ends nonfinite at that break with one line naming the plate
+    and the error, each break so far recorded and the data up to the second kept: not a
+    LinAlgError out of solve (as a 0.6 mm part of edge shapes gave before session 35)."""
+    from solver.model import assemble, part_tables
+    real = part_tables.wet_parts
+
+    def failing(p, domain, mirror, breaks, beta_max, springs=None):
+        if len(breaks) > 1:
+            raise np.linalg.LinAlgError("9-th leading minor of the array is not positive definite")
+        return real(p, domain, mirror, breaks, beta_max, springs)
+    monkeypatch.setattr(part_tables, "wet_parts", failing)
+    monkeypatch.setattr(assemble, "_PARTS_TABLES", {})
+    times = np.linspace(0.0, 1e-3, 21)
+    r = solve(Parameters(Nmod=20, fracture="break", yield_strain=8e-5), Settings(), fields=(), times=times,
+              t_end=1e-3)
+    second = r.breaking.breaks[1].time
+    assert r.status == "nonfinite" and "no wet modes" in r.message and "positive definite" in r.message
+    assert "\n" not in r.message and len(r.breaking.breaks) == 2
+    assert np.all(r.valid[times <= second]) and not np.any(r.valid[times > second])
+    assert np.all(np.isfinite(r.work[r.valid]))
+
+
 def test_the_whole_plate_counts_the_same_parts():
     """The same breaks on the half plate of a centred impact and on the whole plate
     (full_plate=True): the same number of parts after each (the centre's break cuts 2 parts,
