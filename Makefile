@@ -56,7 +56,7 @@ test: setup  ## the default test suite (fast; excludes tests marked slow): 2 pro
 #: the tests whose numbers another CPU's round-off could move: the solver's, the regression
 #: against the stored reference, and the axes a study generates
 PORTABLE_TESTS := tests/test_axes.py tests/test_body_mass.py tests/test_body_shapes.py tests/test_energy_and_forcing.py tests/test_quadrature.py \
-	tests/test_error_estimate.py tests/test_events.py tests/test_extremes.py tests/test_integrators.py \
+	tests/test_error_estimate.py tests/test_events.py tests/test_peak_search.py tests/test_extremes.py tests/test_integrators.py \
 	tests/test_floe.py tests/test_floe_gauss.py tests/test_composition.py tests/test_impact_zone.py tests/test_kernel_pieces.py tests/test_layer_law.py tests/test_off_centre.py tests/test_paper_numbers.py \
 	tests/test_pipeline.py \
 	tests/test_viscoelastic.py tests/test_water_depth.py tests/test_asked.py tests/test_error_control.py tests/test_parts.py tests/test_breaking.py \

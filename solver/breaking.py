@@ -51,7 +51,7 @@ from .outputs import DIAGNOSTIC_JOINS, SERIES
 from .parameters import ParameterError
 from .run import Result, checked_breaks, cosines_to_kernel, run_case
 from .model.assemble import Tables
-from .model.basis import PEAK_MARGIN
+from .model.peak_margin import competing
 from .spec import Begin, Breaking, BreakEvent, Crack, RunSpec
 
 #: the statuses of a breaking run beyond the kernels' (docs/model.md, "Statuses")
@@ -109,7 +109,8 @@ def _racing(p, tab, kernel_breaks, amplitudes, where, broken):
     tension = sign * tab.derivative(amplitudes, nodes, 2)
     keep = p.crack_spacing * p.hi
     found = []
-    for j in np.flatnonzero(tension >= level * (1.0 - PEAK_MARGIN)):    # (a peak may stand above its nodes)
+    reach = competing(np.ascontiguousarray(tension), level, tab.model.basis.reach, math.inf)
+    for j in np.flatnonzero(tension >= level - reach):    # (a peak may stand above its nodes)
         if (j > 0 and tension[j - 1] > tension[j]) or (j < nodes.size - 1 and tension[j + 1] > tension[j]):
             continue
         x = nodes[j]

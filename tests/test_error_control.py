@@ -138,7 +138,7 @@ def test_the_control_changes_no_fixed_step_run(integrator):
         assert value == runs[1].diagnostics[name] or (np.isnan(value) and np.isnan(runs[1].diagnostics[name])), name
 
 
-def test_the_control_enters_the_case_id_only_where_it_judges():
+def test_the_control_enters_the_case_id_only_where_it_judges(monkeypatch):
     """The default is "smoothness" at 3e-7, in the id of an adaptive etd34 run with the revision
     of its results; "embedded" (the control before it was a setting, and the default before it
     was "smoothness") leaves the ids as they were, its tolerance 1e-9 when none is given."""
@@ -152,11 +152,17 @@ def test_the_control_enters_the_case_id_only_where_it_judges():
         assert "error_control" not in used_settings(fixed)
         assert used_settings(fixed) == used_settings(replace(fixed, error_control="embedded"))
     # a study pinned to the embedded control has the ids of the same study under the default
-    # before (computed at 469e03a, where it was the embedded control at 1e-9)
+    # before (computed at 469e03a, where it was the embedded control at 1e-9), at the results
+    # revisions of then (an id carries its rule's revision: a later bump gives every case a new id)
     before = ["3e9abfbfaffcd8a2", "c61fef92b2b96ad2"]
     pinned = study().replace("[output]", '[solver]\nerror_control = "embedded"\n[output]')
+    now = load_study_text(pinned, "s").case_ids
+    for rule, revision in {"paper": 3, "gauss": 5}.items():
+        monkeypatch.setitem(RESULTS_REVISION, rule, revision)
     assert load_study_text(pinned, "s").case_ids == before
     assert not set(load_study_text(study(), "s").case_ids) & set(before)
+    monkeypatch.undo()
+    assert load_study_text(pinned, "s").case_ids == now and not set(now) & set(before)
 
 
 def test_an_unknown_control_is_refused_by_name():

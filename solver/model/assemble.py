@@ -16,6 +16,7 @@ from collections import namedtuple
 import numpy as np
 
 from .basis import QUADRATURE_CODES, Basis
+from .peak_margin import peak_reach
 from .body import Body
 from .crack import no_cracks
 from .floe import dry_values, floe_tables
@@ -75,7 +76,7 @@ class Tables:
         panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(lam[-1])
         basis = Basis(float(lam[0]), float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
-                      0.0, np.zeros(0), np.zeros(0))
+                      0.0, np.zeros(0), np.zeros(0), peak_reach(float(lam[-1]), self.dx))
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]),
                            no_cracks(self.omega.size))
@@ -131,7 +132,7 @@ class Tables:
         panel = PANEL_POINTS / float(quadrature_density) * 2.0 * np.pi / float(np.max(fl["betas"]))
         basis = Basis(0.0, float(self.dx), self.cosq, self.wq, 1.0 if full else 2.0,
                       float(self.dx * (self.xq.size - 1)), QUADRATURE_CODES[quadrature], gauss_x, gauss_w, panel,
-                      1.0, fl["packed"], np.empty(fl["omega"].size))
+                      1.0, fl["packed"], np.empty(fl["omega"].size), peak_reach(float(np.max(fl["betas"])), self.dx))
         self.model = Model(plate, basis, self._body(p, full), Layer(float(p.he), float(p.K), float(p.layer_tau),
                                                                     LAW_CODES[p.layer_law]),
                            no_cracks(self.omega.size))

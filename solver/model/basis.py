@@ -26,6 +26,7 @@ from collections import namedtuple
 import numpy as np
 
 from .floe import BREAK_COUNT, CRACK_BAND, FIRST_BREAK, HEADER, HIGH_CUT, LOW_CUT, TABLE_STRAIN, floe_dry, floe_plane
+from .peak_margin import competing, curvature_bound
 from .points import floe_dry_sums, floe_sums
 from ..compile.jit import kernel
 
@@ -37,8 +38,10 @@ from ..compile.jit import kernel
 #: kind (0: these cosines; 1: a free floe's wet modes, solver.model.floe, whose node table is cosq
 #: and whose other tables and shapes are packed in floe; empty on the cosines); dry (N,), on a
 #: floe's wet modes, a state's dry coefficients for the Newton searches on the modes (load_dry,
-#: point_sums: each search loads its state once and holds it only while it runs; empty on the cosines)
-Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe dry")
+#: point_sums: each search loads its state once and holds it only while it runs; empty on the cosines);
+#: reach, the most a peak between nodes stands above its nearest node, as a fraction of the largest
+#: |field| ((k dx)^2 / 8, k the largest wavenumber: peak_reach)
+Basis = namedtuple("Basis", "lam1 dx cosq wq mirror length rule gauss_x gauss_w panel kind floe dry reach")
 #: a modal field: its weights on the cosines (sum_n w_n c_n cos(lambda_n x)) and, on a floe's wet
 #: modes, its code instead (0 the deflection, 1 the upper-surface strain; solver.model.floe)
 Field = namedtuple("Field", "weights code")
@@ -52,10 +55,6 @@ QUADRATURE_CODES = {"paper": 0, "gauss": 1}
 #: iteration converges quadratically (the error after a step d is ~ lambda_N d^2), so the
 #: position is then exact to ~1e-16 m for any bracket of a few subintervals
 NEWTON_STOP = 1e-7
-
-
-#: local peaks within PEAK_MARGIN (relative) of the largest node compete for the global peak
-PEAK_MARGIN = 0.02
 
 
 @kernel
@@ -306,13 +305,21 @@ def continuous_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
     the node. Returns (value, x). Refining on the modes, not on the node values, keeps the
     peak a smooth function of time (a parabola through nodes wobbles by ~1e-4 of a sharp peak
     each time the peak crosses a node)."""
+    if not (j == 0 or j == n - 1):
+        load_dry(basis, c)
+    return loaded_peak(vals, sign, j, n, basis, field, c, scale, q2, q0)
+
+
+@kernel
+def loaded_peak(vals, sign, j, n, basis, field, c, scale, q2, q0):
+    """continuous_peak with the state's dry coefficients already loaded (load_dry; nothing on the
+    cosines): a search over many nodes loads them once."""
     dx = basis.dx
     if j == 0 or j == n - 1:
         return sign * vals[j], j * dx
     v, x = refine(vals, sign, j, n, dx)
     xlo = (j - 1) * dx
     xhi = (j + 1) * dx
-    load_dry(basis, c)
     for _ in range(8):
         s0, s1, s2 = point_sums(basis, field, c, x)
         x, done = newton_move(x, sign * scale * s1 + 2.0 * q2 * x, sign * scale * s2 + 2.0 * q2, xlo, xhi,
@@ -408,7 +415,8 @@ def banded_peak(eps, sign, basis, w, a):
             jtop, top = j, sign * eps[j]
     if jtop < 0:
         return -np.inf, 0.0, -1
-    floor = top - PEAK_MARGIN * abs(top)
+    load_dry(basis, a)
+    floor = top - competing(eps, top, basis.reach, curvature_bound(basis, w, a) * dx**2 / 8.0)
     field = Field(w, 1)
     bv, bx = read_peak(eps, sign, jtop, J, basis, field, a)
     bj = jtop
@@ -431,11 +439,9 @@ def banded_peak(eps, sign, basis, w, a):
 @kernel
 def global_peak(eps, sign, basis, w, a):
     """The global peak of sign * eps over continuous x: every local maximum of the nodes within
-    PEAK_MARGIN of the largest node is refined on the modes. (A peak between nodes stands above
-    its nearest node by at most (lambda_N dx)^2 / 8 of the largest |tension|: 0.4 % at N = 60 on
-    the paper's 1000 subintervals, but 7.1 % on the default 250; measured on the reference case
-    that breaks, up to 4.9 %, and 2 of 7200 samples where a rival peak within that excess is
-    missed, by 0.25 % and 0.40 %: benchmarks/peak_margin.py. The margin is not yet the grid's.)
+    PEAK_MARGIN of the largest node, or within the grid's reach where more (competing: a peak
+    between nodes stands above its nearest node by up to (lambda_N dx)^2 / 8 of the largest
+    |tension|, 7.1 % at N = 60 on the default 250 subintervals), is refined on the modes.
     Returns (value, x, node). On a plate broken with a crack spacing, banded_peak: the peak
     where the tension is read (where none is, every piece within the spacing of its ends, the
     peak over the plate, which breaks it no more: readable)."""
@@ -446,9 +452,10 @@ def global_peak(eps, sign, basis, w, a):
     J = eps.shape[0]
     jtop = argmax_node(eps, sign, J)
     top = sign * eps[jtop]
-    floor = top - PEAK_MARGIN * abs(top)
+    load_dry(basis, a)
+    floor = top - competing(eps, top, basis.reach, curvature_bound(basis, w, a) * basis.dx**2 / 8.0)
     field = Field(w, 1)
-    bv, bx = continuous_peak(eps, sign, jtop, J, basis, field, a, 1.0, 0.0, 0.0)
+    bv, bx = loaded_peak(eps, sign, jtop, J, basis, field, a, 1.0, 0.0, 0.0)
     bj = jtop
     for j in range(J):
         v = sign * eps[j]
@@ -456,7 +463,7 @@ def global_peak(eps, sign, basis, w, a):
             continue
         if (j > 0 and sign * eps[j - 1] > v) or (j < J - 1 and sign * eps[j + 1] > v):
             continue
-        cv, cx = continuous_peak(eps, sign, j, J, basis, field, a, 1.0, 0.0, 0.0)
+        cv, cx = loaded_peak(eps, sign, j, J, basis, field, a, 1.0, 0.0, 0.0)
         if cv > bv:
             bv, bx, bj = cv, cx, j
     return bv, bx, bj
