@@ -97,7 +97,7 @@ def margins(tab, amplitudes, fine, hi, margin_only=False):
                 best = max(vf[max(0, (j - 1) * fine):(j + 1) * fine + 1].max() for j in range(J)
                            if vn[j] >= floor and (j == 0 or vn[j - 1] <= vn[j]) and (j == J - 1 or vn[j + 1] <= vn[j]))
             else:
-                best = global_peak(eps, sign, basis, weights, a)[0]
+                best = global_peak(eps, sign, basis, weights, a, True)[0]
             if top > best * (1.0 + 1e-6):
                 missed += 1
                 worst_miss = max(worst_miss, (top - best) / top)

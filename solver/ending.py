@@ -90,7 +90,7 @@ def _locate_break(ws, level, start, carried, t, h, upper, lower, observed):
 def _peak_reaches(model, eps, a, sign, level):
     """Whether the tension sign * eps, at its peak over the continuous plate, reaches level where
     the tension is read (basis.readable: beyond a crack spacing from the breaks)."""
-    v, x, _ = global_peak(eps, sign, model.basis, model.plate.modes[STRAIN], a)
+    v, x, _ = global_peak(eps, sign, model.basis, model.plate.modes[STRAIN], a, True)
     return v >= level and readable(model.basis.floe, x)
 
 

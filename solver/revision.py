@@ -86,9 +86,9 @@ mass, and takes the volume constraint by eliminating amplitudes (solver.model.br
 eliminated): its slowest wet modes were up to 2.5 % off, now as on the parts' modes alone within
 1e-11; a part too short for a whole-part shape at beta_max takes none; edge_shapes > 0 needs a
 crack spacing with cracks that open over a time too: the runs with edge shapes change, no other);
-paper 4 and gauss 6 (2026-12-07: the tension's global peak refines every local peak of the nodes
-within the most a peak between nodes can stand above them, solver.model.peak_margin.competing,
-not only those within 2 % of the largest node: on the reference case that breaks the 2 % missed
+paper 4 and gauss 6 (2026-12-07: the tension's global peak at a step's ends and where a break is
+scanned refines every local peak of the nodes within the most a peak between nodes can stand above
+them, solver.model.peak_margin.competing, not only those within 2 % of the largest node: on the reference case that breaks the 2 % missed
 the global peak at 2 of 7200 samples at N = 60 and 136 of 3600 at N = 120, by up to 12.7 %; a run
 where a step's global peak was missed changes, under either rule (and so every floe, DOP853,
 smoothness and breaking run's id, which carry the rule's revision); make bit-for-bit BASE=187f4a3:

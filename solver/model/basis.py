@@ -26,7 +26,7 @@ from collections import namedtuple
 import numpy as np
 
 from .floe import BREAK_COUNT, CRACK_BAND, FIRST_BREAK, HEADER, HIGH_CUT, LOW_CUT, TABLE_STRAIN, floe_dry, floe_plane
-from .peak_margin import competing, curvature_bound
+from .peak_margin import PEAK_MARGIN, competing, curvature_bound
 from .points import floe_dry_sums, floe_sums
 from ..compile.jit import kernel
 
@@ -401,8 +401,17 @@ def read_peak(vals, sign, j, n, basis, field, c):
     return best, bx
 
 
+@kernel(inline="always")
+def _margin(eps, top, basis, w, a, sure):
+    """How far below the largest node top a local peak competes: competing's where sure (the
+    state's dry coefficients loaded), else PEAK_MARGIN of |top|."""
+    if not sure:
+        return PEAK_MARGIN * abs(top)
+    return competing(eps, top, basis.reach, curvature_bound(basis, w, a) * basis.dx**2 / 8.0)
+
+
 @kernel
-def banded_peak(eps, sign, basis, w, a):
+def banded_peak(eps, sign, basis, w, a, sure):
     """global_peak where the tension is read only beyond the crack spacing from the breaks: the
     local maxima among the nodes read (read_interval), each refined within the stretch read
     (read_peak). A plate broken everywhere within its spacing reads everywhere (global_peak's
@@ -416,7 +425,7 @@ def banded_peak(eps, sign, basis, w, a):
     if jtop < 0:
         return -np.inf, 0.0, -1
     load_dry(basis, a)
-    floor = top - competing(eps, top, basis.reach, curvature_bound(basis, w, a) * dx**2 / 8.0)
+    floor = top - _margin(eps, top, basis, w, a, sure)
     field = Field(w, 1)
     bv, bx = read_peak(eps, sign, jtop, J, basis, field, a)
     bj = jtop
@@ -437,23 +446,25 @@ def banded_peak(eps, sign, basis, w, a):
 
 
 @kernel
-def global_peak(eps, sign, basis, w, a):
+def global_peak(eps, sign, basis, w, a, sure):
     """The global peak of sign * eps over continuous x: every local maximum of the nodes within
-    PEAK_MARGIN of the largest node, or within the grid's reach where more (competing: a peak
-    between nodes stands above its nearest node by up to (lambda_N dx)^2 / 8 of the largest
-    |tension|, 7.1 % at N = 60 on the default 250 subintervals), is refined on the modes.
+    PEAK_MARGIN of the largest node is refined on the modes, and, where sure is True, every one
+    within the most a peak between nodes can stand above its nearest node where that is more
+    (competing: up to (lambda_N dx)^2 / 8 of the largest |tension|, 7.1 % at N = 60 on the default
+    250 subintervals; the state's curvature bound where less). A step's ends and a break's scan
+    are sure; the samples inside a step are not (docs/model.md, "The competing peaks' margin").
     Returns (value, x, node). On a plate broken with a crack spacing, banded_peak: the peak
     where the tension is read (where none is, every piece within the spacing of its ends, the
     peak over the plate, which breaks it no more: readable)."""
     if banded(basis):             # (its own search: the unbanded one below is hot and stays bit for bit)
-        v, x, j = banded_peak(eps, sign, basis, w, a)
+        v, x, j = banded_peak(eps, sign, basis, w, a, sure)
         if j >= 0:
             return v, x, j
     J = eps.shape[0]
     jtop = argmax_node(eps, sign, J)
     top = sign * eps[jtop]
     load_dry(basis, a)
-    floor = top - competing(eps, top, basis.reach, curvature_bound(basis, w, a) * basis.dx**2 / 8.0)
+    floor = top - _margin(eps, top, basis, w, a, sure)
     field = Field(w, 1)
     bv, bx = loaded_peak(eps, sign, jtop, J, basis, field, a, 1.0, 0.0, 0.0)
     bj = jtop

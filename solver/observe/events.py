@@ -47,7 +47,7 @@ def event_value(model, kind, t, jm, state, out):
         return out[0]
     sign = float(kind)
     node_strain(model.basis.cosq, model.basis.floe, model.plate.modes[STRAIN], state.a, state.eps)
-    v, x, j = global_peak(state.eps, sign, model.basis, model.plate.modes[STRAIN], state.a)
+    v, x, j = global_peak(state.eps, sign, model.basis, model.plate.modes[STRAIN], state.a, True)
     out[0] = v
     out[2] = x
     return v

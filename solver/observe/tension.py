@@ -167,7 +167,7 @@ def global_state(model, eps, sign, a, adot, track):
     """The global peak of sign * eps over continuous x (global_peak) and its time derivative
     d/dt = sign * eps_t at the peak (envelope theorem): track[:] = (value, rate, x, node)."""
     strain = model.plate.modes[STRAIN]
-    v, x, j = global_peak(eps, sign, model.basis, strain, a)
+    v, x, j = global_peak(eps, sign, model.basis, strain, a, True)
     track[0] = v
     track[1] = sign * field_sum(model.basis.lam1, model.basis.floe, Field(strain, 1), adot, x)
     track[2] = x
@@ -318,7 +318,7 @@ def _elsewhere(model, tw, sign, K):
             node_strain(model.basis.cosq, model.basis.floe, strain, tw.A[k - 1], tw.nodes[k - 1])
         tw.marks[NODES] = 1.0
     for k in range(1, K):
-        v = global_peak(tw.nodes[k - 1], sign, model.basis, strain, tw.A[k - 1])[0]
+        v = global_peak(tw.nodes[k - 1], sign, model.basis, strain, tw.A[k - 1], False)[0]
         if v > tw.samples[k, 0] + ELSEWHERE * abs(tw.samples[k, 0]):
             return True
     return False
@@ -349,7 +349,7 @@ def _global_piece(model, tw, s, t0, h, dz, rec, n):
     strain = model.plate.modes[STRAIN]
     for k in range(1, K):
         node_strain(model.basis.cosq, model.basis.floe, strain, tw.A2[k - 1], tw.eps)
-        v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1])
+        v, x, j = global_peak(tw.eps, sign, model.basis, strain, tw.A2[k - 1], False)
         samples[k, 0] = v
         samples[k, 1] = sign * field_sum(model.basis.lam1, model.basis.floe, Field(strain, 1), tw.AD2[k - 1], x)
         samples[k, 2] = x
