@@ -424,7 +424,8 @@ def banded_peak(eps, sign, basis, w, a, sure):
             jtop, top = j, sign * eps[j]
     if jtop < 0:
         return -np.inf, 0.0, -1
-    load_dry(basis, a)
+    if sure:                      # (curvature_bound reads the dry coefficients; read_peak loads its own)
+        load_dry(basis, a)
     floor = top - _margin(eps, top, basis, w, a, sure)
     field = Field(w, 1)
     bv, bx = read_peak(eps, sign, jtop, J, basis, field, a)
