@@ -84,10 +84,10 @@ def margins(tab, amplitudes, fine, hi, margin_only=False):
     worst, missed, worst_miss = 0.0, 0, 0.0
     for a in amplitudes:
         a = np.ascontiguousarray(a)
-        at_nodes, on_grid = tab.derivative(a, nodes, 2), tab.derivative(a, grid, 2)
-        eps = np.ascontiguousarray(-0.5 * hi * at_nodes)        # the upper surface's strain at the nodes
+        eps = np.ascontiguousarray(-0.5 * hi * tab.derivative(a, nodes, 2))   # the upper surface's strain
+        eps_grid = -0.5 * hi * tab.derivative(a, grid, 2)
         for sign in (1.0, -1.0):
-            vn, vf = sign * eps, sign * -0.5 * hi * on_grid
+            vn, vf = sign * eps, sign * eps_grid
             top_node, top = vn.max(), vf.max()
             if not top > 0.0:
                 continue

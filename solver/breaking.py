@@ -109,8 +109,8 @@ def _racing(p, tab, kernel_breaks, amplitudes, where, broken):
     tension = sign * tab.derivative(amplitudes, nodes, 2)
     keep = p.crack_spacing * p.hi
     found = []
-    reach = competing(np.ascontiguousarray(tension), level, tab.model.basis.reach, math.inf)
-    for j in np.flatnonzero(tension >= level - reach):    # (a peak may stand above its nodes)
+    margin = competing(np.ascontiguousarray(tension), level, tab.model.basis.reach, math.inf)
+    for j in np.flatnonzero(tension >= level - margin):    # (a peak may stand above its nodes)
         if (j > 0 and tension[j - 1] > tension[j]) or (j < nodes.size - 1 and tension[j + 1] > tension[j]):
             continue
         x = nodes[j]
