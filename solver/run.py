@@ -476,8 +476,8 @@ def _recorded(tab, s, spec, ran):
 def _error_estimated(p, s, spec, tab, integrator, ran, begun, diagnostics, answered) -> dict:
     """The error estimate's diagnostics into diagnostics (solver.error_estimate), with its
     companion run at ten times the tolerance from the state the run began with (begun: already
-    carried, so carried once) to the time reached, on the same output times, with no break of
-    its own; returns the Result's extra (the companion's wall time)."""
+    carried, so carried once) to the time reached, on the same output times, with no break and
+    no observer of its own (only its amplitudes are read); returns the Result's extra (the companion's wall time)."""
     extra, companion, valid = {}, None, np.arange(spec.window.times.size) < ran.n_out
     diag = ran.outputs.diag
     if s.error_estimate and integrator.companion and s.fixed_step == 0 and ran.n_out > 0:
@@ -485,8 +485,9 @@ def _error_estimated(p, s, spec, tab, integrator, ran, begun, diagnostics, answe
         t_reached, t_break = float(diag[kn.D_T_REACHED]), float(diag[kn.D_BREAK_T])
         window = replace(spec.window, times=spec.window.times[valid],
                          t_end=t_reached if answered or not math.isnan(t_break) else spec.window.t_end)
-        other = run_case(p, looser, replace(spec, window=window, asked=replace(spec.asked, fields=(), locate_eps_Y=()),
-                                            begin=begun, break_level=math.inf))
+        # only its amplitudes are read: no observer (an observer never changes a step, solver.observe.asked)
+        nothing = replace(spec.asked, fields=(), outputs=(), end="stage", locate_eps_Y=())
+        other = run_case(p, looser, replace(spec, window=window, asked=nothing, begin=begun, break_level=math.inf))
         companion = (other.amplitudes if tab.floe is not None       # a floe's: its wet modes' already
                      else tab.to_kernel(other.amplitudes, other.antisymmetric_amplitudes))
         extra["error_estimate_wall_time"] = other.wall_time

@@ -33,7 +33,7 @@ SETTING_INFO = {
     "bottoming_gap": ("the layer bottoms out when its gap closes to this fraction of its thickness "
                       "(pressure K / bottoming_gap); smaller: a deeper but less robust criterion", "1"),
     "error_estimate": ("estimate the strain error of each run (etd34: a companion run at 10x the "
-                       "tolerance, about +70% cost)", ""),
+                       "tolerance and without observers, about +45% cost)", ""),
     "impact_zone_margin": ("how far the impact zone reaches beyond the farthest point the contact has reached "
                            "(docs/model.md, \"Maxima of the impact zone\")", "m"),
     "error_control": ("what judges an adaptive etd34 step (embedded: its embedded 4(3) estimate; smoothness: "
