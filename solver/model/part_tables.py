@@ -13,6 +13,9 @@ from ..blas import blas_alone
 from .broken import wet_parts
 from .parts import PartModes, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths, part_values
 
+#: Gauss-Legendre rule of 8 nodes on [-1, 1] (_hat_weights')
+GAUSS8_X, GAUSS8_W = np.polynomial.legendre.leggauss(8)
+
 
 @blas_alone
 def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
@@ -76,7 +79,7 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
 def _hat_weights(Qs, modes: PartModes, x):
     """int hat_j Psi_k dx [m] (N, J) on the evenly spaced nodes x: 8 Gauss-Legendre nodes on each
     piece of a subinterval between the breaks (the modes are smooth there)."""
-    gx, gw = np.polynomial.legendre.leggauss(8)
+    gx, gw = GAUSS8_X, GAUSS8_W
     dx = x[1] - x[0]
     cuts = np.unique(np.concatenate([modes.lows, modes.highs]))
     cuts = cuts[(cuts > x[0]) & (cuts < x[-1]) & (np.abs(cuts / dx - np.round(cuts / dx)) > 1e-12)]

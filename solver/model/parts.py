@@ -163,16 +163,35 @@ def by_part(modes: PartModes, what: tuple, compute, columns: int) -> np.ndarray:
     """(Nd, columns): a table whose rows depend on each mode's own part and on ``what`` only,
     compute(modes of one part) -> its rows, each part's computed once and kept (_PART_ROWS)."""
     out = np.empty((modes.kinds.size, columns))
+    for on, sub, key in _split(modes):
+        rows = _PART_ROWS.get((what, key))
+        if rows is None:
+            rows = _PART_ROWS.keep((what, key), compute(sub))
+        out[on] = rows
+    return out
+
+
+#: the parts of the PartModes last split (_split), by identity: {id: (the PartModes, its parts)},
+#: at most SPLITS_KEPT, the oldest dropped first (each held, so no other takes its id meanwhile)
+SPLITS_KEPT = 16
+_SPLITS = {}
+
+
+def _split(modes: PartModes) -> list:
+    """[(indices, the part's PartModes, its key)] for each part of modes, in the order of their
+    index: a broken plate's tables and carries ask for them some fifty times each (by_part)."""
+    kept = _SPLITS.get(id(modes))
+    if kept is not None and kept[0] is modes:
+        return kept[1]
+    parts = []
     for part in np.unique(modes.parts):
         on = np.flatnonzero(modes.parts == part)
         sub = PartModes(*(field[on] for field in modes))
-        key = (what, sub.kinds.tobytes(), sub.betas.tobytes(), sub.centres.tobytes(), sub.halves.tobytes(),
-               sub.lows.tobytes(), sub.highs.tobytes(), sub.norms.tobytes())
-        rows = _PART_ROWS.get(key)
-        if rows is None:
-            rows = _PART_ROWS.keep(key, compute(sub))
-        out[on] = rows
-    return out
+        parts.append((on, sub, tuple(field.tobytes() for field in sub[:7])))
+    _SPLITS[id(modes)] = (modes, parts)
+    while len(_SPLITS) > SPLITS_KEPT:
+        _SPLITS.pop(next(iter(_SPLITS)))
+    return parts
 
 
 def part_edges(domain: float, breaks) -> np.ndarray:
@@ -272,8 +291,20 @@ def values_at(modes: PartModes, x, order=0, high_end=np.inf) -> np.ndarray:
     if np.any(modes.kinds == COSINE):
         return modes.norms[:, None] * mode_block(modes, x, order)
     block = np.empty((modes.kinds.size, np.size(x)))
-    points.parts_table(kernel_shapes(modes, -np.inf, high_end), 0.0, np.ascontiguousarray(x, dtype=float), order, block)
+    key = (float(high_end),) + tuple(field.tobytes() for field in modes[:7])
+    shapes = _SHAPES.get(key)
+    if shapes is None:                # (a part's tables ask for its shapes some thirty times)
+        shapes = _SHAPES[key] = kernel_shapes(modes, -np.inf, high_end)
+        while len(_SHAPES) > SHAPES_KEPT:
+            _SHAPES.pop(next(iter(_SHAPES)))
+    points.parts_table(shapes, 0.0, np.ascontiguousarray(x, dtype=float), order, block)
     return modes.norms[:, None] * block
+
+
+#: values_at's shapes tables by part and upper end: at most SHAPES_KEPT, the oldest dropped first
+#: (read only)
+SHAPES_KEPT = 64
+_SHAPES = {}
 
 
 def kernel_shapes(modes: PartModes, low_end: float, high_end: float, rows: int = fl.SHAPE_ROWS) -> np.ndarray:

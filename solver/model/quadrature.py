@@ -39,6 +39,7 @@ the exact integrals and the paper's rule as dx^2; the energy identity holds to t
 integration's error; against DOP853 on the same right-hand side the run agrees to 1e-7.
 """
 import cmath
+import functools
 import math
 from collections import namedtuple
 
@@ -475,6 +476,15 @@ def gauss_energy(layer, body, basis, s, a, delta, jmax):
 
 
 def legendre_rule(points: int):
-    """Gauss-Legendre nodes and weights on [-1, 1] (numpy's)."""
-    x, w = np.polynomial.legendre.leggauss(int(points))
+    """Gauss-Legendre nodes and weights on [-1, 1] (numpy's), fresh arrays of numbers computed once
+    per number of points (numpy's leggauss takes ~0.3 ms; a run that breaks asks for a few rules at
+    each break)."""
+    x, w = _legendre_rule(int(points))
+    return x.copy(), w.copy()
+
+
+@functools.lru_cache(maxsize=None)
+def _legendre_rule(points: int):
+    """legendre_rule's numbers (kept: not to be changed)."""
+    x, w = np.polynomial.legendre.leggauss(points)
     return np.ascontiguousarray(x), np.ascontiguousarray(w)
