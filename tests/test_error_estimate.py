@@ -122,3 +122,40 @@ def test_estimate_on_the_work_precision_cases(name):
                   fields=("strain",))
         true = _common_l2(r.fields["strain"], ref.fields["strain"])
         assert true / 3 <= r.diagnostics["error_estimate_quadrature"] <= 30 * true
+
+
+@pytest.mark.parametrize("changes", [{"Nmod": 20}, {"Nmod": 20, "fracture": "break", "yield_strain": 8e-5}])
+def test_the_companion_run_asks_for_no_observer_and_estimates_as_with_all(monkeypatch, changes):
+    """The error estimate's companion run is read for its amplitudes only: it asks for no output
+    (no observer runs), and since an observer never changes a step its estimate is bit for bit
+    the one a companion asking for every output gives (on walls, and through the stages of a run
+    that breaks)."""
+    from dataclasses import replace
+
+    import solver.run as run
+    p = Parameters(**changes)
+    s = Settings(quadrature="gauss")
+    times = np.linspace(0.0, 0.002, 21)
+    asked, original = [], run.run_case
+
+    def watched(p_, s_, spec):
+        if not s_.error_estimate:                      # (the companion: no estimate of its own)
+            asked.append(spec.asked)
+        return original(p_, s_, spec)
+    monkeypatch.setattr(run, "run_case", watched)
+    lean = solve(p, s, fields=(), times=times, t_end=0.002)
+    assert asked and all(a.outputs == () and a.end == "stage" and not a.locate_eps_Y for a in asked)
+
+    def asking_all(p_, s_, spec):                      # the companion as it was: every output
+        if not s_.error_estimate:
+            spec = replace(spec, asked=replace(spec.asked, outputs=None))
+        return original(p_, s_, spec)
+    monkeypatch.setattr(run, "run_case", asking_all)
+    full = solve(p, s, fields=(), times=times, t_end=0.002)
+    stages = (lambda r: r.breaking.stages if r.breaking else [r])
+    assert len(stages(lean)) == len(stages(full)) >= (2 if "fracture" in changes else 1)
+    for a, b in zip(stages(lean), stages(full)):
+        for name in ("error_estimate", "error_estimate_time"):
+            assert a.diagnostics[name] == b.diagnostics[name] or (np.isnan(a.diagnostics[name])
+                                                                  and np.isnan(b.diagnostics[name]))
+    assert lean.diagnostics["error_estimate"] == full.diagnostics["error_estimate"]
