@@ -11,6 +11,7 @@ unbroken run's); and the breaks' times, places and surfaces, the first break and
 Writes results/bench/breaking.md.
 
     python benchmarks/breaking.py [--modes 30 60] [--t-end 0.005] [--rounds 3] [--crack-spacing 0] [--crack-speed inf]
+                                  [--edge-shapes 0]
 """
 from __future__ import annotations
 
@@ -64,10 +65,11 @@ def _timed(run):
             setattr(module, name, function)
 
 
-def measure(N, t_end, rounds, crack_spacing=0.0, crack_speed=math.inf):
+def measure(N, t_end, rounds, crack_spacing=0.0, crack_speed=math.inf, edge_shapes=0):
     """Medians (call, integration) of the unbroken and the breaking run, and the breaking run."""
     p, s = Parameters(Nmod=N), Settings(quadrature="gauss")
-    broken = replace(p, fracture="break", yield_strain=EPS_Y, crack_spacing=crack_spacing, crack_speed=crack_speed)
+    broken = replace(p, fracture="break", yield_strain=EPS_Y, crack_spacing=crack_spacing, crack_speed=crack_speed,
+                     edge_shapes=edge_shapes)
     times = np.linspace(0.0, t_end, 51)
     runs = {"unbroken": lambda: solve(p, s, fields=(), times=times, t_end=t_end),
             "breaking": lambda: solve(broken, s, fields=(), times=times, t_end=t_end)}
@@ -96,10 +98,11 @@ def main():
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--crack-spacing", type=float, default=0.0, help="in ice thicknesses (0: none)")
     parser.add_argument("--crack-speed", type=float, default=math.inf, help="[m s-1] (inf: a crack opens at once)")
+    parser.add_argument("--edge-shapes", type=int, default=0, help="at each free end (needs a crack spacing)")
     args = parser.parse_args()
     lines = ["# A run that breaks against the unbroken run", "",
              f"Reference case, contact-resolving rule, t_end {args.t_end:g} s, eps_Y {EPS_Y:g}, crack spacing "
-             f"{args.crack_spacing:g} hi, crack speed {args.crack_speed:g} m/s, medians of "
+             f"{args.crack_spacing:g} hi, crack speed {args.crack_speed:g} m/s, {args.edge_shapes} edge shapes, medians of "
              f"{args.rounds} rounds.", "",
              "| N | unbroken call [s] | breaking call [s] | ratio | unbroken integration [s] | breaking integration [s] "
              "| ratio | breaks | first break [ms] | breakthrough [ms] | status |", "|" + "---|" * 11]
@@ -109,7 +112,8 @@ def main():
              "| N | tables [s] | carries [s] | integration [s] | rest [s] | steps, unbroken -> breaking "
              "| per step, unbroken -> breaking [us] |", "|" + "---|" * 7]
     for N in args.modes:
-        medians, result, pieces, per_step, unbroken = measure(N, args.t_end, args.rounds, args.crack_spacing, args.crack_speed)
+        medians, result, pieces, per_step, unbroken = measure(N, args.t_end, args.rounds, args.crack_spacing, args.crack_speed,
+                                                                args.edge_shapes)
         (un, un_int), (br, br_int) = medians["unbroken"], medians["breaking"]
         rest = br - br_int - pieces["tables"] - pieces["carry"]
         where.append(f"| {N} | {pieces['tables']:.3f} | {pieces['carry']:.3f} | {br_int:.3f} | {rest:.3f} "
