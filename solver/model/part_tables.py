@@ -11,7 +11,8 @@ import numpy as np
 from . import floe as fl
 from ..blas import blas_alone
 from .broken import wet_parts
-from .parts import PartModes, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths, part_values
+from .parts import (PartModes, by_part, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths,
+                    part_values, values_at)
 
 #: Gauss-Legendre rule of 8 nodes on [-1, 1] (_hat_weights')
 GAUSS8_X, GAUSS8_W = np.polynomial.legendre.leggauss(8)
@@ -77,20 +78,28 @@ def parts_tables(p, xq, breaks, full: bool, beta_max: float) -> dict:
 
 
 def _hat_weights(Qs, modes: PartModes, x):
-    """int hat_j Psi_k dx [m] (N, J) on the evenly spaced nodes x: 8 Gauss-Legendre nodes on each
-    piece of a subinterval between the breaks (the modes are smooth there)."""
-    gx, gw = GAUSS8_X, GAUSS8_W
+    """int hat_j Psi_k dx [m] (N, J) on the evenly spaced nodes x: the wet modes' combination of
+    the dry modes' (_part_hats, each part's kept across a run's stages)."""
+    x = np.asarray(x, dtype=float)
+    return Qs.T @ by_part(modes, ("hats", x.tobytes()), lambda sub: _part_hats(sub, x), x.size)
+
+
+def _part_hats(modes: PartModes, x):
+    """int hat_j psi_m dx [m] (Nd, J) of the dry modes of one part on the evenly spaced nodes x: 8
+    Gauss-Legendre nodes on each piece of a subinterval within the part (the modes are smooth
+    there), the part's ends cutting the subintervals they fall in (an end within 1e-12 dx of a
+    node taken at the node)."""
     dx = x[1] - x[0]
-    cuts = np.unique(np.concatenate([modes.lows, modes.highs]))
-    cuts = cuts[(cuts > x[0]) & (cuts < x[-1]) & (np.abs(cuts / dx - np.round(cuts / dx)) > 1e-12)]
-    ends = np.sort(np.concatenate([x, cuts]))
-    lo, hi = ends[:-1], ends[1:]
-    j = np.minimum(np.searchsorted(x, lo, side="right") - 1, x.size - 2)      # the subinterval of each piece
-    pts = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * gx[None, :]
-    vals = (Qs.T @ part_values(modes, pts.ravel())).reshape(Qs.shape[1], lo.size, gx.size)
+    ends = np.array([modes.lows[0], modes.highs[0]])
+    ends = np.where(np.abs(ends / dx - np.round(ends / dx)) > 1e-12, ends, dx * np.round(ends / dx))
+    cuts = np.unique(np.concatenate([ends, x[(x > ends[0]) & (x < ends[1])]]))
+    lo, hi = cuts[:-1], cuts[1:]
+    j = np.minimum(np.searchsorted(x, lo + 0.5 * (hi - lo), side="right") - 1, x.size - 2)   # each piece's subinterval
+    pts = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * GAUSS8_X[None, :]
+    vals = values_at(modes, pts.ravel()).reshape(modes.kinds.size, lo.size, GAUSS8_X.size)
     t = (pts - x[j][:, None]) / dx
-    w = 0.5 * (hi - lo)[:, None] * gw[None, :]
-    hat = np.zeros((Qs.shape[1], x.size))
-    np.add.at(hat.T, j, np.einsum("kpg,pg->pk", vals, w * (1.0 - t)))
-    np.add.at(hat.T, j + 1, np.einsum("kpg,pg->pk", vals, w * t))
+    w = 0.5 * (hi - lo)[:, None] * GAUSS8_W[None, :]
+    hat = np.zeros((modes.kinds.size, x.size))
+    np.add.at(hat.T, j, np.einsum("mpg,pg->pm", vals, w * (1.0 - t)))
+    np.add.at(hat.T, j + 1, np.einsum("mpg,pg->pm", vals, w * t))
     return hat

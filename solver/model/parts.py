@@ -85,6 +85,7 @@ import numpy as np
 
 from . import floe as fl, points
 from .floe import ANTISYMMETRIC, HEAVE, PITCH, SYMMETRIC, dry_mode, free_free_roots
+from .resonance import near_resonance
 from .tails import cosine_tail, power_tail
 from ..compile.jit import kernel
 
@@ -391,11 +392,18 @@ def _cosine_rows(modes: PartModes, mu) -> np.ndarray:
     d = np.stack([end_values(modes, j) for j in range(4)], axis=2)              # (Nd, 2 ends, 4 orders)
     out = np.empty((modes.kinds.size, mu.size))
     _closed_form(d, np.array([mu, mu**2, mu**3, mu**4]), cos_e, sin_e, modes.betas**4, out)
-    near = np.abs(modes.betas[:, None] ** 4 - mu[None, :] ** 4) < RESONANCE * mu[None, :] ** 4
-    for m in np.flatnonzero(np.any(near, axis=1)):
-        shape = (modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m])
-        x, w = gauss_rule(modes, m, np.max(mu[near[m]]))
-        out[m, near[m]] = (w * modes.norms[m] * raw_mode(*shape, x)) @ np.cos(np.outer(x, mu[near[m]]))
+    b4, mu4 = modes.betas ** 4, mu ** 4           # (the same powers once each, not per pair)
+    m, k = np.nonzero(np.abs(b4[:, None] - mu4[None, :]) < RESONANCE * mu4[None, :])
+    if m.size:            # (never heave nor pitch: beta = 0 < mu) the closed form that keeps its digits
+        kinds, betas, centres, halves = modes.kinds[m], modes.betas[m], modes.centres[m], modes.halves[m]
+        anti = kinds == ANTISYMMETRIC
+        amplitude = np.where(kinds == COSINE, 1.0, np.where(kinds == SYMMETRIC, 1.0 / np.cos(betas * halves),
+                                                            np.where(anti, 1.0 / np.sin(betas * halves), 0.0)))
+        hyperbolic = np.where(np.isin(kinds, (SYMMETRIC, EDGE_SYMMETRIC)), 1.0,
+                              np.where(np.isin(kinds, (ANTISYMMETRIC, EDGE_ANTISYMMETRIC)), -1.0, 0.0))
+        out[m, k] = modes.norms[m] * near_resonance(amplitude, np.where(anti, -0.5 * math.pi, 0.0), hyperbolic, betas,
+                                                    centres, halves, modes.lows[m] - centres, modes.highs[m] - centres,
+                                                    mu[k])
     return out
 
 
