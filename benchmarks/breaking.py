@@ -102,7 +102,8 @@ def main():
     args = parser.parse_args()
     lines = ["# A run that breaks against the unbroken run", "",
              f"Reference case, contact-resolving rule, t_end {args.t_end:g} s, eps_Y {EPS_Y:g}, crack spacing "
-             f"{args.crack_spacing:g} hi, crack speed {args.crack_speed:g} m/s, {args.edge_shapes} edge shapes, medians of "
+             f"{args.crack_spacing:g} hi, crack speed {args.crack_speed:g} m/s, {args.edge_shapes} edge shapes, "
+             f"medians of "
              f"{args.rounds} rounds.", "",
              "| N | unbroken call [s] | breaking call [s] | ratio | unbroken integration [s] | breaking integration [s] "
              "| ratio | breaks | first break [ms] | breakthrough [ms] | status |", "|" + "---|" * 11]
@@ -112,8 +113,8 @@ def main():
              "| N | tables [s] | carries [s] | integration [s] | rest [s] | steps, unbroken -> breaking "
              "| per step, unbroken -> breaking [us] |", "|" + "---|" * 7]
     for N in args.modes:
-        medians, result, pieces, per_step, unbroken = measure(N, args.t_end, args.rounds, args.crack_spacing, args.crack_speed,
-                                                                args.edge_shapes)
+        medians, result, pieces, per_step, unbroken = measure(N, args.t_end, args.rounds, args.crack_spacing,
+                                                                args.crack_speed, args.edge_shapes)
         (un, un_int), (br, br_int) = medians["unbroken"], medians["breaking"]
         rest = br - br_int - pieces["tables"] - pieces["carry"]
         where.append(f"| {N} | {pieces['tables']:.3f} | {pieces['carry']:.3f} | {br_int:.3f} | {rest:.3f} "

@@ -477,7 +477,8 @@ def _error_estimated(p, s, spec, tab, integrator, ran, begun, diagnostics, answe
     """The error estimate's diagnostics into diagnostics (solver.error_estimate), with its
     companion run at ten times the tolerance from the state the run began with (begun: already
     carried, so carried once) to the time reached, on the same output times, with no break and
-    no observer of its own (only its amplitudes are read); returns the Result's extra (the companion's wall time)."""
+    no observer of its own (only its amplitudes are read); returns the Result's extra (the
+    companion's wall time)."""
     extra, companion, valid = {}, None, np.arange(spec.window.times.size) < ran.n_out
     diag = ran.outputs.diag
     if s.error_estimate and integrator.companion and s.fixed_step == 0 and ran.n_out > 0:

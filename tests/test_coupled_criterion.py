@@ -32,7 +32,8 @@ def test_the_crack_forms_where_the_stress_and_the_energy_conditions_meet(hi):
 
 def test_thick_ice_breaks_at_its_tensile_strength_and_thin_ice_needs_more():
     """h >> l*: eps_c -> sigma_c (1 - nu^2) / E and l* -> 2 K_IC^2 / (pi F(0)^2 sigma_c^2), both
-    within 1e-3 at h = 10^4 l* (they approach as 2 l* / h); eps_c falls as h grows (the size effect of flexural strength)
+    within 1e-3 at h = 10^4 l* (they approach as 2 l* / h); eps_c falls as h grows (the size effect
+    of flexural strength)
     and l* / h rises towards 1/2 as h falls."""
     short = short_crack_depth(STRENGTH, TOUGHNESS)
     eps, depth = coupled_break(E, NU, 1e4 * short, STRENGTH, TOUGHNESS)
