@@ -29,10 +29,10 @@ import math
 
 import numpy as np
 
+from .quadrature import legendre_rule
+
 #: Gauss-Legendre nodes of crack_compliance's integral (its integrand is smooth on [0, a/h] < 1)
 COMPLIANCE_NODES = 64
-#: its nodes and weights on [-1, 1]
-_NODES, _WEIGHTS = np.polynomial.legendre.leggauss(COMPLIANCE_NODES)
 
 
 def bending_factor(s):
@@ -50,7 +50,7 @@ def crack_compliance(p, depth: float) -> float:
     s_max = depth / p.hi
     if not 0.0 <= s_max < 1.0:
         raise ValueError(f"a crack's depth must lie in [0, hi), got {depth} m in {p.hi} m ice")
-    x, w = _NODES, _WEIGHTS
+    x, w = legendre_rule(COMPLIANCE_NODES)
     s = 0.5 * s_max * (x + 1.0)
     integral = 0.5 * s_max * float(np.sum(w * s * bending_factor(s) ** 2))
     return 72.0 * math.pi * (1.0 - p.nu**2) / (p.E * p.hi**2) * integral

@@ -11,11 +11,9 @@ import numpy as np
 from . import floe as fl
 from ..blas import blas_alone
 from .broken import wet_parts
+from .quadrature import legendre_rule
 from .parts import (PartModes, by_part, edge_shaped, free_ends, gram, kernel_shapes, part_edges, part_lengths,
                     part_values, values_at)
-
-#: Gauss-Legendre rule of 8 nodes on [-1, 1] (_hat_weights')
-GAUSS8_X, GAUSS8_W = np.polynomial.legendre.leggauss(8)
 
 
 @blas_alone
@@ -95,10 +93,11 @@ def _part_hats(modes: PartModes, x):
     cuts = np.unique(np.concatenate([ends, x[(x > ends[0]) & (x < ends[1])]]))
     lo, hi = cuts[:-1], cuts[1:]
     j = np.minimum(np.searchsorted(x, lo + 0.5 * (hi - lo), side="right") - 1, x.size - 2)   # each piece's subinterval
-    pts = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * GAUSS8_X[None, :]
-    vals = values_at(modes, pts.ravel()).reshape(modes.kinds.size, lo.size, GAUSS8_X.size)
+    gx, gw = legendre_rule(8)
+    pts = 0.5 * (lo + hi)[:, None] + 0.5 * (hi - lo)[:, None] * gx[None, :]
+    vals = values_at(modes, pts.ravel()).reshape(modes.kinds.size, lo.size, gx.size)
     t = (pts - x[j][:, None]) / dx
-    w = 0.5 * (hi - lo)[:, None] * GAUSS8_W[None, :]
+    w = 0.5 * (hi - lo)[:, None] * gw[None, :]
     hat = np.zeros((modes.kinds.size, x.size))
     np.add.at(hat.T, j, np.einsum("mpg,pg->pm", vals, w * (1.0 - t)))
     np.add.at(hat.T, j + 1, np.einsum("mpg,pg->pm", vals, w * t))
